@@ -1,0 +1,276 @@
+"""Analysis of polytopic closed loops for given gains."""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+
+import control as ct
+import numpy as np
+
+from ._checks import signal_indices
+from .lmi import LMICheck, LMIProblem
+from .systems import PolytopicStateSpace
+
+__all__ = [
+    "QuadraticStability",
+    "L2GainBound",
+    "FrozenSweep",
+    "quadratic_stability",
+    "l2_gain_bound",
+    "frozen_sweep",
+]
+
+
+@dataclass(frozen=True)
+class QuadraticStability:
+    """A common Lyapunov matrix for every vertex.
+
+    Attributes
+    ----------
+    P : ndarray
+        ``P > 0`` with ``A_j' P + P A_j < 0`` at every vertex ``j``.
+    checks : tuple of `ctrl_lpv.lmi.LMICheck`
+        Float64 checks of the LMIs at ``P``.
+    """
+
+    P: np.ndarray
+    checks: tuple[LMICheck, ...]
+
+
+@dataclass(frozen=True)
+class L2GainBound:
+    """Certified bound on the L2 gain of a polytopic closed loop.
+
+    Attributes
+    ----------
+    gamma : float
+        ``||z||_2 < gamma ||w||_2`` for every parameter trajectory in the
+        domain (quadratic H-infinity performance with a common ``P``).
+    P : ndarray
+        The common Lyapunov matrix.
+    checks : tuple of `ctrl_lpv.lmi.LMICheck`
+        Float64 checks of the LMIs.
+    """
+
+    gamma: float
+    P: np.ndarray
+    checks: tuple[LMICheck, ...]
+
+
+@dataclass(frozen=True)
+class FrozenSweep:
+    """Closed-loop poles and H-infinity norms at frozen parameter values.
+
+    Attributes
+    ----------
+    points : ndarray
+        Parameter values, shape ``(M, k)``.
+    poles : ndarray
+        Closed-loop eigenvalues, shape ``(M, n)``.
+    max_real : ndarray
+        Largest real part per point, shape ``(M,)``.
+    hinf : ndarray or None
+        H-infinity norm from `w` to `z` per point (``inf`` where unstable),
+        None if no channels were given.
+    """
+
+    points: np.ndarray
+    poles: np.ndarray
+    max_real: np.ndarray
+    hinf: np.ndarray | None
+
+
+def _as_closed_loop_data(sys, gains, u):
+    """Vertex data and per-vertex gains as (A, B, C, D) and K arrays."""
+    if not isinstance(sys, PolytopicStateSpace):
+        raise TypeError(f"sys: expected a PolytopicStateSpace, got {type(sys)!r}")
+    if not isinstance(gains, (list, tuple)):
+        gains = [gains]
+    gains = [np.asarray(K, float) for K in gains]
+    iu = signal_indices(u, sys.physical_inputs, "u") if gains else []
+    shape = (len(iu), sys.nstates)
+    for j, K in enumerate(gains):
+        if K.shape != shape or not np.all(np.isfinite(K)):
+            raise ValueError(f"gains[{j}]: expected a finite {shape} matrix, got {K.shape}")
+    if len(gains) not in (1, sys.nvertices):
+        raise ValueError(
+            f"gains: expected one common gain or {sys.nvertices} vertex gains, "
+            f"got {len(gains)}"
+        )
+    return gains, iu
+
+
+def quadratic_stability(sys: PolytopicStateSpace, margin: float = 1e-6):
+    """Find a common quadratic Lyapunov function for the vertices.
+
+    Parameters
+    ----------
+    sys : `PolytopicStateSpace`
+        Autonomous part ``A(delta)`` is analysed (e.g. a closed loop).
+    margin : float, optional
+        Margin of the strict LMIs, relative to ``max_j ||A_j||``.
+
+    Returns
+    -------
+    `QuadraticStability`
+
+    Raises
+    ------
+    InfeasibleError
+        If no certified common Lyapunov matrix was found.
+    """
+    if not isinstance(sys, PolytopicStateSpace):
+        raise TypeError(f"sys: expected a PolytopicStateSpace, got {type(sys)!r}")
+    As = [d[0] for d in sys.vertex_data()]
+    scale = max(1.0, max(np.linalg.norm(A, 2) for A in As))
+    As = [A / scale for A in As]
+    n = sys.nstates
+    lmi = LMIProblem(margin=margin)
+    lmi.variable("P", (n, n), symmetric=True)
+    lmi.variable("t", (1, 1), symmetric=True)
+    lmi.add("P > 0", lambda v: [[-v.P]])
+    for j, A in enumerate(As):
+        lmi.add(f"Lyapunov vertex {j}", lambda v, A=A: [[A.T @ v.P + v.P @ A]])
+    lmi.add("P <= I", lambda v: [[v.P - np.eye(n)]], strict=False)
+    lmi.add("P >= t I", lambda v: [[v.t[0, 0] * np.eye(n) - v.P]], strict=False)
+    sol = lmi.solve(lambda v: -v.t[0, 0])
+    return QuadraticStability(sol.P, sol.checks)
+
+
+def l2_gain_bound(
+    sys: PolytopicStateSpace,
+    gains,
+    w,
+    u,
+    z,
+    margin: float = 1e-6,
+) -> L2GainBound:
+    """Certified L2-gain bound of ``sys`` under ``u = -K(delta) x``.
+
+    With vertex gains the closed loop is quadratic in ``delta``; the bound
+    uses the same vertex and pairwise relaxation as Theorem 2.
+
+    Parameters
+    ----------
+    sys : `PolytopicStateSpace`
+        Open-loop plant.
+    gains : array_like or sequence of array_like
+        One common gain or one per vertex (``u = -K x``).
+    w, u, z : str, int or list
+        Exogenous inputs, control inputs, performance outputs.
+    margin : float, optional
+        Strict-LMI margin, relative to the data scale.
+
+    Returns
+    -------
+    `L2GainBound`
+
+    Raises
+    ------
+    InfeasibleError
+        If the closed loop is not quadratically stable with this bound.
+    """
+    gains, iu = _as_closed_loop_data(sys, gains, u)
+    iw = signal_indices(w, sys.physical_inputs, "w")
+    iz = signal_indices(z, sys.output_labels, "z")
+    data = []
+    for A, B, C, D in sys.vertex_data():
+        data.append((A, B[:, iw], B[:, iu], C[iz], D[np.ix_(iz, iw)], D[np.ix_(iz, iu)]))
+    N = len(data)
+    nw, nz = len(iw), len(iz)
+    n = sys.nstates
+    # Cross terms (j, k) use the gain of vertex k; a common gain is K_k = K.
+    pairs = [(j, j) for j in range(N)]
+    if len(gains) > 1:
+        pairs += list(itertools.combinations(range(N), 2))
+
+    def K(k):
+        return gains[k if len(gains) > 1 else 0]
+
+    lmi = LMIProblem(margin=margin)
+    lmi.variable("P", (n, n), symmetric=True)
+    lmi.variable("g", (1, 1), symmetric=True)
+    lmi.add("P > 0", lambda v: [[-v.P]])
+    for j, k in pairs:
+        terms = [(j, k)] if j == k else [(j, k), (k, j)]
+
+        def blocks(v, terms=terms):
+            twice = len(terms)
+            acl = sum(data[a][0] - data[a][2] @ K(b) for a, b in terms)
+            ccl = sum(data[a][3] - data[a][5] @ K(b) for a, b in terms)
+            b1 = sum(data[a][1] for a, _ in terms)
+            d1 = sum(data[a][4] for a, _ in terms)
+            return [
+                [acl.T @ v.P + v.P @ acl],
+                [b1.T @ v.P, -twice * v.g[0, 0] * np.eye(nw)],
+                [ccl, d1, -twice * np.eye(nz)],
+            ]
+
+        lmi.add(f"bounded real {'vertex %d' % j if j == k else (j, k)}", blocks)
+    sol = lmi.solve(lambda v: v.g[0, 0])
+    return L2GainBound(float(np.sqrt(sol.g[0, 0])), sol.P, sol.checks)
+
+
+def frozen_sweep(
+    sys: PolytopicStateSpace,
+    gains,
+    u,
+    points=None,
+    w=None,
+    z=None,
+) -> FrozenSweep:
+    """Closed-loop poles (and H-infinity norms) at frozen parameters.
+
+    Parameters
+    ----------
+    sys : `PolytopicStateSpace`
+        Open-loop plant.
+    gains : array_like or sequence of array_like
+        One common gain or one per vertex (``u = -K x``).
+    u : str, int or list
+        Control inputs.
+    points : array_like or int, optional
+        Parameter values, shape ``(M, k)``; an integer ``M`` samples the
+        diagonal of the domain's bounding box uniformly (default 51 points).
+    w, z : str, int or list, optional
+        If given, the H-infinity norm from `w` to `z` is computed with
+        `control.linfnorm`.
+
+    Returns
+    -------
+    `FrozenSweep`
+    """
+    gains, iu = _as_closed_loop_data(sys, gains, u)
+    if points is None or np.isscalar(points):
+        count = 51 if points is None else int(points)
+        lo, hi = sys.domain.points.min(axis=0), sys.domain.points.max(axis=0)
+        points = lo + np.linspace(0, 1, count)[:, None] * (hi - lo)
+    points = np.atleast_2d(np.asarray(points, float))
+    if points.shape[1] != sys.nparams:
+        points = points.T
+    iw = signal_indices(w, sys.physical_inputs, "w") if w is not None else None
+    iz = signal_indices(z, sys.output_labels, "z") if z is not None else None
+    Kstack = np.stack(gains)
+    poles, hinf = [], []
+    for p in points:
+        delta = sys.weights(p)
+        frozen = sys.at(p)
+        K = np.tensordot(delta, Kstack, axes=1) if len(gains) > 1 else Kstack[0]
+        Acl = frozen.A - frozen.B[:, iu] @ K
+        eig = np.linalg.eigvals(Acl)
+        poles.append(np.sort_complex(eig))
+        if iw is not None and iz is not None:
+            if eig.real.max() >= 0:
+                hinf.append(np.inf)
+            else:
+                Ccl = frozen.C[iz] - frozen.D[np.ix_(iz, iu)] @ K
+                cl = ct.ss(Acl, frozen.B[:, iw], Ccl, frozen.D[np.ix_(iz, iw)])
+                hinf.append(float(ct.linfnorm(cl)[0]))
+    poles = np.array(poles)
+    return FrozenSweep(
+        points=points,
+        poles=poles,
+        max_real=poles.real.max(axis=1),
+        hinf=np.array(hinf) if hinf else None,
+    )

@@ -1,0 +1,363 @@
+"""A small LMI layer on cvxpy with independent float64 certificates.
+
+An LMI is written once, as a function of its variables that returns the lower
+block triangle (the paper's ``*`` are left as ``None``). The same function is
+evaluated on cvxpy variables to build the problem and on the float64 values of
+the returned point to certify it, so the certificate checks exactly the
+inequality that was posed, without trusting the solver's status.
+
+All inequalities have the form ``F(v) <= 0``; a strict one is posed as
+``F(v) <= -margin * I`` and certified when ``lambda_max(F) <= -margin / 2``
+(half the margin is what is left after the solver's own tolerance).
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from types import SimpleNamespace
+
+import cvxpy as cp
+import numpy as np
+
+from .exceptions import CertificationError, InfeasibleError
+
+__all__ = [
+    "LMIProblem",
+    "LMISolution",
+    "LMICheck",
+    "SolveAttempt",
+    "assemble",
+    "default_solvers",
+]
+
+BlockFunction = Callable[[SimpleNamespace], Sequence[Sequence[object]]]
+
+# The fraction of the posed margin that a certified point must keep.
+_CERTIFIED_FRACTION = 0.5
+
+
+@dataclass(frozen=True)
+class SolveAttempt:
+    """One solver attempt: solver, status, time and whether it certified."""
+
+    solver: str
+    status: str
+    seconds: float
+    certified: bool
+    message: str = ""
+
+
+@dataclass(frozen=True)
+class LMICheck:
+    """Float64 check of one LMI at a point.
+
+    Attributes
+    ----------
+    name : str
+        LMI name.
+    max_eig : float
+        Largest eigenvalue of the symmetric block matrix ``F(v)``.
+    required : float
+        Bound that `max_eig` must not exceed to pass.
+    strict : bool
+        Whether the LMI is a strict inequality (part of the certificate).
+    """
+
+    name: str
+    max_eig: float
+    required: float
+    strict: bool
+
+    @property
+    def passed(self) -> bool:
+        """Whether ``max_eig <= required``."""
+        return bool(self.max_eig <= self.required)
+
+
+@dataclass
+class LMISolution:
+    """A certified point of an `LMIProblem`."""
+
+    values: dict[str, np.ndarray]
+    objective: float | None
+    checks: tuple[LMICheck, ...]
+    attempts: list[SolveAttempt] = field(default_factory=list)
+
+    def __getattr__(self, name):
+        try:
+            return self.__dict__["values"][name]
+        except KeyError:
+            raise AttributeError(name) from None
+
+
+def assemble(blocks, xp=np):
+    """Symmetric matrix from its lower block triangle.
+
+    Parameters
+    ----------
+    blocks : sequence of sequences
+        Row ``i`` holds blocks ``(i, 0), ..., (i, i)``; entries above the
+        diagonal may be omitted or ``None`` (symmetric completion). A scalar
+        ``0`` is a zero block of the size implied by the diagonal blocks.
+    xp : module, optional
+        ``numpy`` for a float matrix, ``cvxpy`` for an expression.
+
+    Returns
+    -------
+    ndarray or cvxpy expression
+        ``(M + M.T) / 2`` of the completed block matrix.
+    """
+    nrows = len(blocks)
+    sizes = []
+    for i in range(nrows):
+        diag = blocks[i][i]
+        shape = np.shape(diag) if xp is np else diag.shape
+        if len(shape) != 2 or shape[0] != shape[1]:
+            raise ValueError(f"block ({i}, {i}) must be a square matrix, got {shape}")
+        sizes.append(shape[0])
+
+    def block(i, j):
+        if j <= i:
+            item = blocks[i][j]
+            transpose = False
+        else:
+            item = blocks[j][i]
+            transpose = True
+        if isinstance(item, (int, float)) and item == 0:
+            return np.zeros((sizes[i], sizes[j]))
+        return item.T if transpose else item
+
+    rows = [[block(i, j) for j in range(nrows)] for i in range(nrows)]
+    full = np.block(rows) if xp is np else cp.bmat(rows)
+    return 0.5 * (full + full.T)
+
+
+def default_solvers() -> list[tuple[str, dict]]:
+    """Solver chain: Clarabel, SCS with tight tolerances, then CVXOPT, MOSEK.
+
+    Only installed solvers are listed.
+    """
+    installed = set(cp.installed_solvers())
+    chain = [
+        ("CLARABEL", {}),
+        ("SCS", {"eps_abs": 1e-9, "eps_rel": 1e-9, "max_iters": 200_000}),
+        ("CVXOPT", {}),
+        ("MOSEK", {}),
+    ]
+    return [(name, opts) for name, opts in chain if name in installed]
+
+
+class LMIProblem:
+    """LMI problem on cvxpy with named variables, parameters and stages.
+
+    Parameters
+    ----------
+    margin : float
+        Absolute margin of strict inequalities (``F <= -margin I``); choose
+        it relative to the scale of the (prescaled) data. Changing
+        `margin` later does not recompile the problem.
+
+    Examples
+    --------
+    Lyapunov stability of ``A``: find ``P > 0`` with ``A'P + PA < 0``.
+
+    >>> A = np.array([[-1.0, 2.0], [0.0, -3.0]])
+    >>> lmi = LMIProblem(margin=1e-6)
+    >>> P = lmi.variable("P", (2, 2), symmetric=True)
+    >>> lmi.add("P>0", lambda v: [[-v.P]])
+    >>> lmi.add("lyap", lambda v: [[A.T @ v.P + v.P @ A]])
+    >>> lmi.add("norm", lambda v: [[v.P - np.eye(2)]], strict=False)
+    >>> sol = lmi.solve()
+    >>> bool(np.all(np.linalg.eigvalsh(A.T @ sol.P + sol.P @ A) < 0))
+    True
+    """
+
+    def __init__(self, margin: float = 1e-6):
+        if not (np.isfinite(margin) and margin > 0):
+            raise ValueError(f"margin: must be a positive finite number, got {margin}")
+        self._vars: dict[str, cp.Variable] = {}
+        self._params: dict[str, cp.Parameter] = {}
+        self._lmis: list[tuple[str, BlockFunction, bool, frozenset | None]] = []
+        self._problems: dict[str, cp.Problem] = {}
+        self._margin = cp.Parameter(nonneg=True, name="margin", value=float(margin))
+
+    @property
+    def margin(self) -> float:
+        """Absolute margin of strict inequalities."""
+        return float(self._margin.value)
+
+    @margin.setter
+    def margin(self, value: float) -> None:
+        self._margin.value = float(value)
+
+    def variable(self, name: str, shape, symmetric: bool = False) -> cp.Variable:
+        """Declare a decision variable (``symmetric=True`` for a square one)."""
+        if name in self._vars or name in self._params:
+            raise ValueError(f"name: {name!r} is already declared")
+        var = cp.Variable(shape, symmetric=symmetric, name=name)
+        self._vars[name] = var
+        return var
+
+    def parameter(self, name: str, shape=(), value=None, **kwargs) -> cp.Parameter:
+        """Declare a parameter that can change between solves (DPP)."""
+        if name in self._vars or name in self._params:
+            raise ValueError(f"name: {name!r} is already declared")
+        par = cp.Parameter(shape, name=name, value=value, **kwargs)
+        self._params[name] = par
+        return par
+
+    def set_parameter(self, name: str, value) -> None:
+        """Set the value of a parameter (no recompilation)."""
+        if name not in self._params:
+            raise ValueError(f"name: no parameter {name!r}")
+        par = self._params[name]
+        par.value = np.broadcast_to(np.asarray(value, float), par.shape).copy()
+
+    def add(
+        self,
+        name: str,
+        blocks: BlockFunction,
+        strict: bool = True,
+        stages: Sequence[str] | None = None,
+    ) -> None:
+        """Add the inequality ``F(v) < 0`` (or ``<= 0`` if not strict).
+
+        Parameters
+        ----------
+        name : str
+            Label used in certificates and error messages.
+        blocks : callable
+            ``blocks(v)`` returns the lower block triangle of ``F``; ``v`` has
+            the variables and parameters as attributes (cvxpy objects when
+            building, float arrays when certifying).
+        strict : bool, optional
+            Strict inequalities are posed with the margin and certified.
+        stages : sequence of str, optional
+            Stages in which the inequality applies; default all.
+        """
+        if any(existing == name for existing, *_ in self._lmis):
+            raise ValueError(f"name: an LMI named {name!r} already exists")
+        self._lmis.append(
+            (name, blocks, strict, None if stages is None else frozenset(stages))
+        )
+        self._problems.clear()
+
+    def _active(self, stage: str):
+        return [lmi for lmi in self._lmis if lmi[3] is None or stage in lmi[3]]
+
+    def _namespace(self, numeric: dict | None = None) -> SimpleNamespace:
+        if numeric is not None:
+            return SimpleNamespace(**numeric)
+        return SimpleNamespace(**self._vars, **self._params)
+
+    def _problem(self, stage: str, objective: Callable | None) -> cp.Problem:
+        if stage not in self._problems:
+            v = self._namespace()
+            constraints = []
+            for _, blocks, strict, _ in self._active(stage):
+                F = assemble(blocks(v), xp=cp)
+                bound = -self._margin * np.eye(F.shape[0]) if strict else 0
+                constraints.append(F << bound)
+            goal = cp.Minimize(objective(v)) if objective else cp.Minimize(0)
+            self._problems[stage] = cp.Problem(goal, constraints)
+        return self._problems[stage]
+
+    def check(self, values: dict[str, np.ndarray], stage: str = "default"):
+        """Evaluate every active LMI at `values` in float64.
+
+        Returns
+        -------
+        tuple of `LMICheck`
+        """
+        numeric = {k: np.asarray(p.value, float) for k, p in self._params.items()}
+        numeric.update(values)
+        v = self._namespace(numeric)
+        checks = []
+        for name, blocks, strict, _ in self._active(stage):
+            F = assemble(blocks(v), xp=np)
+            max_eig = float(np.linalg.eigvalsh(F)[-1])
+            if strict:
+                required = -_CERTIFIED_FRACTION * self.margin
+            else:
+                # Non-strict side constraints (bounds, normalisations) are kept
+                # to the solver's accuracy; they do not enter the certificate.
+                required = 1e-6 * max(1.0, float(np.abs(F).max()))
+            checks.append(LMICheck(name, max_eig, required, strict))
+        return tuple(checks)
+
+    def solve(
+        self,
+        objective: Callable[[SimpleNamespace], object] | None = None,
+        stage: str = "default",
+        solvers: Sequence[tuple[str, dict]] | None = None,
+    ) -> LMISolution:
+        """Solve, trying each solver in turn until a point certifies.
+
+        Parameters
+        ----------
+        objective : callable, optional
+            ``objective(v)``, a cvxpy expression to minimise; feasibility if
+            omitted. The problem of a stage is compiled once: later calls
+            with the same `stage` reuse it (only parameter values change) and
+            ignore `objective`.
+        stage : str, optional
+            Stage name (selects the LMIs added with ``stages=``).
+        solvers : sequence of (name, options), optional
+            Default `default_solvers`.
+
+        Returns
+        -------
+        `LMISolution`
+
+        Raises
+        ------
+        InfeasibleError
+            If every solver reports the problem infeasible.
+        CertificationError
+            If no returned point passes its float64 certificate.
+        """
+        problem = self._problem(stage, objective)
+        attempts = []
+        chain = default_solvers() if solvers is None else list(solvers)
+        if not chain:
+            raise RuntimeError("no SDP solver installed: install clarabel or scs")
+        for solver, options in chain:
+            start = time.perf_counter()
+            try:
+                with warnings.catch_warnings():
+                    # Inaccurate solutions are judged by the certificate below.
+                    warnings.simplefilter("ignore", UserWarning)
+                    problem.solve(solver=solver, **options)
+                status = problem.status
+                message = ""
+            except cp.error.SolverError as exc:
+                status, message = "solver_error", str(exc).splitlines()[0]
+            seconds = time.perf_counter() - start
+            certified = False
+            if status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
+                values = {k: np.array(x.value, dtype=float) for k, x in self._vars.items()}
+                checks = self.check(values, stage)
+                certified = all(c.passed for c in checks)
+                if not certified:
+                    worst = max(
+                        (c for c in checks if not c.passed),
+                        key=lambda c: c.max_eig - c.required,
+                    )
+                    message = (
+                        f"{worst.name}: max eigenvalue {worst.max_eig:.3g} above "
+                        f"{worst.required:.3g}"
+                    )
+            attempts.append(SolveAttempt(solver, status, seconds, certified, message))
+            if certified:
+                value = None if objective is None and problem.value == 0 else problem.value
+                return LMISolution(values, value, checks, attempts)
+        summary = "; ".join(
+            f"{a.solver}: {a.status}" + (f" ({a.message})" if a.message else "")
+            for a in attempts
+        )
+        if all(a.status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE) for a in attempts):
+            raise InfeasibleError(f"the LMIs are infeasible [{summary}]", attempts)
+        raise CertificationError(f"no certified solution [{summary}]", attempts)

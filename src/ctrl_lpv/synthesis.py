@@ -1,0 +1,953 @@
+"""Certified state-feedback synthesis for polytopic systems.
+
+Four entry points, after the paper's Lemma 1, Lemma 2, Theorem 1 and
+Theorem 2 (Section III):
+
+=============================  =============  ===================
+function                       gain           performance
+=============================  =============  ===================
+`quadratic_stabilization`      common K       quadratic stability
+`hinf_state_feedback`          common K       H-infinity bound
+`gain_scheduled_stabilization` vertex K_j     quadratic stability
+`gain_scheduled_hinf`          vertex K_j     H-infinity bound
+=============================  =============  ===================
+
+All return a `StateFeedbackDesign` whose gains follow python-control's sign
+convention ``u = -K x`` (the paper writes ``u = K x``: ``K = -Z W^-1`` here).
+A design is only returned with its certificate (see `Certificate`).
+
+Numerical policy
+----------------
+1. Before solving, every vertex is checked stabilizable (PBH test); a
+   non-stabilizable vertex raises `InfeasibleError` naming the vertex and
+   the uncontrollable mode.
+2. The data are prescaled by powers of two (state balancing, input, w and z
+   normalisation, and a time scaling), so that the scaled LMIs are exactly
+   congruent to the original ones and a certificate of one is a certificate
+   of the other.
+3. Strict inequalities are posed as ``F <= -margin I`` in scaled units.
+4. Back-off (default 20 %): after the minimum ``gamma*``, the problem is
+   re-solved with ``gamma <= (1 + backoff) gamma*``, first maximising the
+   smallest eigenvalue of ``W`` (conditioning), then minimising the gain
+   norm with ``W`` kept above half that value. Both re-solves reuse the
+   compiled problem (cvxpy DPP).
+5. Every returned design is verified in float64: every LMI, the closed-loop
+   Lyapunov inequality and Hurwitz stability at every vertex and at sampled
+   interior points.
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import cvxpy as cp
+import numpy as np
+from scipy.linalg import matrix_balance
+
+from ._checks import signal_indices
+from .exceptions import CertificationError, InfeasibleError
+from .lmi import LMICheck, LMIProblem, SolveAttempt
+from .regions import LMIRegion
+from .systems import PolytopicStateSpace
+
+__all__ = [
+    "StateFeedbackDesign",
+    "Certificate",
+    "quadratic_stabilization",
+    "hinf_state_feedback",
+    "gain_scheduled_stabilization",
+    "gain_scheduled_hinf",
+    "check_stabilizability",
+]
+
+# Number of random interior points at which closed loops are verified.
+_VERIFY_SAMPLES = 64
+
+
+# ----------------------------------------------------------------------
+# Results
+# ----------------------------------------------------------------------
+@dataclass(frozen=True)
+class Certificate:
+    """Independent float64 verification of a design.
+
+    Attributes
+    ----------
+    lmi_checks : tuple of `ctrl_lpv.lmi.LMICheck`
+        Largest eigenvalue of every LMI at the returned point (scaled units,
+        exactly congruent to the original LMIs).
+    margin : float
+        Margin the strict LMIs were posed with (scaled units).
+    max_closed_loop_real : float
+        Largest real part of the closed-loop eigenvalues over the vertices
+        and the sampled interior points (original units).
+    max_lyapunov_eig : float
+        Largest eigenvalue of ``A_cl W + W A_cl'`` over the same points,
+        divided by ``||W||`` (must be negative).
+    npoints : int
+        Number of parameter points checked (vertices plus samples).
+    verified : bool
+        True when every check passed. A design is only returned verified.
+    """
+
+    lmi_checks: tuple[LMICheck, ...]
+    margin: float
+    max_closed_loop_real: float
+    max_lyapunov_eig: float
+    npoints: int
+
+    @property
+    def verified(self) -> bool:
+        """Whether every LMI and closed-loop check passed."""
+        return (
+            all(c.passed for c in self.lmi_checks)
+            and self.max_closed_loop_real < 0
+            and self.max_lyapunov_eig < 0
+        )
+
+    @property
+    def worst_lmi(self) -> LMICheck:
+        """The strict LMI with the smallest distance to its bound."""
+        strict = [c for c in self.lmi_checks if c.strict]
+        return max(strict, key=lambda c: c.max_eig)
+
+    def __str__(self) -> str:
+        worst = self.worst_lmi
+        return (
+            f"{'verified' if self.verified else 'NOT verified'}: "
+            f"{len(self.lmi_checks)} LMIs, worst {worst.name} "
+            f"lambda_max = {worst.max_eig:.3g} (margin {self.margin:.1g}); "
+            f"closed loop max Re = {self.max_closed_loop_real:.4g} "
+            f"over {self.npoints} points"
+        )
+
+
+@dataclass(frozen=True)
+class StateFeedbackDesign:
+    """A certified state-feedback design for a polytopic system.
+
+    Attributes
+    ----------
+    system : `PolytopicStateSpace`
+        The design model.
+    method : str
+        Which result was used ("Lemma 1", "Lemma 2", "Theorem 1",
+        "Theorem 2").
+    gains : tuple of ndarray
+        ``m x n`` gains for ``u = -K x``: one common gain, or one per vertex.
+    P : ndarray
+        Lyapunov matrix ``P = W^-1`` of ``V(x) = x' P x`` (original units).
+    gamma : float or None
+        Certified bound on the L2 gain from `w` to `z` (None without a
+        performance channel).
+    gamma_opt : float or None
+        The minimum ``gamma*`` before back-off (None if not computed).
+    w, u, z : tuple of str
+        Exogenous inputs, control inputs and performance outputs.
+    certificate : `Certificate`
+        The float64 verification.
+    attempts : tuple of `ctrl_lpv.lmi.SolveAttempt`
+        Every solver attempt of every stage.
+    timing : dict
+        Seconds spent building, solving and verifying.
+    backoff : float or None
+        Back-off used.
+    """
+
+    system: PolytopicStateSpace
+    method: str
+    gains: tuple[np.ndarray, ...]
+    P: np.ndarray
+    gamma: float | None
+    gamma_opt: float | None
+    w: tuple[str, ...]
+    u: tuple[str, ...]
+    z: tuple[str, ...]
+    certificate: Certificate
+    attempts: tuple[SolveAttempt, ...]
+    timing: dict = field(default_factory=dict)
+    backoff: float | None = None
+    regions: tuple[LMIRegion, ...] = ()
+
+    @property
+    def scheduled(self) -> bool:
+        """Whether the design has one gain per vertex."""
+        return len(self.gains) > 1
+
+    @property
+    def states(self) -> tuple[str, ...]:
+        """State labels (the measured signals of the controller)."""
+        return tuple(self.system.state_labels)
+
+    def gain(self, p=None) -> np.ndarray:
+        """Gain ``K(delta(p)) = sum_j delta_j K_j`` at parameter value `p`.
+
+        Parameters
+        ----------
+        p : array_like or mapping, optional
+            Parameter value; ignored (may be omitted) for a common gain.
+
+        Returns
+        -------
+        ndarray
+            ``m x n`` gain for ``u = -K x``.
+        """
+        if not self.scheduled:
+            return self.gains[0].copy()
+        if p is None:
+            raise ValueError("p: a scheduled design needs the parameter value")
+        delta = self.system.weights(p)
+        return np.tensordot(delta, np.stack(self.gains), axes=1)
+
+    def closed_loop(self, p) -> tuple[np.ndarray, ...]:
+        """Closed-loop ``(A, B_w, C_z, D_zw)`` matrices at `p`."""
+        frozen = self.system.at(p)
+        iw, iu, iz = _indices(self.system, self.w, self.u, self.z)
+        K = self.gain(p)
+        A = frozen.A - frozen.B[:, iu] @ K
+        C = frozen.C[iz] - frozen.D[np.ix_(iz, iu)] @ K
+        return A, frozen.B[:, iw], C, frozen.D[np.ix_(iz, iw)]
+
+    def controller(self, *args, **kwargs):
+        """State-feedback controller as a python-control I/O system.
+
+        See `ctrl_lpv.controllers.state_feedback` for the arguments.
+        """
+        from .controllers import state_feedback
+
+        return state_feedback(self, *args, **kwargs)
+
+    def __str__(self) -> str:
+        lines = [
+            f"StateFeedbackDesign ({self.method}, "
+            f"{'vertex gains' if self.scheduled else 'common gain'}, u = -K x)",
+            f"  system: {self.system.name}, {self.system.nvertices} vertices, "
+            f"{self.system.nstates} states",
+            f"  w = {list(self.w)}, u = {list(self.u)}, z = {list(self.z)}",
+        ]
+        if self.gamma is not None:
+            opt = f"{self.gamma_opt:.5g}" if self.gamma_opt is not None else "n/a"
+            backoff = "off" if self.backoff is None else f"{self.backoff:g}"
+            lines.append(
+                f"  gamma = {self.gamma:.5g} certified (gamma* = {opt}, "
+                f"back-off {backoff})"
+            )
+        if self.regions:
+            lines.append(f"  pole regions: {', '.join(map(str, self.regions))}")
+        with np.printoptions(precision=5, suppress=False, linewidth=100):
+            for j, K in enumerate(self.gains):
+                label = f"K[{j}]" if self.scheduled else "K"
+                lines.append(f"  {label} = {np.array2string(K, prefix='  K = ')}")
+        lines.append(f"  certificate: {self.certificate}")
+        solved = [a for a in self.attempts if a.certified]
+        solver = solved[-1].solver if solved else "none"
+        lines.append(
+            f"  solver: {solver}, {len(self.attempts)} attempt(s); time "
+            + ", ".join(f"{k} {v:.3f} s" for k, v in self.timing.items())
+        )
+        return "\n".join(lines)
+
+    def __repr__(self) -> str:
+        gamma = "" if self.gamma is None else f", gamma={self.gamma:.5g}"
+        return (
+            f"<StateFeedbackDesign {self.method}: {len(self.gains)} gain(s)"
+            f"{gamma}, verified={self.certificate.verified}>"
+        )
+
+
+# ----------------------------------------------------------------------
+# Stabilizability
+# ----------------------------------------------------------------------
+def check_stabilizability(sys: PolytopicStateSpace, u=None, rtol: float = 1e-9):
+    """Raise `InfeasibleError` if a vertex is not stabilizable from `u`.
+
+    PBH test: for every eigenvalue ``lambda`` of ``A_j`` with
+    ``Re(lambda) >= 0``, ``[A_j - lambda I, B_j]`` must have full row rank.
+
+    Parameters
+    ----------
+    sys : `PolytopicStateSpace`
+        The system.
+    u : str, int or list, optional
+        Control inputs; default all physical inputs.
+    rtol : float, optional
+        Rank tolerance relative to ``||[A_j, B_j]||``.
+
+    Raises
+    ------
+    InfeasibleError
+        Naming the vertex, its parameter value and the uncontrollable mode
+        (the eigenvalue and the left eigenvector written on the states).
+    """
+    _require_pss(sys)
+    iu = signal_indices(
+        range(len(sys.physical_inputs)) if u is None else u, sys.physical_inputs, "u"
+    )
+    for j, (A, B, _, _) in enumerate(sys.vertex_data()):
+        Bu = B[:, iu]
+        scale = max(1.0, np.linalg.norm(np.hstack([A, Bu]), 2))
+        for lam in np.linalg.eigvals(A):
+            if lam.real < -rtol * scale:
+                continue
+            M = np.hstack([A - lam * np.eye(A.shape[0]), Bu])
+            U, s, _ = np.linalg.svd(M)
+            if s[-1] <= rtol * scale:
+                mode = _describe(np.real_if_close(U[:, -1]), sys.state_labels)
+                point = dict(zip(sys.domain.names, sys.domain.points[j].tolist()))
+                raise InfeasibleError(
+                    f"vertex {j} (p = {point}) is not stabilizable: the mode with "
+                    f"eigenvalue {_fmt_complex(lam)} is uncontrollable from "
+                    f"u = {[sys.physical_inputs[i] for i in iu]}; the combination "
+                    f"{mode} of the states does not respond to the input. No "
+                    "state feedback can make this vertex asymptotically stable, "
+                    "so the strict LMIs are infeasible; shrink the parameter "
+                    "domain away from this vertex."
+                )
+
+
+def _describe(vector, labels) -> str:
+    vector = vector / vector[np.argmax(np.abs(vector))]
+    terms = [
+        f"{_fmt_complex(c)}*{name}" for c, name in zip(vector, labels) if abs(c) > 1e-9
+    ]
+    return " + ".join(terms)
+
+
+def _fmt_complex(value) -> str:
+    value = complex(value)
+    if abs(value.imag) < 1e-12 * max(1.0, abs(value)):
+        return f"{value.real:.6g}"
+    return f"{value.real:.6g}{value.imag:+.6g}j"
+
+
+# ----------------------------------------------------------------------
+# Public synthesis functions
+# ----------------------------------------------------------------------
+def quadratic_stabilization(
+    sys: PolytopicStateSpace,
+    u=None,
+    *,
+    regions: Sequence[LMIRegion] = (),
+    gain_bound: float | None = None,
+    margin: float = 1e-6,
+    solvers=None,
+) -> StateFeedbackDesign:
+    """Common state feedback that quadratically stabilizes the polytope.
+
+    Lemma 1 of the paper: find ``W > 0`` and ``Z`` with
+    ``A_j W + W A_j' + B_j Z + Z' B_j' < 0`` at every vertex; the gain is
+    ``K = -Z W^-1`` for ``u = -K x`` and ``P = W^-1``.
+
+    Parameters
+    ----------
+    sys : `PolytopicStateSpace`
+        The plant; all states are measured.
+    u : str, int or list, optional
+        Control inputs (names or indices); default all physical inputs.
+    regions : sequence of `LMIRegion`, optional
+        Pole regions every frozen closed loop must lie in (`halfplane`,
+        `disk`, `sector`).
+    gain_bound : float, optional
+        Upper bound on the spectral norm of every gain (sufficient
+        condition). Without it the returned point is the one that
+        maximises the smallest eigenvalue of ``W`` under ``W <= I``
+        (a well-conditioned Lyapunov matrix).
+    margin : float, optional
+        Margin of the strict LMIs, relative to the prescaled data.
+    solvers : sequence of (name, options), optional
+        Solver chain; default Clarabel, then SCS, then CVXOPT/MOSEK.
+
+    Returns
+    -------
+    `StateFeedbackDesign`
+
+    Raises
+    ------
+    InfeasibleError
+        If a vertex is not stabilizable or no certified solution exists.
+
+    Examples
+    --------
+    >>> import control as ct
+    >>> v1 = ct.ss([[0.0, 1.0], [1.0, 0.0]], [[0.0], [1.0]], [[1.0, 0.0]], 0)
+    >>> v2 = ct.ss([[0.0, 1.0], [3.0, 0.0]], [[0.0], [1.0]], [[1.0, 0.0]], 0)
+    >>> design = quadratic_stabilization(PolytopicStateSpace([v1, v2]))
+    >>> design.certificate.verified
+    True
+    """
+    return _synthesize(
+        sys, None, u, None, "Lemma 1", False, None, regions, None, gain_bound,
+        margin, solvers,
+    )  # fmt: skip
+
+
+def gain_scheduled_stabilization(
+    sys: PolytopicStateSpace,
+    u=None,
+    *,
+    regions: Sequence[LMIRegion] = (),
+    gain_bound: float | None = None,
+    margin: float = 1e-6,
+    solvers=None,
+) -> StateFeedbackDesign:
+    """Vertex gains that quadratically stabilize the polytope.
+
+    Theorem 1 of the paper: one ``Z_j`` per vertex with a common ``W``,
+    LMIs (20) at every vertex and (21) for every pair; the scheduled gain
+    is ``K(delta) = sum_j delta_j K_j`` with ``K_j = -Z_j W^-1``.
+
+    Parameters and return value are those of `quadratic_stabilization`.
+
+    Returns
+    -------
+    `StateFeedbackDesign`
+
+    Raises
+    ------
+    InfeasibleError
+        If a vertex is not stabilizable or no certified solution exists.
+    """
+    return _synthesize(
+        sys, None, u, None, "Theorem 1", True, None, regions, None, gain_bound,
+        margin, solvers,
+    )  # fmt: skip
+
+
+def hinf_state_feedback(
+    sys: PolytopicStateSpace,
+    w=None,
+    u=None,
+    z=None,
+    *,
+    gamma: float | None = None,
+    regions: Sequence[LMIRegion] = (),
+    backoff: float | None = 0.2,
+    gain_bound: float | None = None,
+    margin: float = 1e-6,
+    solvers=None,
+) -> StateFeedbackDesign:
+    """Common state feedback with a certified H-infinity bound.
+
+    Lemma 2 of the paper: LMI (19) at every vertex, in ``W``, ``Z`` and
+    ``g = gamma^2``; ``||z||_2 < gamma ||w||_2`` for every admissible
+    parameter trajectory (quadratic H-infinity performance).
+
+    Parameters
+    ----------
+    sys : `PolytopicStateSpace`
+        The plant, with the exogenous inputs `w` and control inputs `u`
+        among its inputs and the performance outputs `z` among its outputs.
+    w : str, int or list, optional
+        Exogenous inputs; default every physical input not in `u`.
+    u : str, int or list
+        Control inputs.
+    z : str, int or list, optional
+        Performance outputs; default all outputs.
+    gamma : float, optional
+        Required bound; if given the LMIs are solved for feasibility at this
+        gamma instead of minimising it.
+    regions, gain_bound, margin, solvers
+        See `quadratic_stabilization`.
+    backoff : float or None, optional
+        Relax the minimum gamma by this fraction (default 0.2), then
+        re-solve for a well-conditioned ``W`` and the smallest gain norm.
+        None returns the raw minimum-gamma point, whose gains are often
+        very large.
+
+    Returns
+    -------
+    `StateFeedbackDesign`
+        With `gamma` the certified bound and `gamma_opt` the minimum.
+
+    Raises
+    ------
+    InfeasibleError
+        If a vertex is not stabilizable, the LMIs are infeasible (for the
+        given `gamma`) or no certified solution exists.
+    """
+    return _synthesize(
+        sys, w, u, z, "Lemma 2", False, gamma, regions, backoff, gain_bound,
+        margin, solvers, hinf=True,
+    )  # fmt: skip
+
+
+def gain_scheduled_hinf(
+    sys: PolytopicStateSpace,
+    w=None,
+    u=None,
+    z=None,
+    *,
+    gamma: float | None = None,
+    regions: Sequence[LMIRegion] = (),
+    backoff: float | None = 0.2,
+    gain_bound: float | None = None,
+    margin: float = 1e-6,
+    solvers=None,
+) -> StateFeedbackDesign:
+    """Vertex gains with a certified H-infinity bound.
+
+    Theorem 2 of the paper: LMIs (24) at every vertex and (25) for every
+    pair of vertices, with a common ``W`` and one ``Z_j`` per vertex.
+
+    Parameters, return value and exceptions are those of
+    `hinf_state_feedback`.
+
+    Returns
+    -------
+    `StateFeedbackDesign`
+
+    Raises
+    ------
+    InfeasibleError
+        See `hinf_state_feedback`.
+    """
+    return _synthesize(
+        sys, w, u, z, "Theorem 2", True, gamma, regions, backoff, gain_bound,
+        margin, solvers, hinf=True,
+    )  # fmt: skip
+
+
+# ----------------------------------------------------------------------
+# The engine
+# ----------------------------------------------------------------------
+def _require_pss(sys):
+    if not isinstance(sys, PolytopicStateSpace):
+        raise TypeError(
+            f"sys: expected a PolytopicStateSpace, got {type(sys).__name__}; wrap an "
+            "LTI system as PolytopicStateSpace([sys])"
+        )
+
+
+def _indices(sys, w, u, z):
+    inputs = sys.physical_inputs
+    iu = signal_indices(u, inputs, "u")
+    iw = signal_indices(w, inputs, "w")
+    iz = signal_indices(z, sys.output_labels, "z")
+    return iw, iu, iz
+
+
+def _resolve_channels(sys, w, u, z, hinf):
+    _require_pss(sys)
+    if u is None:
+        raise ValueError("u: name the control input(s), e.g. u=['Tm']")
+    inputs = sys.physical_inputs
+    iu = signal_indices(u, inputs, "u")
+    if not iu:
+        raise ValueError("u: at least one control input is required")
+    if not hinf:
+        return [], iu, []
+    iw = (
+        [i for i in range(len(inputs)) if i not in iu]
+        if w is None
+        else signal_indices(w, inputs, "w")
+    )
+    iz = list(range(sys.noutputs)) if z is None else signal_indices(
+        z, sys.output_labels, "z"
+    )
+    if not iw:
+        raise ValueError("w: at least one exogenous input is required")
+    if not iz:
+        raise ValueError("z: at least one performance output is required")
+    if set(iw) & set(iu):
+        raise ValueError("w, u: an input cannot be both exogenous and control")
+    return iw, iu, iz
+
+
+def _norm(M) -> float:
+    return float(np.linalg.norm(M, 2)) if M.size else 0.0
+
+
+def _pow2(x: float) -> float:
+    """Nearest power of two, so that scaling is exact in floating point."""
+    return float(2.0 ** np.round(np.log2(x))) if x > 0 else 1.0
+
+
+@dataclass(frozen=True)
+class _Scaling:
+    """Exact (power-of-two) prescaling; see the module docstring."""
+
+    T: np.ndarray  # state scaling, x = T x~
+    Su: np.ndarray  # input scaling, u = Su u~
+    sw: float  # w = sw w~
+    sz: float  # z = sz z~
+    a: float  # time scaling, t~ = a t
+
+    @classmethod
+    def of(cls, vertices) -> _Scaling:
+        absA = sum(np.abs(v[0]) for v in vertices)
+        _, (t, _) = matrix_balance(absA, permute=False, separate=True)
+        T = np.array([_pow2(x) for x in t])
+        a = _pow2(max(np.linalg.norm(v[0] * (T / T[:, None]), 2) for v in vertices))
+        Su = np.array(
+            [
+                _pow2(a / c) if c > 0 else 1.0
+                for c in np.max(
+                    [np.linalg.norm(v[2] / T[:, None], axis=0) for v in vertices],
+                    axis=0,
+                )
+            ]
+        )
+        nb1 = max(_norm(v[1] / T[:, None]) for v in vertices)
+        sw = _pow2(a / nb1) if nb1 > 0 else 1.0
+        nz = max(_norm(np.hstack([v[3] * T, v[4] * sw, v[5] * Su])) for v in vertices)
+        sz = _pow2(nz) if nz > 0 else 1.0
+        return cls(T, Su, sw, sz, a)
+
+    def apply(self, v):
+        A, B1, B2, C, D1, D2 = v
+        Ti = 1.0 / self.T
+        return (
+            Ti[:, None] * A * self.T / self.a,
+            Ti[:, None] * B1 * self.sw / self.a,
+            Ti[:, None] * B2 * self.Su / self.a,
+            C * self.T / self.sz,
+            D1 * self.sw / self.sz,
+            D2 * self.Su / self.sz,
+        )
+
+    @property
+    def w_factor(self) -> float:
+        """W = w_factor * T W~ T and Z = w_factor * Su Z~ T."""
+        return self.a / self.sw**2
+
+    def unscale_W(self, Wt):
+        return self.w_factor * (self.T[:, None] * Wt * self.T)
+
+    def unscale_K(self, Kt):
+        # u = -K x with u = Su u~, x = T x~ and u~ = -K~ x~.
+        return self.Su[:, None] * Kt / self.T
+
+    def unscale_g(self, g):
+        return g * (self.sz / self.sw) ** 2
+
+
+def _vertex_channels(sys, iw, iu, iz):
+    out = []
+    for A, B, C, D in sys.vertex_data():
+        out.append(
+            (
+                A,
+                B[:, iw],
+                B[:, iu],
+                C[iz] if iz else np.zeros((0, A.shape[0])),
+                D[np.ix_(iz, iw)],
+                D[np.ix_(iz, iu)],
+            )
+        )
+    return out
+
+
+def _kron(L, X):
+    return np.kron(L, X) if isinstance(X, np.ndarray) else cp.kron(L, X)
+
+
+def _pairs(N, scheduled):
+    """Index pairs (j, k): vertices, then (if scheduled) every pair j < k."""
+    pairs = [(j, j) for j in range(N)]
+    if scheduled:
+        pairs += list(itertools.combinations(range(N), 2))
+    return pairs
+
+
+def _build(data, scheduled, hinf, regions, margin):
+    """The LMI problem in scaled data (see the module docstring)."""
+    n = data[0][0].shape[0]
+    m = data[0][2].shape[1]
+    N = len(data)
+    nz_ = data[0][3].shape[0]
+    nw = data[0][1].shape[1]
+    lmi = LMIProblem(margin=margin)
+    lmi.variable("W", (n, n), symmetric=True)
+    nZ = N if scheduled else 1
+    for k in range(nZ):
+        lmi.variable(f"Z{k}", (m, n))
+    if hinf:
+        lmi.variable("g", (1, 1), symmetric=True)
+        lmi.parameter("g_max", (1, 1), value=np.ones((1, 1)), nonneg=True)
+    lmi.variable("t", (1, 1), symmetric=True)
+    lmi.variable("kappa", (1, 1), symmetric=True)
+    lmi.parameter("w_max", value=1.0, nonneg=True)
+    lmi.parameter("w_min", value=0.0, nonneg=True)
+    lmi.parameter("kappa_max", value=0.0, nonneg=True)
+    lmi.parameter("Kfac", value=1.0, nonneg=True)
+
+    lmi.add("W > 0", lambda v: [[-v.W]])
+
+    def Z(v, k):
+        return getattr(v, f"Z{k if scheduled else 0}")
+
+    for j, k in _pairs(N, scheduled):
+        Aj, B1j, B2j, Cj, D1j, D2j = data[j]
+        Ak, B1k, B2k, Ck, D1k, D2k = data[k]
+        label = f"vertex {j}" if j == k else f"pair ({j}, {k})"
+        twice = 1.0 if j == k else 2.0
+
+        # Sum of the (j, k) and (k, j) terms of the quadratic expansion in
+        # delta; for j == k this is the vertex LMI itself.
+        def Q(v, j=j, k=k, Aj=Aj, Ak=Ak, B2j=B2j, B2k=B2k):
+            if j == k:
+                return Aj @ v.W + B2j @ Z(v, j)
+            return (Aj + Ak) @ v.W + B2j @ Z(v, k) + B2k @ Z(v, j)
+
+        if hinf:
+
+            def blocks(v, Q=Q, j=j, k=k, twice=twice, data_j=data[j], data_k=data[k]):
+                _, B1j, _, Cj, D1j, D2j = data_j
+                _, B1k, _, Ck, D1k, D2k = data_k
+                q = Q(v)
+                if j == k:
+                    B1, D1 = B1j, D1j
+                    R = Cj @ v.W + D2j @ Z(v, j)
+                else:
+                    B1, D1 = B1j + B1k, D1j + D1k
+                    R = (Cj + Ck) @ v.W + D2j @ Z(v, k) + D2k @ Z(v, j)
+                return [
+                    [q + q.T],
+                    [B1.T, -twice * np.eye(nw)],
+                    [R, D1, -twice * v.g[0, 0] * np.eye(nz_)],
+                ]
+
+            lmi.add(f"H-infinity {label}", blocks)
+        else:
+            lmi.add(f"Lyapunov {label}", lambda v, Q=Q: [[Q(v) + Q(v).T]])
+            # With W <= I, sym(A_cl W) <= -t I guarantees a decay rate t / 2:
+            # maximising t picks a well-damped point, not one on the boundary.
+            lmi.add(
+                f"decay {label}",
+                lambda v, Q=Q, twice=twice: [
+                    [Q(v) + Q(v).T + twice * v.t[0, 0] * np.eye(n)]
+                ],
+                strict=False,
+                stages=("stabilize",),
+            )
+
+        for r, region in enumerate(regions):
+
+            def region_blocks(v, Q=Q, region=region, twice=twice):
+                q = Q(v)
+                return [
+                    [
+                        twice * _kron(region.L, v.W)
+                        + _kron(region.M, q)
+                        + _kron(region.M.T, q.T)
+                    ]
+                ]
+
+            lmi.add(f"region {r} {label}", region_blocks)
+
+    # Stage constraints (non-strict; they shape the point, not the proof).
+    back = ("center", "gain")
+    if hinf:
+        lmi.add("g <= g_max", lambda v: [[v.g - v.g_max]], strict=False, stages=back)
+    lmi.add(
+        "W <= w_max I",
+        lambda v: [[v.W - v.w_max * np.eye(n)]],
+        strict=False,
+        stages=("center",) if hinf else ("center", "stabilize"),
+    )
+    lmi.add(
+        "W >= t I",
+        lambda v: [[v.t[0, 0] * np.eye(n) - v.W]],
+        strict=False,
+        stages=("center", "stabilize"),
+    )
+    lmi.add(
+        "W >= w_min I",
+        lambda v: [[v.w_min * np.eye(n) - v.W]],
+        strict=False,
+        stages=("gain",),
+    )
+    for k in range(nZ):
+        # The stabilization LMIs are homogeneous in (W, Z): W <= I together
+        # with ||Z|| <= 1 fixes the scale and balances decay against gain.
+        lmi.add(
+            f"||Z{k}|| <= 1",
+            lambda v, k=k: [[-np.eye(n)], [getattr(v, f"Z{k}"), -np.eye(m)]],
+            strict=False,
+            stages=("stabilize",),
+        )
+        lmi.add(
+            f"||Z{k}||^2 <= kappa",
+            lambda v, k=k: [
+                [-v.kappa[0, 0] * np.eye(n)],
+                [getattr(v, f"Z{k}"), -np.eye(m)],
+            ],
+            strict=False,
+            stages=("gain",),
+        )
+    return lmi
+
+
+def _synthesize(
+    sys, w, u, z, method, scheduled, gamma, regions, backoff, gain_bound, margin,
+    solvers, hinf=False,
+):  # fmt: skip
+    start = time.perf_counter()
+    iw, iu, iz = _resolve_channels(sys, w, u, z, hinf)
+    regions = tuple(regions)
+    for region in regions:
+        if not isinstance(region, LMIRegion):
+            raise TypeError(f"regions: expected LMIRegion objects, got {region!r}")
+    if backoff is not None and not (np.isfinite(backoff) and backoff >= 0):
+        raise ValueError(f"backoff: must be None or a nonnegative number, got {backoff}")
+    if gamma is not None and not (np.isfinite(gamma) and gamma > 0):
+        raise ValueError(f"gamma: must be a positive number, got {gamma}")
+    if gain_bound is not None and not (np.isfinite(gain_bound) and gain_bound > 0):
+        raise ValueError(f"gain_bound: must be a positive number, got {gain_bound}")
+    if not (np.isfinite(margin) and 0 < margin < 1):
+        raise ValueError(f"margin: must be in (0, 1), got {margin}")
+    check_stabilizability(sys, iu)
+
+    original = _vertex_channels(sys, iw, iu, iz)
+    scaling = _Scaling.of(original)
+    data = [scaling.apply(v) for v in original]
+    scaled_regions = tuple(r.time_scaled(scaling.a) for r in regions)
+    lmi = _build(data, scheduled, hinf, scaled_regions, margin)
+    if gain_bound is not None:
+        _add_gain_bound(lmi, scaling, gain_bound, scheduled, len(data))
+    built = time.perf_counter()
+
+    attempts: list[SolveAttempt] = []
+
+    def run(stage, objective):
+        try:
+            sol = lmi.solve(objective, stage=stage, solvers=solvers)
+        except InfeasibleError as exc:
+            attempts.extend(exc.attempts)
+            raise
+        attempts.extend(sol.attempts)
+        return sol
+
+    gamma_opt = None
+    if hinf:
+        if gamma is None:
+            sol = run("optimal", lambda v: v.g[0, 0])
+            g_opt = float(sol.g[0, 0])
+            gamma_opt = float(np.sqrt(scaling.unscale_g(g_opt)))
+        else:
+            g_opt = (gamma**2) / (scaling.sz / scaling.sw) ** 2
+            sol = None
+        if backoff is not None or gamma is not None:
+            relax = backoff is not None and gamma is None
+            factor = (1.0 + backoff) ** 2 if relax else 1.0
+            lmi.set_parameter("g_max", g_opt * factor)
+            w_max = 1e3 if sol is None else max(np.linalg.eigvalsh(sol.W)[-1], 1e-12)
+            lmi.set_parameter("w_max", w_max)
+            sol = run("center", lambda v: -v.t[0, 0])
+    else:
+        lmi.set_parameter("w_max", 1.0)
+        sol = run("stabilize", lambda v: -v.t[0, 0])
+
+    if backoff is not None or gain_bound is not None:
+        lmi.set_parameter("w_min", 0.5 * float(np.linalg.eigvalsh(sol.W)[0]))
+        try:
+            sol = run("gain", lambda v: v.kappa[0, 0])
+        except InfeasibleError as exc:
+            if gain_bound is not None:
+                raise InfeasibleError(
+                    f"gain_bound: no certified design with every gain norm below "
+                    f"{gain_bound:g} (sufficient condition) [{exc}]",
+                    attempts,
+                ) from None
+            # The previous point is certified; keep it.
+    solved = time.perf_counter()
+
+    gains = tuple(
+        scaling.unscale_K(-getattr(sol, f"Z{k}") @ np.linalg.inv(sol.W))
+        for k in range(len(data) if scheduled else 1)
+    )
+    W = scaling.unscale_W(sol.W)
+    certificate = _verify(sys, original, data, sol, scaling, gains, lmi, scheduled)
+    verified = time.perf_counter()
+    if not certificate.verified:
+        raise CertificationError(
+            f"{method}: the solver's point failed the closed-loop verification "
+            f"({certificate})",
+            attempts,
+        )
+    gamma_cert = (
+        float(np.sqrt(scaling.unscale_g(float(sol.g[0, 0])))) if hinf else None
+    )
+    labels = sys.physical_inputs
+    return StateFeedbackDesign(
+        system=sys,
+        method=method,
+        gains=gains,
+        P=np.linalg.inv(W),
+        gamma=gamma_cert,
+        gamma_opt=gamma_opt,
+        w=tuple(labels[i] for i in iw),
+        u=tuple(labels[i] for i in iu),
+        z=tuple(sys.output_labels[i] for i in iz),
+        certificate=certificate,
+        attempts=tuple(attempts),
+        timing={
+            "build": built - start,
+            "solve": solved - built,
+            "verify": verified - solved,
+        },
+        backoff=backoff,
+        regions=regions,
+    )
+
+
+def _add_gain_bound(lmi, scaling, bound, scheduled, N):
+    """Sufficient LMI for ``||K_j|| <= bound`` in original units.
+
+    With ``W~ >= w_min I``, the original ``W >= omega I`` for
+    ``omega = w_factor * w_min * min(T)^2``; then ``Z'Z <= (bound omega)^2 I``
+    implies ``||K|| = ||Z W^-1|| <= bound``.
+    """
+    c = scaling.w_factor
+    T, Su = scaling.T, scaling.Su
+    n, m = T.size, Su.size
+    tmin2 = float(np.min(T) ** 2)
+    for k in range(N if scheduled else 1):
+
+        def blocks(v, k=k):
+            Zo = c * (Su[:, None] * getattr(v, f"Z{k}") * T)
+            omega = c * v.w_min * tmin2
+            return [[-((bound * omega) ** 2) * np.eye(n)], [Zo, -np.eye(m)]]
+
+        lmi.add(f"||K{k}|| <= gain_bound", blocks, strict=False, stages=("gain",))
+
+
+def _verify(sys, original, data, sol, scaling, gains, lmi, scheduled) -> Certificate:
+    """Independent float64 checks of the returned point (see module doc)."""
+    N = len(original)
+    rng = np.random.default_rng(12345)
+    deltas = list(np.eye(N))
+    if N > 1:
+        deltas += list(rng.dirichlet(np.ones(N), size=_VERIFY_SAMPLES))
+        deltas += [0.5 * (np.eye(N)[j] + np.eye(N)[k]) for j, k in _pairs(N, True)[N:]]
+    Kstack = np.stack(gains)
+    Ktilde = np.stack(
+        [
+            -getattr(sol, f"Z{k}") @ np.linalg.inv(sol.W)
+            for k in range(len(gains))
+        ]
+    )
+    W = sol.W
+    max_real = -np.inf
+    max_lyap = -np.inf
+    for delta in deltas:
+        A = np.tensordot(delta, np.stack([v[0] for v in original]), axes=1)
+        B = np.tensordot(delta, np.stack([v[2] for v in original]), axes=1)
+        K = np.tensordot(delta, Kstack, axes=1) if scheduled else Kstack[0]
+        max_real = max(max_real, np.linalg.eigvals(A - B @ K).real.max())
+        At = np.tensordot(delta, np.stack([v[0] for v in data]), axes=1)
+        Bt = np.tensordot(delta, np.stack([v[2] for v in data]), axes=1)
+        Kt = np.tensordot(delta, Ktilde, axes=1) if scheduled else Ktilde[0]
+        Acl_W = (At - Bt @ Kt) @ W
+        lyap = np.linalg.eigvalsh(Acl_W + Acl_W.T)[-1] / np.linalg.norm(W, 2)
+        max_lyap = max(max_lyap, lyap)
+    return Certificate(
+        lmi_checks=sol.checks,
+        margin=lmi.margin,
+        max_closed_loop_real=float(max_real),
+        max_lyapunov_eig=float(max_lyap),
+        npoints=len(deltas),
+    )

@@ -1,0 +1,672 @@
+"""Polytopic LPV systems as python-control `StateSpace` objects."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+
+import numpy as np
+from control import NonlinearIOSystem, StateSpace
+
+from ._checks import as_ss_data
+from .polytope import ParameterBox, Polytope, Simplex
+
+__all__ = ["PolytopicStateSpace", "pss"]
+
+Scheduling = None | str | Callable
+
+
+class PolytopicStateSpace(StateSpace):
+    r"""Polytopic linear parameter-varying state-space system.
+
+    .. math::
+
+        \dot x = A(\delta) x + B(\delta) u, \quad
+        y = C(\delta) x + D(\delta) u, \quad
+        (A, B, C, D)(\delta) = \sum_{j=1}^N \delta_j (A_j, B_j, C_j, D_j),
+
+    with convex coordinates :math:`\delta = \delta(p)` of a parameter `p` in a
+    domain (a box of named bounds, a general polytope, or the simplex of the
+    coordinates themselves).
+
+    It is a `control.StateSpace`: its matrices ``A, B, C, D`` are the frozen
+    system at the `nominal` parameter value, which is what python-control's
+    linear tools (`poles`, `bode_plot`, `lqr`, ...) see. Its nonlinear I/O
+    behaviour (`dynamics`, `output`, simulation with
+    `control.input_output_response`) follows the scheduled matrices, with the
+    parameter taken from one of three `scheduling` sources:
+
+    * ``None`` (default): the system parameters ``params``, one entry per
+      parameter name, default the nominal value (a frozen-parameter
+      simulation at a value you choose with ``params={...}``);
+    * ``"inputs"``: extra inputs, one per parameter, named after the
+      parameters and appended after the physical inputs;
+    * a callable ``p = f(t, x, u)`` of time, state and physical input
+      (quasi-LPV).
+
+    A scheduled value outside the domain is projected onto it (a saturated
+    scheduling signal), never extrapolated.
+
+    Operations that stay polytopic (negation, sums, products with LTI
+    systems or gains, indexing, `append`, `feedback` where the closed loop is
+    affine in the vertex data) return a `PolytopicStateSpace` computed vertex
+    by vertex and checked at interior points; operations that would leave
+    the polytopic class (`sample`, `minreal`, products of two LPV systems
+    with nonaffine result) raise `TypeError` instead of returning a frozen
+    system.
+
+    Parameters
+    ----------
+    vertices : sequence of `control.StateSpace` or (A, B, C, D) tuples
+        Vertex systems, all of the same dimensions, continuous time.
+        Signal names default to those of the first `StateSpace` vertex.
+    domain : `ParameterBox`, `Polytope`, `Simplex` or mapping, optional
+        Parameter domain whose vertices match `vertices` in number and order.
+        A mapping ``{name: (lower, upper)}`` is a box. Default: the simplex of
+        the convex coordinates.
+    scheduling : None, "inputs" or callable, optional
+        Source of the parameter in simulation (see above).
+    nominal : array_like or mapping, optional
+        Parameter value of the frozen matrices; default the domain's center.
+    inputs, outputs, states : int, str or list of str, optional
+        Signal names (physical inputs only), as in `control.ss`.
+    name : str, optional
+        System name.
+
+    Attributes
+    ----------
+    vertices : tuple of `control.StateSpace`
+        The vertex systems (physical inputs only).
+    domain : `ParameterBox`, `Polytope` or `Simplex`
+        The parameter domain.
+    nominal : ndarray
+        Parameter value of the frozen ``A, B, C, D``.
+
+    See Also
+    --------
+    pss, PolytopicStateSpace.from_affine
+
+    Examples
+    --------
+    >>> import control as ct
+    >>> v1 = ct.ss([[-1.0]], [[1.0]], [[1.0]], 0)
+    >>> v2 = ct.ss([[-3.0]], [[1.0]], [[1.0]], 0)
+    >>> sys = PolytopicStateSpace([v1, v2], domain={"p": (0.0, 1.0)})
+    >>> sys.at(0.5).A
+    array([[-2.]])
+    """
+
+    def __init__(
+        self,
+        vertices,
+        domain=None,
+        *,
+        scheduling: Scheduling = None,
+        nominal=None,
+        **kwargs,
+    ):
+        if isinstance(vertices, (StateSpace, np.ndarray)) or not isinstance(
+            vertices, Sequence
+        ):
+            raise TypeError(
+                "vertices: expected a sequence of control.StateSpace or "
+                f"(A, B, C, D) tuples, got {type(vertices).__name__}"
+            )
+        if len(vertices) == 0:
+            raise ValueError("vertices: at least one vertex system is required")
+        data = tuple(as_ss_data(v, f"vertices[{j}]") for j, v in enumerate(vertices))
+        shapes = [tuple(m.shape for m in d) for d in data]
+        for j, shape in enumerate(shapes[1:], start=1):
+            if shape != shapes[0]:
+                raise ValueError(
+                    f"vertices[{j}]: dimensions {shape} differ from "
+                    f"vertices[0] {shapes[0]} (A, B, C, D shapes)"
+                )
+        self._data = data
+        self.domain = _as_domain(domain, len(data))
+        self.nominal = (
+            self.domain.center.copy()
+            if nominal is None
+            else self.domain._as_point(nominal)
+        )
+        if not self.domain.contains(self.nominal):
+            raise ValueError(f"nominal: {self.nominal} is outside {self.domain!r}")
+        self._set_scheduling(scheduling)
+
+        first = next((v for v in vertices if isinstance(v, StateSpace)), None)
+        n, m = data[0][1].shape
+        ny = data[0][2].shape[0]
+        inputs = kwargs.pop("inputs", first.input_labels if first else m)
+        outputs = kwargs.pop("outputs", first.output_labels if first else ny)
+        states = kwargs.pop("states", first.state_labels if first else n)
+        name = kwargs.pop("name", None)
+        if kwargs.pop("dt", 0) not in (0, None):
+            raise ValueError("dt: polytopic systems are continuous time (dt=0)")
+        if kwargs:
+            raise TypeError(f"unexpected keyword arguments: {sorted(kwargs)}")
+
+        # Physical signal names, checked by building the nominal system once.
+        delta0 = self.domain._weights(self.nominal)
+        frozen = StateSpace(
+            *self._combine(delta0),
+            inputs=inputs,
+            outputs=outputs,
+            states=states,
+            name=name,
+            remove_useless_states=False,
+        )
+        self._physical_inputs = tuple(frozen.input_labels)
+        self.vertices = tuple(
+            StateSpace(
+                *d,
+                inputs=frozen.input_labels,
+                outputs=frozen.output_labels,
+                states=frozen.state_labels,
+                name=f"{frozen.name}[{j}]",
+                remove_useless_states=False,
+            )
+            for j, d in enumerate(data)
+        )
+        # Stacked [A B] and [C D] for the hot path: one matmul per call.
+        self._AB = np.stack([np.hstack(d[:2]) for d in data])
+        self._CD = np.stack([np.hstack(d[2:]) for d in data])
+
+        A0, B0, C0, D0 = self._combine(delta0)
+        sched_inputs = list(self.domain.names) if self.scheduling == "inputs" else []
+        k = len(sched_inputs)
+        super().__init__(
+            A0,
+            np.hstack([B0, np.zeros((n, k))]),
+            C0,
+            np.hstack([D0, np.zeros((ny, k))]),
+            inputs=list(frozen.input_labels) + sched_inputs,
+            outputs=frozen.output_labels,
+            states=frozen.state_labels,
+            name=frozen.name,
+            params=dict(zip(self.domain.names, self.nominal.tolist())),
+            remove_useless_states=False,
+        )
+        self._update_params(None)
+
+    # ------------------------------------------------------------------
+    # Construction helpers
+    # ------------------------------------------------------------------
+    @classmethod
+    def from_affine(
+        cls,
+        base,
+        terms: Mapping[str, object],
+        bounds: Mapping[str, tuple[float, float]] | ParameterBox,
+        **kwargs,
+    ) -> PolytopicStateSpace:
+        r"""Build a polytopic system from an affine parameter dependence.
+
+        ``M(p) = M0 + sum_i p_i M_i`` for ``M = (A, B, C, D)`` over a box of
+        named parameter bounds; the ``2**k`` vertices are ``M`` at the box
+        corners.
+
+        Parameters
+        ----------
+        base : `control.StateSpace` or (A0, B0, C0, D0)
+            The system at ``p = 0``; signal names are taken from it.
+        terms : mapping of str to `control.StateSpace` or (Ai, Bi, Ci, Di)
+            The coefficient of each parameter; a scalar ``0`` stands for a
+            zero matrix. Keys must be the parameter names in `bounds`.
+        bounds : mapping of str to (float, float), or `ParameterBox`
+            Parameter bounds.
+        **kwargs
+            Passed to `PolytopicStateSpace` (``scheduling``, ``nominal``,
+            ``inputs``, ``outputs``, ``states``, ``name``).
+
+        Returns
+        -------
+        `PolytopicStateSpace`
+
+        Examples
+        --------
+        >>> sys = PolytopicStateSpace.from_affine(
+        ...     ([[-1.0]], [[1.0]], [[1.0]], 0),
+        ...     {"p": ([[2.0]], 0, 0, 0)},
+        ...     {"p": (-1.0, 0.0)},
+        ... )
+        >>> [float(v.A[0, 0]) for v in sys.vertices]
+        [-3.0, -1.0]
+        """
+        domain = bounds if isinstance(bounds, ParameterBox) else ParameterBox(bounds)
+        base_data = as_ss_data(base, "base")
+        if not isinstance(terms, Mapping):
+            raise TypeError("terms: expected a mapping {parameter name: matrices}")
+        if set(terms) != set(domain.names):
+            raise ValueError(
+                f"terms: keys {sorted(terms)} must equal the parameter names "
+                f"{list(domain.names)} of bounds"
+            )
+        term_data = []
+        for pname in domain.names:
+            term = terms[pname]
+            if isinstance(term, Sequence) and not isinstance(term, StateSpace):
+                term = tuple(
+                    np.zeros_like(b) if np.isscalar(t) and t == 0 else t
+                    for t, b in zip(term, base_data)
+                )
+            data = as_ss_data(term, f"terms[{pname!r}]")
+            for t, b, label in zip(data, base_data, "ABCD"):
+                if t.shape != b.shape:
+                    raise ValueError(
+                        f"terms[{pname!r}].{label}: shape {t.shape} differs from "
+                        f"base.{label} {b.shape}"
+                    )
+            term_data.append(data)
+        vertices = [
+            tuple(
+                b + sum(pi * t[i] for pi, t in zip(point, term_data))
+                for i, b in enumerate(base_data)
+            )
+            for point in domain.points
+        ]
+        if isinstance(base, StateSpace):
+            kwargs.setdefault("inputs", base.input_labels)
+            kwargs.setdefault("outputs", base.output_labels)
+            kwargs.setdefault("states", base.state_labels)
+            kwargs.setdefault("name", base.name)
+        return cls(vertices, domain, **kwargs)
+
+    def _set_scheduling(self, scheduling: Scheduling) -> None:
+        if not (scheduling is None or scheduling == "inputs" or callable(scheduling)):
+            raise ValueError(
+                "scheduling: expected None, 'inputs' or a callable f(t, x, u) -> p, "
+                f"got {scheduling!r}"
+            )
+        self.scheduling = scheduling
+
+    def scheduled(self, by: Scheduling) -> PolytopicStateSpace:
+        """Return a copy with another scheduling source.
+
+        Parameters
+        ----------
+        by : None, "inputs" or callable
+            See `PolytopicStateSpace`.
+
+        Returns
+        -------
+        `PolytopicStateSpace`
+        """
+        return PolytopicStateSpace(
+            self.vertices,
+            self.domain,
+            scheduling=by,
+            nominal=self.nominal,
+            name=self.name,
+        )
+
+    # ------------------------------------------------------------------
+    # Polytopic data
+    # ------------------------------------------------------------------
+    @property
+    def nvertices(self) -> int:
+        """Number of vertices ``N``."""
+        return len(self._data)
+
+    @property
+    def nparams(self) -> int:
+        """Number of scheduling parameters."""
+        return self.domain.nparams
+
+    @property
+    def param_names(self) -> tuple[str, ...]:
+        """Names of the scheduling parameters."""
+        return self.domain.names
+
+    @property
+    def physical_inputs(self) -> tuple[str, ...]:
+        """Input labels without the scheduling inputs."""
+        return self._physical_inputs
+
+    def weights(self, p, clip: bool = False) -> np.ndarray:
+        """Convex coordinates ``delta(p)``, shape ``(N,)``.
+
+        Parameters
+        ----------
+        p : array_like or mapping
+            Parameter value (for a simplex domain: the coordinates).
+        clip : bool, optional
+            Project `p` onto the domain instead of raising.
+
+        Returns
+        -------
+        ndarray
+
+        Raises
+        ------
+        ValueError
+            If `p` has the wrong size or lies outside the domain.
+        """
+        return self.domain.weights(p, clip=clip)
+
+    def _combine(self, delta: np.ndarray) -> tuple[np.ndarray, ...]:
+        return tuple(
+            np.tensordot(delta, np.stack([d[i] for d in self._data]), axes=1)
+            for i in range(4)
+        )
+
+    def at(self, p, name: str | None = None) -> StateSpace:
+        """Frozen system at parameter value `p`.
+
+        Parameters
+        ----------
+        p : array_like or mapping
+            Parameter value inside the domain.
+        name : str, optional
+            Name of the returned system.
+
+        Returns
+        -------
+        `control.StateSpace`
+            With the physical inputs, outputs and states of this system.
+        """
+        delta = self.weights(p)
+        first = self.vertices[0]
+        return StateSpace(
+            *self._combine(delta),
+            inputs=first.input_labels,
+            outputs=first.output_labels,
+            states=first.state_labels,
+            name=name,
+            remove_useless_states=False,
+        )
+
+    def vertex_data(self) -> tuple[tuple[np.ndarray, ...], ...]:
+        """Vertex matrices ``((A_j, B_j, C_j, D_j), ...)`` as float arrays."""
+        return tuple(tuple(m.copy() for m in d) for d in self._data)
+
+    # ------------------------------------------------------------------
+    # Nonlinear I/O behaviour: the scheduled matrices
+    # ------------------------------------------------------------------
+    def _update_params(self, params):
+        super()._update_params(params)
+        # Parameters from the params dict are constant during a simulation:
+        # convert them to convex coordinates once, not on every RHS call.
+        if self.scheduling is None:
+            point = np.array([self._current_params[k] for k in self.domain.names])
+            self._params_delta = self.domain._weights(self.domain._as_point(point))
+
+    def _delta(self, t, x, u) -> np.ndarray:
+        if self.scheduling is None:
+            return self._params_delta
+        if self.scheduling == "inputs":
+            return self.domain._weights(u[len(self._physical_inputs) :])
+        return self.domain._weights(
+            np.asarray(self.scheduling(t, x, u[: len(self._physical_inputs)]), float)
+        )
+
+    def _rhs(self, t, x, u):
+        u = np.asarray(u, dtype=float).reshape(-1)
+        xu = np.concatenate((x, u[: len(self._physical_inputs)]))
+        return self._delta(t, x, u) @ (self._AB @ xu)
+
+    def _out(self, t, x, u):
+        u = np.asarray(u, dtype=float).reshape(-1)
+        xu = np.concatenate((x, u[: len(self._physical_inputs)]))
+        return self._delta(t, x, u) @ (self._CD @ xu)
+
+    def _checked_call(self, method, t, x, u, params):
+        x = np.asarray(x, dtype=float).reshape(-1)
+        u = np.zeros(self.ninputs) if u is None else np.asarray(u, float).reshape(-1)
+        if x.size != self.nstates:
+            raise ValueError(f"x: expected {self.nstates} states, got {x.size}")
+        if u.size != self.ninputs:
+            raise ValueError(f"u: expected {self.ninputs} inputs, got {u.size}")
+        self._update_params(params)
+        return method(t, x, u)
+
+    def dynamics(self, t, x, u=None, params=None):
+        """State derivative of the scheduled system.
+
+        Parameters
+        ----------
+        t : float
+            Time (used by a callable scheduling).
+        x : array_like
+            State.
+        u : array_like, optional
+            Input (physical, then scheduling inputs); zero if omitted.
+        params : dict, optional
+            Parameter values (for ``scheduling=None``).
+
+        Returns
+        -------
+        ndarray
+        """
+        return self._checked_call(self._rhs, t, x, u, params)
+
+    def output(self, t, x, u=None, params=None):
+        """Output of the scheduled system (see `dynamics`)."""
+        return self._checked_call(self._out, t, x, u, params)
+
+    # ------------------------------------------------------------------
+    # python-control operations: stay polytopic or refuse
+    # ------------------------------------------------------------------
+    def _vertexwise(self, operation, other=None, label="operation"):
+        """Apply `operation` per vertex and check the result is polytopic.
+
+        The vertex-wise result equals the operation on the interpolated
+        system only where the operation is affine in the vertex data; this
+        is checked at interior points rather than assumed.
+        """
+        if self.scheduling is not None and callable(self.scheduling):
+            raise TypeError(
+                f"{label}: a system scheduled by a callable of its state cannot be "
+                "combined vertex by vertex; combine the unscheduled system and "
+                "schedule the result with .scheduled()"
+            )
+        if isinstance(other, PolytopicStateSpace):
+            if other.domain != self.domain:
+                raise TypeError(
+                    f"{label}: the two polytopic systems have different parameter "
+                    "domains; their combination is not polytopic"
+                )
+            results = [operation(v, w) for v, w in zip(self.vertices, other.vertices)]
+
+            def interpolated(delta):
+                return operation(self._frozen(delta), other._frozen(delta))
+
+        else:
+            results = [operation(v, other) for v in self.vertices]
+
+            def interpolated(delta):
+                return operation(self._frozen(delta), other)
+
+        if not all(isinstance(r, StateSpace) for r in results):
+            return NotImplemented
+        out_data = [as_ss_data(r, label) for r in results]
+        rng = np.random.default_rng(0)
+        checks = [np.full(self.nvertices, 1.0 / self.nvertices)]
+        checks += list(rng.dirichlet(np.ones(self.nvertices), size=2))
+        for delta in checks:
+            expected = as_ss_data(interpolated(delta), label)
+            for got, ref in zip(_combine_data(out_data, delta), expected):
+                if got.shape != ref.shape or not np.allclose(
+                    got, ref, rtol=1e-9, atol=1e-12 * max(1.0, np.abs(ref).max())
+                ):
+                    raise TypeError(
+                        f"{label}: the result is not affine in the vertex data, so "
+                        "it is not a polytopic system over the same domain; apply "
+                        "it to a frozen system sys.at(p) instead"
+                    )
+        return PolytopicStateSpace(
+            results,
+            self.domain,
+            scheduling=self.scheduling,
+            nominal=self.nominal,
+        )
+
+    def _frozen(self, delta) -> StateSpace:
+        return StateSpace(*self._combine(delta), remove_useless_states=False)
+
+    def _binary(self, other, op, label):
+        if isinstance(other, NonlinearIOSystem) and not isinstance(other, StateSpace):
+            # A nonlinear partner: python-control's interconnection keeps this
+            # system's scheduled dynamics.
+            return getattr(NonlinearIOSystem, f"__{label}__")(self, other)
+        return self._vertexwise(op, other, label=label)
+
+    def __neg__(self):
+        return self._vertexwise(lambda v, _: -v, label="neg")
+
+    def __add__(self, other):
+        return self._binary(other, lambda v, w: v + w, "add")
+
+    def __radd__(self, other):
+        return self._binary(other, lambda v, w: w + v, "radd")
+
+    def __sub__(self, other):
+        return self._binary(other, lambda v, w: v - w, "sub")
+
+    def __rsub__(self, other):
+        return self._binary(other, lambda v, w: w - v, "rsub")
+
+    def __mul__(self, other):
+        return self._binary(other, lambda v, w: v * w, "mul")
+
+    def __rmul__(self, other):
+        return self._binary(other, lambda v, w: w * v, "rmul")
+
+    def __truediv__(self, other):
+        return self._vertexwise(lambda v, w: v / w, other, label="truediv")
+
+    def __rtruediv__(self, other):
+        raise TypeError("division by a polytopic system is not polytopic")
+
+    def __pow__(self, other):
+        if other == 1:
+            return self.scheduled(self.scheduling)
+        raise TypeError("powers of a polytopic system are not polytopic")
+
+    def __getitem__(self, key):
+        return self._vertexwise(lambda v, _: v[key], label="getitem")
+
+    def feedback(self, other=1, sign=-1):
+        """Feedback interconnection, kept polytopic where exact.
+
+        The closed loop of the vertices is the closed loop of the polytopic
+        system only when it is affine in the vertex data (for example a
+        constant input matrix with a static output feedback); otherwise a
+        `TypeError` is raised.
+        """
+        return self._vertexwise(lambda v, w: v.feedback(w, sign), other, "feedback")
+
+    def append(self, other):
+        """Block-diagonal append, kept polytopic."""
+        return self._vertexwise(lambda v, w: v.append(w), other, "append")
+
+    def lft(self, other, nu=-1, ny=-1):
+        """Linear fractional transformation, kept polytopic where exact."""
+        return self._vertexwise(lambda v, w: v.lft(w, nu, ny), other, "lft")
+
+    def sample(self, *args, **kwargs):
+        """Not available: discretization is not polytopic.
+
+        Raises
+        ------
+        TypeError
+            Always; sample a frozen system ``sys.at(p).sample(Ts)`` instead.
+        """
+        raise TypeError(
+            "sample: the discretization of a polytopic system is not polytopic; "
+            "use sys.at(p).sample(Ts) for a frozen parameter value"
+        )
+
+    def minreal(self, *args, **kwargs):
+        """Not available: vertex realizations would differ.
+
+        Raises
+        ------
+        TypeError
+            Always; use ``sys.at(p).minreal()`` for a frozen system.
+        """
+        raise TypeError(
+            "minreal: a minimal realization per vertex would break the common "
+            "state basis; use sys.at(p).minreal() for a frozen parameter value"
+        )
+
+    def returnScipySignalLTI(self, *args, **kwargs):  # noqa: N802 (python-control name)
+        """Not available: scipy's LTI classes are frozen systems."""
+        raise TypeError(
+            "returnScipySignalLTI: use sys.at(p).returnScipySignalLTI() for a "
+            "frozen parameter value"
+        )
+
+    def __str__(self) -> str:
+        sched = (
+            "params"
+            if self.scheduling is None
+            else "inputs"
+            if self.scheduling == "inputs"
+            else "callable"
+        )
+        head = (
+            f"PolytopicStateSpace: {self.name}, {self.nvertices} vertices over "
+            f"{self.domain!r}, scheduled by {sched}\n"
+            f"Nominal p = {dict(zip(self.domain.names, self.nominal.tolist()))} "
+            "(the A, B, C, D below)\n"
+        )
+        return head + StateSpace.__str__(self)
+
+    def __repr__(self) -> str:
+        return (
+            f"<PolytopicStateSpace {self.name}: {self.nvertices} vertices, "
+            f"{self.nstates} states, inputs {list(self.input_labels)}, "
+            f"outputs {list(self.output_labels)}>"
+        )
+
+
+def _combine_data(data, delta):
+    return tuple(
+        np.tensordot(delta, np.stack([d[i] for d in data]), axes=1) for i in range(4)
+    )
+
+
+def _as_domain(domain, nvertices: int):
+    if domain is None:
+        return Simplex(nvertices)
+    if isinstance(domain, Mapping):
+        domain = ParameterBox(domain)
+    if not isinstance(domain, (ParameterBox, Polytope, Simplex)):
+        raise TypeError(
+            "domain: expected a ParameterBox, Polytope, Simplex or a mapping of "
+            f"bounds, got {type(domain).__name__}"
+        )
+    if domain.nvertices != nvertices:
+        raise ValueError(
+            f"domain: has {domain.nvertices} vertices but {nvertices} vertex "
+            "systems were given"
+        )
+    return domain
+
+
+def pss(vertices, domain=None, **kwargs) -> PolytopicStateSpace:
+    """Create a polytopic LPV state-space system.
+
+    Short factory for `PolytopicStateSpace`, in the style of `control.ss`.
+
+    Parameters
+    ----------
+    vertices : sequence of `control.StateSpace` or (A, B, C, D) tuples
+        Vertex systems.
+    domain : optional
+        Parameter domain (see `PolytopicStateSpace`).
+    **kwargs
+        ``scheduling``, ``nominal``, ``inputs``, ``outputs``, ``states``,
+        ``name``.
+
+    Returns
+    -------
+    `PolytopicStateSpace`
+
+    Examples
+    --------
+    >>> import control as ct
+    >>> sys = pss([ct.rss(2, 1, 1), ct.rss(2, 1, 1)])
+    >>> sys.nvertices
+    2
+    """
+    return PolytopicStateSpace(vertices, domain, **kwargs)
