@@ -35,8 +35,16 @@ __all__ = [
 
 BlockFunction = Callable[[SimpleNamespace], Sequence[Sequence[object]]]
 
-# The fraction of the posed margin that a certified point must keep.
+# The fraction of the nominal margin that a certified point must keep.
 _CERTIFIED_FRACTION = 0.5
+# Margin factor of the retry after a point misses its certificate narrowly.
+_RETRY_MARGIN_FACTOR = 10.0
+
+
+def _narrow_miss(checks) -> bool:
+    """Whether only strict LMIs failed and all are still negative definite."""
+    failed = [c for c in checks if not c.passed]
+    return all(c.strict and c.max_eig < 0 for c in failed)
 
 
 @dataclass(frozen=True)
@@ -85,6 +93,11 @@ class LMISolution:
     objective: float | None
     checks: tuple[LMICheck, ...]
     attempts: list[SolveAttempt] = field(default_factory=list)
+
+    @property
+    def certified(self) -> bool:
+        """Whether every LMI passed its float64 check."""
+        return all(c.passed for c in self.checks)
 
     def __getattr__(self, name):
         try:
@@ -143,7 +156,7 @@ def default_solvers() -> list[tuple[str, dict]]:
     installed = set(cp.installed_solvers())
     chain = [
         ("CLARABEL", {}),
-        ("SCS", {"eps_abs": 1e-9, "eps_rel": 1e-9, "max_iters": 200_000}),
+        ("SCS", {"eps_abs": 1e-9, "eps_rel": 1e-9, "max_iters": 50_000}),
         ("CVXOPT", {}),
         ("MOSEK", {}),
     ]
@@ -265,6 +278,37 @@ class LMIProblem:
             self._problems[stage] = cp.Problem(goal, constraints)
         return self._problems[stage]
 
+    def _attempt(self, problem, stage, solver, options, factor=1.0):
+        nominal = self.margin
+        self._margin.value = nominal * factor
+        start = time.perf_counter()
+        try:
+            with warnings.catch_warnings():
+                # Inaccurate solutions are judged by the certificate below.
+                warnings.simplefilter("ignore", UserWarning)
+                problem.solve(solver=solver, **options)
+            status, message = problem.status, ""
+        except cp.error.SolverError as exc:
+            status, message = "solver_error", str(exc).splitlines()[0]
+        finally:
+            self._margin.value = nominal
+        seconds = time.perf_counter() - start
+        values, checks = {}, ()
+        if status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
+            values = {k: np.array(x.value, dtype=float) for k, x in self._vars.items()}
+            checks = self.check(values, stage)
+            failed = [c for c in checks if not c.passed]
+            if failed:
+                worst = max(failed, key=lambda c: c.max_eig - c.required)
+                message = (
+                    f"{worst.name}: max eigenvalue {worst.max_eig:.3g} above "
+                    f"{worst.required:.3g}"
+                )
+        certified = bool(checks) and all(c.passed for c in checks)
+        if factor != 1.0:
+            message = f"margin x{factor:g}" + (f"; {message}" if message else "")
+        return SolveAttempt(solver, status, seconds, certified, message), values, checks
+
     def check(self, values: dict[str, np.ndarray], stage: str = "default"):
         """Evaluate every active LMI at `values` in float64.
 
@@ -293,6 +337,7 @@ class LMIProblem:
         objective: Callable[[SimpleNamespace], object] | None = None,
         stage: str = "default",
         solvers: Sequence[tuple[str, dict]] | None = None,
+        certify: bool = True,
     ) -> LMISolution:
         """Solve, trying each solver in turn until a point certifies.
 
@@ -307,6 +352,11 @@ class LMIProblem:
             Stage name (selects the LMIs added with ``stages=``).
         solvers : sequence of (name, options), optional
             Default `default_solvers`.
+        certify : bool, optional
+            If False, a point that the solver called optimal is returned even
+            when it fails its certificate (``solution.certified`` is then
+            False). Use it only for estimates, e.g. of an optimal value that
+            a certified re-solve backs off from.
 
         Returns
         -------
@@ -324,36 +374,24 @@ class LMIProblem:
         chain = default_solvers() if solvers is None else list(solvers)
         if not chain:
             raise RuntimeError("no SDP solver installed: install clarabel or scs")
+        estimate = None
         for solver, options in chain:
-            start = time.perf_counter()
-            try:
-                with warnings.catch_warnings():
-                    # Inaccurate solutions are judged by the certificate below.
-                    warnings.simplefilter("ignore", UserWarning)
-                    problem.solve(solver=solver, **options)
-                status = problem.status
-                message = ""
-            except cp.error.SolverError as exc:
-                status, message = "solver_error", str(exc).splitlines()[0]
-            seconds = time.perf_counter() - start
-            certified = False
-            if status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
-                values = {k: np.array(x.value, dtype=float) for k, x in self._vars.items()}
-                checks = self.check(values, stage)
-                certified = all(c.passed for c in checks)
-                if not certified:
-                    worst = max(
-                        (c for c in checks if not c.passed),
-                        key=lambda c: c.max_eig - c.required,
-                    )
-                    message = (
-                        f"{worst.name}: max eigenvalue {worst.max_eig:.3g} above "
-                        f"{worst.required:.3g}"
-                    )
-            attempts.append(SolveAttempt(solver, status, seconds, certified, message))
-            if certified:
-                value = None if objective is None and problem.value == 0 else problem.value
+            attempt, values, checks = self._attempt(problem, stage, solver, options)
+            attempts.append(attempt)
+            if not attempt.certified and checks and _narrow_miss(checks):
+                # The solver's own tolerance ate the margin: pose a larger one
+                # (the certificate still asks for the nominal margin).
+                attempt, values, checks = self._attempt(
+                    problem, stage, solver, options, _RETRY_MARGIN_FACTOR
+                )
+                attempts.append(attempt)
+            value = None if objective is None else float(problem.value)
+            if attempt.certified:
                 return LMISolution(values, value, checks, attempts)
+            if checks and estimate is None:
+                estimate = LMISolution(values, value, checks, attempts)
+        if not certify and estimate is not None:
+            return estimate
         summary = "; ".join(
             f"{a.solver}: {a.status}" + (f" ({a.message})" if a.message else "")
             for a in attempts

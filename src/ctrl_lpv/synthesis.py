@@ -144,7 +144,9 @@ class StateFeedbackDesign:
         Certified bound on the L2 gain from `w` to `z` (None without a
         performance channel).
     gamma_opt : float or None
-        The minimum ``gamma*`` before back-off (None if not computed).
+        The minimum ``gamma*`` the solver found before back-off (None if not
+        computed). With back-off it is an estimate whose point need not pass
+        the certificate; only `gamma` is certified.
     w, u, z : tuple of str
         Exogenous inputs, control inputs and performance outputs.
     certificate : `Certificate`
@@ -812,9 +814,9 @@ def _synthesize(
 
     attempts: list[SolveAttempt] = []
 
-    def run(stage, objective):
+    def run(stage, objective, certify=True):
         try:
-            sol = lmi.solve(objective, stage=stage, solvers=solvers)
+            sol = lmi.solve(objective, stage=stage, solvers=solvers, certify=certify)
         except InfeasibleError as exc:
             attempts.extend(exc.attempts)
             raise
@@ -824,7 +826,9 @@ def _synthesize(
     gamma_opt = None
     if hinf:
         if gamma is None:
-            sol = run("optimal", lambda v: v.g[0, 0])
+            # With back-off only the value gamma* is used, so a point that
+            # fails its certificate still gives the estimate to back off from.
+            sol = run("optimal", lambda v: v.g[0, 0], certify=backoff is None)
             g_opt = float(sol.g[0, 0])
             gamma_opt = float(np.sqrt(scaling.unscale_g(g_opt)))
         else:
@@ -842,7 +846,10 @@ def _synthesize(
         sol = run("stabilize", lambda v: -v.t[0, 0])
 
     if backoff is not None or gain_bound is not None:
-        lmi.set_parameter("w_min", 0.5 * float(np.linalg.eigvalsh(sol.W)[0]))
+        w_min = 0.5 * float(np.linalg.eigvalsh(sol.W)[0])
+        lmi.set_parameter("w_min", w_min)
+        if gain_bound is not None:
+            _set_tangent(lmi, scaling, sol.W)
         try:
             sol = run("gain", lambda v: v.kappa[0, 0])
         except InfeasibleError as exc:
@@ -859,6 +866,14 @@ def _synthesize(
         scaling.unscale_K(-getattr(sol, f"Z{k}") @ np.linalg.inv(sol.W))
         for k in range(len(data) if scheduled else 1)
     )
+    if gain_bound is not None:
+        worst = max(np.linalg.norm(K, 2) for K in gains)
+        if worst > gain_bound * (1 + 1e-6):
+            raise CertificationError(
+                f"gain_bound: the returned gain norm {worst:.6g} exceeds "
+                f"{gain_bound:g}",
+                attempts,
+            )
     W = scaling.unscale_W(sol.W)
     certificate = _verify(sys, original, data, sol, scaling, gains, lmi, scheduled)
     verified = time.perf_counter()
@@ -897,22 +912,30 @@ def _synthesize(
 def _add_gain_bound(lmi, scaling, bound, scheduled, N):
     """Sufficient LMI for ``||K_j|| <= bound`` in original units.
 
-    With ``W~ >= w_min I``, the original ``W >= omega I`` for
-    ``omega = w_factor * w_min * min(T)^2``; then ``Z'Z <= (bound omega)^2 I``
-    implies ``||K|| = ||Z W^-1|| <= bound``.
+    ``K = Su Z~ W~^-1 T^-1``, so ``||K|| <= bound`` iff
+    ``(Su Z~)'(Su Z~) <= bound^2 (T W~)'(T W~)``. The right side is convex in
+    ``W~``; it is bounded below by its tangent at a point ``G0 = T W~0``,
+    ``G0' T W~ + W~ T G0 - G0' G0``, which is linear and exact at ``W~0``.
+    The parameters ``gain_G0`` and ``gain_H0 = G0' G0`` are set from the
+    previous certified point (`_set_tangent`).
     """
-    c = scaling.w_factor
-    T, Su = scaling.T, scaling.Su
-    n, m = T.size, Su.size
-    tmin2 = float(np.min(T) ** 2)
+    n, m = scaling.T.size, scaling.Su.size
+    T, Su = np.diag(scaling.T), np.diag(scaling.Su)
+    lmi.parameter("gain_G0", (n, n), value=np.eye(n))
+    lmi.parameter("gain_H0", (n, n), value=np.eye(n))
     for k in range(N if scheduled else 1):
 
         def blocks(v, k=k):
-            Zo = c * (Su[:, None] * getattr(v, f"Z{k}") * T)
-            omega = c * v.w_min * tmin2
-            return [[-((bound * omega) ** 2) * np.eye(n)], [Zo, -np.eye(m)]]
+            tangent = v.gain_G0.T @ T @ v.W + v.W @ T @ v.gain_G0 - v.gain_H0
+            return [[-(bound**2) * tangent], [Su @ getattr(v, f"Z{k}"), -np.eye(m)]]
 
         lmi.add(f"||K{k}|| <= gain_bound", blocks, strict=False, stages=("gain",))
+
+
+def _set_tangent(lmi, scaling, W):
+    G0 = scaling.T[:, None] * W
+    lmi.set_parameter("gain_G0", G0)
+    lmi.set_parameter("gain_H0", G0.T @ G0)
 
 
 def _verify(sys, original, data, sol, scaling, gains, lmi, scheduled) -> Certificate:

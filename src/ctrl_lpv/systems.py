@@ -104,7 +104,7 @@ class PolytopicStateSpace(StateSpace):
         nominal=None,
         **kwargs,
     ):
-        if isinstance(vertices, (StateSpace, np.ndarray)) or not isinstance(
+        if isinstance(vertices, (StateSpace, np.ndarray, str)) or not isinstance(
             vertices, Sequence
         ):
             raise TypeError(

@@ -184,7 +184,7 @@ def _exact_model(params: Parameters, alpha0: float, alpha_fun):
     inv_jm, inv_jl = 1.0 / params.Jm, 1.0 / params.Jl
     cm, cl, cs = params.cm, params.cl, params.cs
     rate = params.ks / params.cs
-    import os; RELAX = float(os.environ.get("RELAX", "1")) * rate
+    import os; RELAX = float(os.environ.get("RELAX", "1")) * rate; ETA = float(os.environ.get("ETA", "0"))
     inf = math.inf
 
     # Why this formulation.  The exact model is a projected ODE: theta_b
@@ -233,7 +233,12 @@ def _exact_model(params: Parameters, alpha0: float, alpha_fun):
             v = 0.0 if tc <= -a else s
         else:
             v = 0.0
-        return cs * (s - v), v + RELAX * (tc - tb)
+        e = tb - tc
+        if e > ETA:
+            return cs * (s - v), v - RELAX * (e - ETA)
+        if e < -ETA:
+            return cs * (s - v), v - RELAX * (e + ETA)
+        return cs * (s - v), v
 
     def updfcn(t, x, u, params=None):
         tm, wm, tl, wl, tb = x.tolist()

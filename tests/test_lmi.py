@@ -1,0 +1,83 @@
+import numpy as np
+import pytest
+
+from ctrl_lpv import CertificationError, InfeasibleError
+from ctrl_lpv.lmi import LMIProblem, assemble
+
+
+def test_assemble_symmetric_completion():
+    rng = np.random.default_rng(0)
+    A = rng.normal(size=(2, 2))
+    A = A + A.T
+    B = rng.normal(size=(3, 2))
+    C = np.eye(3)
+    M = assemble([[A], [B, C]])
+    np.testing.assert_array_equal(M, np.block([[A, B.T], [B, C]]))
+    Z = assemble([[A], [0, C]])
+    np.testing.assert_array_equal(Z[:2, 2:], np.zeros((2, 3)))
+
+
+def lyapunov_problem(A, margin=1e-6):
+    n = A.shape[0]
+    lmi = LMIProblem(margin=margin)
+    lmi.variable("P", (n, n), symmetric=True)
+    lmi.add("P > 0", lambda v: [[-v.P]])
+    lmi.add("Lyapunov", lambda v: [[A.T @ v.P + v.P @ A]])
+    lmi.add("P <= I", lambda v: [[v.P - np.eye(n)]], strict=False)
+    return lmi
+
+
+def test_lyapunov_solution_is_certified_independently():
+    A = np.array([[-1.0, 5.0], [0.0, -2.0]])
+    sol = lyapunov_problem(A).solve()
+    P = sol.P
+    assert np.linalg.eigvalsh(P)[0] > 0
+    assert np.linalg.eigvalsh(A.T @ P + P @ A)[-1] < -0.5e-6
+    assert sol.attempts[-1].certified
+    assert all(check.passed for check in sol.checks)
+
+
+def test_unstable_matrix_has_no_certificate():
+    A = np.array([[0.1, 1.0], [0.0, -1.0]])
+    with pytest.raises(InfeasibleError):
+        lyapunov_problem(A).solve()
+
+
+def test_check_rejects_a_wrong_point():
+    A = np.array([[-1.0, 5.0], [0.0, -2.0]])
+    lmi = lyapunov_problem(A)
+    checks = lmi.check({"P": np.eye(2)})  # A' + A is indefinite here
+    lyap = next(c for c in checks if c.name == "Lyapunov")
+    assert not lyap.passed
+    assert lyap.max_eig == pytest.approx(np.linalg.eigvalsh(A + A.T)[-1])
+
+
+def test_parameters_resolve_without_rebuilding():
+    # Decay-rate test: A + a I must be Hurwitz; a is a DPP parameter.
+    A = np.array([[-1.0, 5.0], [0.0, -2.0]])
+    lmi = LMIProblem()
+    lmi.variable("P", (2, 2), symmetric=True)
+    a = lmi.parameter("a", value=0.5)
+    lmi.add("P > 0", lambda v: [[-v.P]])
+    lmi.add("decay", lambda v: [[A.T @ v.P + v.P @ A + 2 * v.a * v.P]])
+    lmi.add("P <= I", lambda v: [[v.P - np.eye(2)]], strict=False)
+    lmi.solve(stage="decay")
+    problem = lmi._problems["decay"]
+    assert problem.is_dpp()
+    lmi.set_parameter("a", 1.5)  # decay 1.5 > 1: infeasible
+    with pytest.raises(InfeasibleError):
+        lmi.solve(stage="decay")
+    assert lmi._problems["decay"] is problem
+    assert a.value == 1.5
+
+
+def test_no_solver_error_messages():
+    lmi = lyapunov_problem(np.array([[0.5]]))
+    with pytest.raises(CertificationError) as info:
+        lmi.solve(solvers=[("SCS", {"max_iters": 5})])
+    assert info.value.attempts and "SCS" in str(info.value)
+
+
+def test_bad_margin():
+    with pytest.raises(ValueError, match="margin"):
+        LMIProblem(margin=-1.0)
