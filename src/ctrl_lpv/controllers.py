@@ -82,7 +82,8 @@ def state_feedback(
         inputs += list(sys.param_names)
 
     gains = np.stack(design.gains)  # (N, m, n)
-    m = gains.shape[1]
+    N, m, _ = gains.shape
+    flat_gains = gains.reshape(N, m * n)
     domain_weights = sys.domain._weights
 
     def error(u):
@@ -102,22 +103,21 @@ def state_feedback(
 
         def output(t, x, u, params):
             e, ud = error(u)
-            delta = domain_weights(u[nref:])
-            return ud - (delta @ gains) @ e
+            K = (domain_weights(u[nref:]) @ flat_gains).reshape(m, n)
+            return ud - K @ e
 
     else:
 
         def output(t, x, u, params):
             e, ud = error(u)
             p = np.asarray(scheduling(t, u[:n]), dtype=float).reshape(-1)
-            return ud - (domain_weights(p) @ gains) @ e
+            return ud - (domain_weights(p) @ flat_gains).reshape(m, n) @ e
 
     return ct.nlsys(
         None,
         output,
         inputs=inputs,
         outputs=outputs,
-        states=0,
         name=name,
     )
 
