@@ -52,7 +52,17 @@ class PolytopicStateSpace(StateSpace):
     by vertex and checked at interior points; operations that would leave
     the polytopic class (`sample`, `minreal`, products of two LPV systems
     with nonaffine result) raise `TypeError` instead of returning a frozen
-    system.
+    system. Paths that python-control owns and that cannot be intercepted:
+
+    * `control.interconnect` of blocks that are all `StateSpace` returns a
+      `control.LinearICSystem`. Its simulation with
+      `control.input_output_response` evaluates each block's own scheduled
+      dynamics, so it keeps the LPV behaviour; its ``A, B, C, D`` are
+      python-control's linearization at ``x = 0, u = 0`` (a frozen model).
+    * `control.ss(sys)`, ``control.StateSpace(sys)`` and
+      ``G.feedback(sys)`` with a plain `StateSpace` ``G`` on the left read
+      ``sys.A, B, C, D``: they convert to the frozen nominal system. Use
+      ``sys.at(p)`` to choose the point, or put `sys` on the left.
 
     Parameters
     ----------

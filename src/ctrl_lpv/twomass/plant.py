@@ -183,8 +183,8 @@ def _exact_model(params: Parameters, alpha0: float, alpha_fun):
     """Update and output functions of the exact backlash model."""
     inv_jm, inv_jl = 1.0 / params.Jm, 1.0 / params.Jl
     cm, cl, cs = params.cm, params.cl, params.cs
-    rate = params.ks / params.cs
-    import os; RELAX = float(os.environ.get("RELAX", "1")) * rate; LAYER = float(os.environ.get("LAYER", "1e-9"))
+    rate = params.ks / params.cs  # shaft relaxation rate in the gap, 1/s
+    import os; RELAX = float(os.environ.get("RELAX", "1")) * rate; ETA = float(os.environ.get("ETA", "0"))
     inf = math.inf
 
     # Why this formulation.  The exact model is a projected ODE: theta_b
@@ -220,31 +220,25 @@ def _exact_model(params: Parameters, alpha0: float, alpha_fun):
             a = float(alpha_fun(t))
             if not (0.0 <= a < inf):
                 raise _bad_alpha(t, a)
-        wd = wm - wl
         if tb >= a:
-            s = wd + rate * (tm - tl - a)
-            if a == 0.0:
-                return cs * s, -RELAX * tb
-            if s > 0.0:
-                return cs * s, -RELAX * (tb - a)
-            return 0.0, s - RELAX * (tb - a)
-        if tb <= -a:
-            s = wd + rate * (tm - tl + a)
-            if a == 0.0:
-                return cs * s, -RELAX * tb
-            if s < 0.0:
-                return cs * s, -RELAX * (tb + a)
-            return 0.0, s - RELAX * (tb + a)
-        s = wd + rate * (tm - tl - tb)
-        layer = LAYER if LAYER < 0.5 * a else 0.5 * a
-        if s > 0.0:
-            gap = a - tb
+            tc = a
+        elif tb <= -a:
+            tc = -a
         else:
-            gap = tb + a
-        if gap < layer:
-            v = s * (gap / layer)
-            return cs * (s - v), v
-        return 0.0, s
+            tc = tb
+        s = (wm - wl) + rate * (tm - tl - tc)
+        if s > 0.0:
+            v = 0.0 if tc >= a else s
+        elif s < 0.0:
+            v = 0.0 if tc <= -a else s
+        else:
+            v = 0.0
+        e = tb - tc
+        if e > ETA:
+            return cs * (s - v), v - RELAX * (e - ETA)
+        if e < -ETA:
+            return cs * (s - v), v - RELAX * (e + ETA)
+        return cs * (s - v), v
 
     def updfcn(t, x, u, params=None):
         tm, wm, tl, wl, tb = x.tolist()
