@@ -56,7 +56,8 @@ def test_designs_on_mass_spring(mass_spring, function):
 @pytest.mark.parametrize("function", [lpv.hinf_state_feedback, lpv.gain_scheduled_hinf])
 def test_gamma_bounds_frozen_hinf_norms(mass_spring, function):
     design = function(mass_spring, w="w", u="u", z=["x", "uw"])
-    assert design.gamma_opt <= design.gamma <= 1.2 * design.gamma_opt * (1 + 1e-9)
+    # g <= g_max is a non-strict side constraint, met to solver accuracy.
+    assert design.gamma_opt <= design.gamma <= 1.2 * design.gamma_opt * (1 + 1e-6)
     for k in np.linspace(1.0, 4.0, 7):
         A, B_w, C, D = design.closed_loop(k)
         norm = ct.linfnorm(ct.ss(A, B_w, C, D))[0]

@@ -156,7 +156,7 @@ def default_solvers() -> list[tuple[str, dict]]:
     installed = set(cp.installed_solvers())
     chain = [
         ("CLARABEL", {}),
-        ("SCS", {"eps_abs": 1e-9, "eps_rel": 1e-9, "max_iters": 50_000}),
+        ("SCS", {"eps_abs": 1e-9, "eps_rel": 1e-9, "max_iters": 20_000}),
         ("CVXOPT", {}),
         ("MOSEK", {}),
     ]
@@ -385,7 +385,7 @@ class LMIProblem:
                     problem, stage, solver, options, _RETRY_MARGIN_FACTOR
                 )
                 attempts.append(attempt)
-            value = None if objective is None else float(problem.value)
+            value = None if objective is None or problem.value is None else problem.value
             if attempt.certified:
                 return LMISolution(values, value, checks, attempts)
             if checks and estimate is None:

@@ -65,6 +65,10 @@ __all__ = [
 
 # Number of random interior points at which closed loops are verified.
 _VERIFY_SAMPLES = 64
+# Convex-concave iterations of the gain minimisation, and the relative
+# decrease of the squared gain bound below which they stop.
+_GAIN_ITERATIONS = 4
+_GAIN_RTOL = 0.05
 
 
 # ----------------------------------------------------------------------
@@ -654,7 +658,7 @@ def _pairs(N, scheduled):
     return pairs
 
 
-def _build(data, scheduled, hinf, regions, margin):
+def _build(data, scaling, scheduled, hinf, regions, margin, gain_bound):
     """The LMI problem in scaled data (see the module docstring)."""
     n = data[0][0].shape[0]
     m = data[0][2].shape[1]
@@ -672,9 +676,6 @@ def _build(data, scheduled, hinf, regions, margin):
     lmi.variable("t", (1, 1), symmetric=True)
     lmi.variable("kappa", (1, 1), symmetric=True)
     lmi.parameter("w_max", value=1.0, nonneg=True)
-    lmi.parameter("w_min", value=0.0, nonneg=True)
-    lmi.parameter("kappa_max", value=0.0, nonneg=True)
-    lmi.parameter("Kfac", value=1.0, nonneg=True)
 
     lmi.add("W > 0", lambda v: [[-v.W]])
 
@@ -756,12 +757,10 @@ def _build(data, scheduled, hinf, regions, margin):
         strict=False,
         stages=("center", "stabilize"),
     )
-    lmi.add(
-        "W >= w_min I",
-        lambda v: [[v.w_min * np.eye(n) - v.W]],
-        strict=False,
-        stages=("gain",),
-    )
+    T, Su = np.diag(scaling.T), np.diag(scaling.Su)
+    lmi.parameter("gain_Ginv", (n, n), value=np.eye(n))
+    lmi.parameter("gain_Ginv_K", (n, n), value=np.eye(n))
+    lmi.parameter("kappa_max", value=1.0, nonneg=True)
     for k in range(nZ):
         # The stabilization LMIs are homogeneous in (W, Z): W <= I together
         # with ||Z|| <= 1 fixes the scale and balances decay against gain.
@@ -771,12 +770,20 @@ def _build(data, scheduled, hinf, regions, margin):
             strict=False,
             stages=("stabilize",),
         )
+        # Normalised ||K_k||^2 <= kappa in original units (see _gain_tangent).
         lmi.add(
-            f"||Z{k}||^2 <= kappa",
+            f"||K{k}||^2 <= kappa",
             lambda v, k=k: [
-                [-v.kappa[0, 0] * np.eye(n)],
-                [getattr(v, f"Z{k}"), -np.eye(m)],
+                [-(T @ v.W @ v.gain_Ginv + v.gain_Ginv.T @ v.W @ T - np.eye(n))],
+                [Su @ getattr(v, f"Z{k}") @ v.gain_Ginv_K, -v.kappa[0, 0] * np.eye(m)],
             ],
+            strict=False,
+            stages=("gain",),
+        )
+    if gain_bound is not None:
+        lmi.add(
+            "kappa <= kappa_max",
+            lambda v: [[v.kappa - v.kappa_max * np.eye(1)]],
             strict=False,
             stages=("gain",),
         )
@@ -807,9 +814,7 @@ def _synthesize(
     scaling = _Scaling.of(original)
     data = [scaling.apply(v) for v in original]
     scaled_regions = tuple(r.time_scaled(scaling.a) for r in regions)
-    lmi = _build(data, scheduled, hinf, scaled_regions, margin)
-    if gain_bound is not None:
-        _add_gain_bound(lmi, scaling, gain_bound, scheduled, len(data))
+    lmi = _build(data, scaling, scheduled, hinf, scaled_regions, margin, gain_bound)
     built = time.perf_counter()
 
     attempts: list[SolveAttempt] = []
@@ -846,20 +851,24 @@ def _synthesize(
         sol = run("stabilize", lambda v: -v.t[0, 0])
 
     if backoff is not None or gain_bound is not None:
-        w_min = 0.5 * float(np.linalg.eigvalsh(sol.W)[0])
-        lmi.set_parameter("w_min", w_min)
-        if gain_bound is not None:
-            _set_tangent(lmi, scaling, sol.W)
-        try:
-            sol = run("gain", lambda v: v.kappa[0, 0])
-        except InfeasibleError as exc:
-            if gain_bound is not None:
-                raise InfeasibleError(
-                    f"gain_bound: no certified design with every gain norm below "
-                    f"{gain_bound:g} (sufficient condition) [{exc}]",
-                    attempts,
-                ) from None
-            # The previous point is certified; keep it.
+        nZ = len(data) if scheduled else 1
+        for iteration in range(_GAIN_ITERATIONS):
+            Z = [getattr(sol, f"Z{k}") for k in range(nZ)]
+            _gain_tangent(lmi, scaling, sol.W, Z, gain_bound)
+            try:
+                sol_next = run("gain", lambda v: v.kappa[0, 0])
+            except InfeasibleError as exc:
+                if gain_bound is not None and iteration == 0:
+                    raise InfeasibleError(
+                        f"gain_bound: no certified design with every gain norm "
+                        f"below {gain_bound:g} (sufficient condition) [{exc}]",
+                        attempts,
+                    ) from None
+                break  # the previous point is certified: keep it
+            sol = sol_next
+            # kappa is relative to the previous point's squared gain.
+            if float(sol.kappa[0, 0]) > 1 - _GAIN_RTOL:
+                break
     solved = time.perf_counter()
 
     gains = tuple(
@@ -909,33 +918,34 @@ def _synthesize(
     )
 
 
-def _add_gain_bound(lmi, scaling, bound, scheduled, N):
-    """Sufficient LMI for ``||K_j|| <= bound`` in original units.
+def _gain_tangent(lmi, scaling, W, Z, gain_bound):
+    """Linearise the gain bound at the scaled point ``(W, Z)``.
 
-    ``K = Su Z~ W~^-1 T^-1``, so ``||K|| <= bound`` iff
-    ``(Su Z~)'(Su Z~) <= bound^2 (T W~)'(T W~)``. The right side is convex in
-    ``W~``; it is bounded below by its tangent at a point ``G0 = T W~0``,
-    ``G0' T W~ + W~ T G0 - G0' G0``, which is linear and exact at ``W~0``.
-    The parameters ``gain_G0`` and ``gain_H0 = G0' G0`` are set from the
-    previous certified point (`_set_tangent`).
+    ``K = Su Z~ W~^-1 T^-1``, so ``||K||^2 <= kappa0 kappa`` iff
+    ``(Su Z~)'(Su Z~) <= kappa0 kappa (T W~)'(T W~)``. The right side is
+    bounded below by its tangent at ``G0 = T W~0``,
+    ``G0' T W~ + W~ T G0 - G0' G0``, linear in ``W~`` and exact at ``W~0``;
+    by a Schur complement the bound is then an LMI, sufficient everywhere
+    and tight at ``W~0``. The congruence with ``G0^-1`` makes it well
+    conditioned (the identity at ``W~0``) and ``kappa0``, the squared gain at
+    ``(W, Z)``, makes ``kappa`` of order one. Re-linearising at each new
+    point (a convex-concave iteration) lowers the gain monotonically.
+
+    Returns
+    -------
+    float
+        ``kappa0``.
     """
-    n, m = scaling.T.size, scaling.Su.size
-    T, Su = np.diag(scaling.T), np.diag(scaling.Su)
-    lmi.parameter("gain_G0", (n, n), value=np.eye(n))
-    lmi.parameter("gain_H0", (n, n), value=np.eye(n))
-    for k in range(N if scheduled else 1):
-
-        def blocks(v, k=k):
-            tangent = v.gain_G0.T @ T @ v.W + v.W @ T @ v.gain_G0 - v.gain_H0
-            return [[-(bound**2) * tangent], [Su @ getattr(v, f"Z{k}"), -np.eye(m)]]
-
-        lmi.add(f"||K{k}|| <= gain_bound", blocks, strict=False, stages=("gain",))
-
-
-def _set_tangent(lmi, scaling, W):
-    G0 = scaling.T[:, None] * W
-    lmi.set_parameter("gain_G0", G0)
-    lmi.set_parameter("gain_H0", G0.T @ G0)
+    Ginv = np.linalg.inv(scaling.T[:, None] * W)
+    Winv = np.linalg.inv(W)
+    kappa0 = max(
+        float(np.linalg.norm(scaling.unscale_K(Zk @ Winv), 2)) ** 2 for Zk in Z
+    )
+    lmi.set_parameter("gain_Ginv", Ginv)
+    lmi.set_parameter("gain_Ginv_K", Ginv / np.sqrt(kappa0))
+    if gain_bound is not None:
+        lmi.set_parameter("kappa_max", gain_bound**2 / kappa0)
+    return kappa0
 
 
 def _verify(sys, original, data, sol, scaling, gains, lmi, scheduled) -> Certificate:

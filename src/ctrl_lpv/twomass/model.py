@@ -24,7 +24,7 @@ PAPER_GAIN = 1e4 * np.array([[-1.292820, -0.018157, -2.949388, -0.180820]])
 PAPER_GAMMA = 2.9734
 
 #: Default weight of the motor torque in the tracking formulation's z.
-TORQUE_WEIGHT = 1e-4
+TORQUE_WEIGHT = 2e-3
 
 #: Default weight of the integral of the load-angle error in z.
 INTEGRAL_WEIGHT = 10.0

@@ -183,8 +183,8 @@ def _exact_model(params: Parameters, alpha0: float, alpha_fun):
     """Update and output functions of the exact backlash model."""
     inv_jm, inv_jl = 1.0 / params.Jm, 1.0 / params.Jl
     cm, cl, cs = params.cm, params.cl, params.cs
-    rate = params.ks / params.cs  # shaft relaxation rate in the gap, 1/s
-    import os; RELAX = float(os.environ.get("RELAX", "1")) * rate; ETA = float(os.environ.get("ETA", "0"))
+    rate = params.ks / params.cs
+    import os; RELAX = float(os.environ.get("RELAX", "1")) * rate; ETA1 = float(os.environ.get("ETA1", "1e-9")); ETA2 = float(os.environ.get("ETA2", "1e-8")); INV1 = 1/ETA1
     inf = math.inf
 
     # Why this formulation.  The exact model is a projected ODE: theta_b
@@ -220,25 +220,34 @@ def _exact_model(params: Parameters, alpha0: float, alpha_fun):
             a = float(alpha_fun(t))
             if not (0.0 <= a < inf):
                 raise _bad_alpha(t, a)
-        if tb >= a:
-            tc = a
-        elif tb <= -a:
-            tc = -a
-        else:
-            tc = tb
-        s = (wm - wl) + rate * (tm - tl - tc)
-        if s > 0.0:
-            v = 0.0 if tc >= a else s
-        elif s < 0.0:
-            v = 0.0 if tc <= -a else s
-        else:
-            v = 0.0
-        e = tb - tc
-        if e > ETA:
-            return cs * (s - v), v - RELAX * (e - ETA)
-        if e < -ETA:
-            return cs * (s - v), v - RELAX * (e + ETA)
-        return cs * (s - v), v
+        wd = wm - wl
+        if tb > a:
+            e = tb - a
+            s = wd + rate * (tm - tl - a)
+            if a == 0.0:
+                return cs * s, -RELAX * tb
+            if s > 0.0:
+                v = s * (1.0 - e * INV1) if e < ETA1 else 0.0
+            else:
+                v = s
+            if e > ETA2:
+                return cs * (s - v), v - RELAX * (e - ETA2)
+            return cs * (s - v), v
+        if tb < -a:
+            e = -a - tb
+            s = wd + rate * (tm - tl + a)
+            if a == 0.0:
+                return cs * s, -RELAX * tb
+            if s < 0.0:
+                v = s * (1.0 - e * INV1) if e < ETA1 else 0.0
+            else:
+                v = s
+            if e > ETA2:
+                return cs * (s - v), v + RELAX * (e - ETA2)
+            return cs * (s - v), v
+        if a == 0.0:
+            return cs * (wd + rate * (tm - tl)), 0.0
+        return 0.0, wd + rate * (tm - tl - tb)
 
     def updfcn(t, x, u, params=None):
         tm, wm, tl, wl, tb = x.tolist()
