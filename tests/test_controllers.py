@@ -13,9 +13,7 @@ def stiffness(t):
 @pytest.fixture
 def measured_plant(mass_spring):
     """The mass_spring vertices with all states measured (C = I)."""
-    vertices = [
-        (v.A, v.B, np.eye(2), np.zeros((2, 2))) for v in mass_spring.vertices
-    ]
+    vertices = [(v.A, v.B, np.eye(2), np.zeros((2, 2))) for v in mass_spring.vertices]
     return lpv.pss(
         vertices, mass_spring.domain, inputs=["w", "u"], outputs=["x", "v"],
         states=["x", "v"], name="plant",
@@ -42,11 +40,17 @@ def hand_rhs(design, T):
 
 
 @pytest.mark.parametrize("scheduled", [False, True])
-def test_closed_loop_matches_hand_written_solve_ivp(mass_spring, measured_plant, scheduled):
+def test_closed_loop_matches_hand_written_solve_ivp(
+    mass_spring, measured_plant, scheduled
+):
     function = lpv.gain_scheduled_hinf if scheduled else lpv.hinf_state_feedback
     design = function(mass_spring, w="w", u="u", z=["x", "uw"])
     plant = measured_plant.scheduled(lambda t, x, u: stiffness(t))
-    ctrl = design.controller(lambda t, x: stiffness(t)) if scheduled else design.controller()
+    ctrl = (
+        design.controller(lambda t, x: stiffness(t))
+        if scheduled
+        else design.controller()
+    )
     loop = ct.interconnect(
         [plant, ctrl], inplist=["plant.w"], outlist=["plant.x", "plant.v"],
         inputs=["w"], outputs=["x", "v"],

@@ -4,11 +4,11 @@ import control as ct
 import cvxpy as cp
 import numpy as np
 import pytest
-from conftest import interior_deltas
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import ctrl_lpv as lpv
+from conftest import interior_deltas
 
 SCHEDULED = {
     lpv.quadratic_stabilization: False,
@@ -123,14 +123,18 @@ def test_non_stabilizable_vertex_is_named():
     # Second vertex: the first state is decoupled from the input, eigenvalue 0.
     bad = ([[0.0, 0.0], [0.0, -1.0]], [[0.0], [1.0]], np.eye(2), 0)
     sys = lpv.pss([good, bad], {"p": (0.0, 1.0)}, states=["a", "b"])
-    with pytest.raises(lpv.InfeasibleError, match=r"vertex 1 \(p = \{'p': 1.0\}\)") as e:
+    with pytest.raises(
+        lpv.InfeasibleError, match=r"vertex 1 \(p = \{'p': 1.0\}\)"
+    ) as e:
         lpv.quadratic_stabilization(sys, u=0)
     assert "eigenvalue 0" in str(e.value) and "1*a" in str(e.value)
 
 
 @pytest.mark.parametrize("scheduled", [False, True])
 def test_pole_regions(unstable_pair, scheduled):
-    function = lpv.gain_scheduled_stabilization if scheduled else lpv.quadratic_stabilization
+    function = (
+        lpv.gain_scheduled_stabilization if scheduled else lpv.quadratic_stabilization
+    )
     regions = [lpv.halfplane(1.0), lpv.disk(20.0)]
     design = function(unstable_pair, u="u", regions=regions)
     for delta in interior_deltas(2, count=30):
@@ -143,14 +147,18 @@ def test_pole_regions(unstable_pair, scheduled):
 
 def test_sector_region(unstable_pair):
     angle = np.pi / 4
-    design = lpv.quadratic_stabilization(unstable_pair, u="u", regions=[lpv.sector(angle)])
+    design = lpv.quadratic_stabilization(
+        unstable_pair, u="u", regions=[lpv.sector(angle)]
+    )
     for v in unstable_pair.vertices:
         eig = np.linalg.eigvals(v.A - v.B @ design.gains[0])
         assert np.all(np.abs(eig.imag) <= -eig.real * np.tan(angle) + 1e-9)
 
 
 def test_gain_bound(unstable_pair):
-    free = lpv.quadratic_stabilization(unstable_pair, u="u", regions=[lpv.halfplane(2.0)])
+    free = lpv.quadratic_stabilization(
+        unstable_pair, u="u", regions=[lpv.halfplane(2.0)]
+    )
     bound = 30.0
     bounded = lpv.quadratic_stabilization(
         unstable_pair, u="u", regions=[lpv.halfplane(2.0)], gain_bound=bound
@@ -166,7 +174,9 @@ def test_gain_bound(unstable_pair):
 
 def test_scheduled_gain_interpolates(unstable_pair):
     design = lpv.gain_scheduled_stabilization(unstable_pair, u="u")
-    np.testing.assert_allclose(design.gain(0.25), 0.75 * design.gains[0] + 0.25 * design.gains[1])
+    np.testing.assert_allclose(
+        design.gain(0.25), 0.75 * design.gains[0] + 0.25 * design.gains[1]
+    )
     with pytest.raises(ValueError, match="p"):
         design.gain()
 
@@ -222,10 +232,10 @@ def stabilizable_polytopes(draw):
         A = B @ K0 + (S - S.T) - rng.uniform(0.1, 1.0) * np.eye(n)
         B1 = rng.normal(size=(n, 1))
         C = rng.normal(size=(1, n))
-        vertices.append(
-            (T @ A @ Ti, T @ np.hstack([B1, B]), np.vstack([C @ Ti, np.zeros((m, n))]),
-             np.vstack([np.zeros((1, 1 + m)), np.hstack([np.zeros((m, 1)), np.eye(m)])]))
-        )  # fmt: skip
+        C_z = np.vstack([C @ Ti, np.zeros((m, n))])
+        D_z = np.zeros((1 + m, 1 + m))
+        D_z[1:, 1:] = np.eye(m)  # z = [C x, u]
+        vertices.append((T @ A @ Ti, T @ np.hstack([B1, B]), C_z, D_z))
     return lpv.pss(vertices), list(range(1, 1 + m))
 
 
@@ -238,7 +248,11 @@ FAST = settings(
 @given(stabilizable_polytopes(), st.sampled_from(list(SCHEDULED)))
 def test_random_polytopes_every_design_is_certified(case, function):
     sys, u = case
-    kwargs = {"w": [0], "z": list(range(sys.noutputs))} if "hinf" in function.__name__ else {}
+    kwargs = (
+        {"w": [0], "z": list(range(sys.noutputs))}
+        if "hinf" in function.__name__
+        else {}
+    )
     design = function(sys, u=u, **kwargs)
     assert design.certificate.verified
     independent_check(sys, design, u)

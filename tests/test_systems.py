@@ -1,7 +1,6 @@
 import control as ct
 import numpy as np
 import pytest
-from conftest import interior_deltas
 from scipy.integrate import solve_ivp
 
 import ctrl_lpv as lpv

@@ -42,7 +42,9 @@ def test_paper_model_matches_equations(p):
 
 @pytest.mark.parametrize("p", [-0.95, 0.0])
 def test_tracking_model_matches_equations(p):
-    sys = twomass.lpv_model(p_bounds=(-0.95, 0.0), formulation="tracking", integral=True)
+    sys = twomass.lpv_model(
+        p_bounds=(-0.95, 0.0), formulation="tracking", integral=True
+    )
     assert sys.input_labels == ["Td", "Tm"]
     assert sys.state_labels == ["e_m", "omega_m", "e_l", "omega_l", "int_e_l"]
     frozen = sys.at(p)
@@ -85,7 +87,9 @@ def test_paper_lmis_on_full_range_are_infeasible():
 
 
 def test_default_tracking_design_is_certified():
-    sys = twomass.lpv_model(p_bounds=(-0.95, 0.0), formulation="tracking", integral=True)
+    sys = twomass.lpv_model(
+        p_bounds=(-0.95, 0.0), formulation="tracking", integral=True
+    )
     design = lpv.hinf_state_feedback(sys, w="Td", u="Tm", z=sys.output_labels)
     assert design.certificate.verified
     for p in np.linspace(-0.95, 0.0, 11):

@@ -92,7 +92,9 @@ def _as_closed_loop_data(sys, gains, u):
     shape = (len(iu), sys.nstates)
     for j, K in enumerate(gains):
         if K.shape != shape or not np.all(np.isfinite(K)):
-            raise ValueError(f"gains[{j}]: expected a finite {shape} matrix, got {K.shape}")
+            raise ValueError(
+                f"gains[{j}]: expected a finite {shape} matrix, got {K.shape}"
+            )
     if len(gains) not in (1, sys.nvertices):
         raise ValueError(
             f"gains: expected one common gain or {sys.nvertices} vertex gains, "
@@ -176,7 +178,9 @@ def l2_gain_bound(
     iz = signal_indices(z, sys.output_labels, "z")
     data = []
     for A, B, C, D in sys.vertex_data():
-        data.append((A, B[:, iw], B[:, iu], C[iz], D[np.ix_(iz, iw)], D[np.ix_(iz, iu)]))
+        data.append(
+            (A, B[:, iw], B[:, iu], C[iz], D[np.ix_(iz, iw)], D[np.ix_(iz, iu)])
+        )
     N = len(data)
     nw, nz = len(iw), len(iz)
     n = sys.nstates
@@ -207,7 +211,8 @@ def l2_gain_bound(
                 [ccl, d1, -twice * np.eye(nz)],
             ]
 
-        lmi.add(f"bounded real {'vertex %d' % j if j == k else (j, k)}", blocks)
+        label = f"vertex {j}" if j == k else f"pair ({j}, {k})"
+        lmi.add(f"bounded real {label}", blocks)
     sol = lmi.solve(lambda v: v.g[0, 0])
     return L2GainBound(float(np.sqrt(sol.g[0, 0])), sol.P, sol.checks)
 

@@ -68,7 +68,8 @@ def state_feedback(
         scheduling = "inputs" if scheduling is None else scheduling
         if not (scheduling == "inputs" or callable(scheduling)):
             raise ValueError(
-                f"scheduling: expected 'inputs' or a callable f(t, x), got {scheduling!r}"
+                "scheduling: expected 'inputs' or a callable f(t, x), "
+                f"got {scheduling!r}"
             )
     elif scheduling is not None:
         raise ValueError("scheduling: a common-gain design is not scheduled")
@@ -173,7 +174,9 @@ def integral_augmentation(
         elif s in sys.output_labels:
             rows.append(("output", sys.output_labels.index(s)))
         else:
-            signal_indices(s, list(sys.state_labels) + list(sys.output_labels), "signals")
+            signal_indices(
+                s, list(sys.state_labels) + list(sys.output_labels), "signals"
+            )
     k = len(signals)
     vertices = []
     for A, B, C, D in sys.vertex_data():

@@ -385,7 +385,9 @@ class LMIProblem:
                     problem, stage, solver, options, _RETRY_MARGIN_FACTOR
                 )
                 attempts.append(attempt)
-            value = None if objective is None or problem.value is None else problem.value
+            value = (
+                None if objective is None or problem.value is None else problem.value
+            )
             if attempt.certified:
                 return LMISolution(values, value, checks, attempts)
             if checks and estimate is None:

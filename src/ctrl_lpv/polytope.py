@@ -257,7 +257,9 @@ class Polytope(_Domain):
     def __init__(self, points, names: Sequence[str]):
         pts = np.asarray(points, dtype=float)
         if pts.ndim != 2 or pts.shape[0] == 0:
-            raise ValueError(f"points: expected shape (N, k) with N >= 1, got {pts.shape}")
+            raise ValueError(
+                f"points: expected shape (N, k) with N >= 1, got {pts.shape}"
+            )
         if not np.all(np.isfinite(pts)):
             raise ValueError("points: coordinates must be finite")
         if len(names) != pts.shape[1]:

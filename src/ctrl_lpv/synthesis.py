@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import itertools
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import cvxpy as cp
@@ -550,8 +550,10 @@ def _resolve_channels(sys, w, u, z, hinf):
         if w is None
         else signal_indices(w, inputs, "w")
     )
-    iz = list(range(sys.noutputs)) if z is None else signal_indices(
-        z, sys.output_labels, "z"
+    iz = (
+        list(range(sys.noutputs))
+        if z is None
+        else signal_indices(z, sys.output_labels, "z")
     )
     if not iw:
         raise ValueError("w: at least one exogenous input is required")
@@ -801,7 +803,9 @@ def _synthesize(
         if not isinstance(region, LMIRegion):
             raise TypeError(f"regions: expected LMIRegion objects, got {region!r}")
     if backoff is not None and not (np.isfinite(backoff) and backoff >= 0):
-        raise ValueError(f"backoff: must be None or a nonnegative number, got {backoff}")
+        raise ValueError(
+            f"backoff: must be None or a nonnegative number, got {backoff}"
+        )
     if gamma is not None and not (np.isfinite(gamma) and gamma > 0):
         raise ValueError(f"gamma: must be a positive number, got {gamma}")
     if gain_bound is not None and not (np.isfinite(gain_bound) and gain_bound > 0):
@@ -892,9 +896,7 @@ def _synthesize(
             f"({certificate})",
             attempts,
         )
-    gamma_cert = (
-        float(np.sqrt(scaling.unscale_g(float(sol.g[0, 0])))) if hinf else None
-    )
+    gamma_cert = float(np.sqrt(scaling.unscale_g(float(sol.g[0, 0])))) if hinf else None
     labels = sys.physical_inputs
     return StateFeedbackDesign(
         system=sys,
@@ -958,10 +960,7 @@ def _verify(sys, original, data, sol, scaling, gains, lmi, scheduled) -> Certifi
         deltas += [0.5 * (np.eye(N)[j] + np.eye(N)[k]) for j, k in _pairs(N, True)[N:]]
     Kstack = np.stack(gains)
     Ktilde = np.stack(
-        [
-            -getattr(sol, f"Z{k}") @ np.linalg.inv(sol.W)
-            for k in range(len(gains))
-        ]
+        [-getattr(sol, f"Z{k}") @ np.linalg.inv(sol.W) for k in range(len(gains))]
     )
     W = sol.W
     max_real = -np.inf

@@ -11,4 +11,11 @@ from .model import PAPER_GAIN, PAPER_GAMMA, lpv_model, paper_gain
 from .parameters import Parameters
 from .plant import plant
 
-__all__ = ["Parameters", "plant", "lpv_model", "paper_gain", "PAPER_GAIN", "PAPER_GAMMA"]
+__all__ = [
+    "Parameters",
+    "plant",
+    "lpv_model",
+    "paper_gain",
+    "PAPER_GAIN",
+    "PAPER_GAMMA",
+]

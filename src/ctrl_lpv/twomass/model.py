@@ -94,13 +94,18 @@ def lpv_model(
     try:
         lo, hi = (float(b) for b in p_bounds)
     except (TypeError, ValueError):
-        raise ValueError(f"p_bounds: expected (lower, upper), got {p_bounds!r}") from None
+        raise ValueError(
+            f"p_bounds: expected (lower, upper), got {p_bounds!r}"
+        ) from None
     if not (-1.0 <= lo < hi <= 0.0):
         raise ValueError(
             f"p_bounds: need -1 <= lower < upper <= 0 (p = -alpha/theta_d), "
             f"got {p_bounds!r}"
         )
-    for name, value in (("torque_weight", torque_weight), ("integral_weight", integral_weight)):
+    for name, value in (
+        ("torque_weight", torque_weight),
+        ("integral_weight", integral_weight),
+    ):
         if not (np.isfinite(value) and value > 0):
             raise ValueError(f"{name}: must be a positive number, got {value}")
     if integral and formulation == "paper":

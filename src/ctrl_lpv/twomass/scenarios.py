@@ -1,0 +1,105 @@
+"""Closed-loop scenarios of the paper, built from python-control parts."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import control as ct
+import numpy as np
+
+from ..metrics import StepMetrics, step_metrics
+from .parameters import Parameters
+from .plant import plant as make_plant
+
+__all__ = ["closed_loop", "simulate", "metrics", "alpha_step"]
+
+
+def alpha_step(before: float = 0.03, after: float = 0.045, at: float = 2.5):
+    """Backlash that steps from `before` to `after` at time `at` (Figs. 6-7).
+
+    Returns
+    -------
+    callable
+        ``alpha(t)``.
+    """
+    return lambda t: before if t < at else after
+
+
+def closed_loop(controller, params=None, model="exact", alpha=None):
+    """Interconnect the plant and a controller with `control.interconnect`.
+
+    Parameters
+    ----------
+    controller : `control.NonlinearIOSystem`
+        Inputs ``theta_m, omega_m, theta_l, omega_l, theta_r``, output
+        ``Tm`` (as from `lpv_controller` or `backstepping_controller`).
+    params : `Parameters`, optional
+        Plant data.
+    model : {"exact", "deadzone"}, optional
+        Backlash model of the plant.
+    alpha : float or callable, optional
+        Backlash of the plant, default ``params.alpha``.
+
+    Returns
+    -------
+    `control.InterconnectedSystem`
+        Inputs ``["theta_r", "Td"]``, outputs ``["theta_l", "Tm", "theta_m",
+        "omega_m", "omega_l", "Ts"]``.
+    """
+    drive = make_plant(params, model=model, alpha=alpha, name="plant")
+    return ct.interconnect(
+        [drive, controller],
+        inplist=["theta_r", "Td"],
+        inputs=["theta_r", "Td"],
+        outlist=["plant.theta_l", "plant.Tm", "plant.theta_m", "plant.omega_m",
+                 "plant.omega_l", "plant.Ts"],
+        outputs=["theta_l", "Tm", "theta_m", "omega_m", "omega_l", "Ts"],
+        name="loop",
+    )  # fmt: skip
+
+
+def simulate(
+    controller,
+    *,
+    params: Parameters | None = None,
+    model: str = "exact",
+    alpha: float | Callable[[float], float] | None = None,
+    theta_r: float = 0.5,
+    Td: float = 8.0,
+    T: float = 5.0,
+    npoints: int = 5001,
+    method: str = "LSODA",
+    rtol: float = 1e-6,
+    atol: float = 1e-9,
+) -> ct.TimeResponseData:
+    """Step of the load reference with a constant load torque.
+
+    The paper's scenario: ``theta_r = 0.5`` rad, ``Td = 8`` Nm, 5 s, from
+    rest. Integration with `control.input_output_response` at ``rtol=1e-6``
+    (python-control's default RK45 tolerance is far too loose here).
+
+    Returns
+    -------
+    `control.TimeResponseData`
+        Outputs as in `closed_loop`.
+    """
+    loop = closed_loop(controller, params, model, alpha)
+    t = np.linspace(0.0, T, npoints)
+    U = np.vstack([np.full_like(t, theta_r), np.full_like(t, Td)])
+    return ct.input_output_response(
+        loop, t, U, np.zeros(loop.nstates),
+        solve_ivp_method=method, solve_ivp_kwargs={"rtol": rtol, "atol": atol},
+    )  # fmt: skip
+
+
+def metrics(response: ct.TimeResponseData, theta_r: float = 0.5) -> StepMetrics:
+    """Step metrics of the load angle and the motor torque of a response."""
+    out = response.outputs
+    labels = response.output_labels
+    return step_metrics(
+        response.time,
+        out[labels.index("theta_l")],
+        theta_r,
+        out[labels.index("Tm")],
+        initial=0.0,
+    )
