@@ -7,9 +7,9 @@ class InfeasibleError(RuntimeError):
     """No certified solution exists for an LMI synthesis problem.
 
     Raised when a vertex of the polytope is not stabilizable (the message
-    names the vertex and the uncontrollable mode), when the solvers report the
-    LMIs infeasible, or when no returned point passes the independent float64
-    certificate.
+    names the vertex and the uncontrollable mode) or when the solvers report
+    the LMIs infeasible. When no returned point passes the independent
+    float64 certificate, the subclass `CertificationError` is raised.
 
     Attributes
     ----------

@@ -49,7 +49,21 @@ def _narrow_miss(checks) -> bool:
 
 @dataclass(frozen=True)
 class SolveAttempt:
-    """One solver attempt: solver, status, time and whether it certified."""
+    """One solver attempt: solver, status, time and whether it certified.
+
+    Attributes
+    ----------
+    solver : str
+        cvxpy solver name.
+    status : str
+        Status the solver reported (not trusted: see `certified`).
+    seconds : float
+        Wall time of the attempt.
+    certified : bool
+        Whether the returned point passed its float64 certificate.
+    message : str
+        Why it did not certify, or which retry it was.
+    """
 
     solver: str
     status: str
@@ -87,7 +101,21 @@ class LMICheck:
 
 @dataclass
 class LMISolution:
-    """A certified point of an `LMIProblem`."""
+    """A point of an `LMIProblem` with its float64 checks.
+
+    Variables are available as attributes (``solution.W``).
+
+    Attributes
+    ----------
+    values : dict of str to ndarray
+        Variable values.
+    objective : float or None
+        Objective value the solver reported.
+    checks : tuple of `LMICheck`
+        Float64 checks of every active LMI at the point.
+    attempts : list of `SolveAttempt`
+        The attempts made by the solve that returned it.
+    """
 
     values: dict[str, np.ndarray]
     objective: float | None

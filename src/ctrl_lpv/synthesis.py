@@ -28,9 +28,13 @@ Numerical policy
 3. Strict inequalities are posed as ``F <= -margin I`` in scaled units.
 4. Back-off (default 20 %): after the minimum ``gamma*``, the problem is
    re-solved with ``gamma <= (1 + backoff) gamma*``, first maximising the
-   smallest eigenvalue of ``W`` (conditioning), then minimising the gain
-   norm with ``W`` kept above half that value. Both re-solves reuse the
-   compiled problem (cvxpy DPP).
+   smallest eigenvalue of ``W`` under ``W <= lambda_max(W*)`` (a
+   well-conditioned Lyapunov matrix), then minimising the gain norm in the
+   model's units by a convex-concave iteration: the bound
+   ``||K_j||^2 <= kappa`` is linearised at the previous point (exact there,
+   sufficient everywhere) and re-solved until it improves by less than 5 %.
+   Each stage is one cvxpy problem built with parameters (DPP): its
+   iterations and the margin retries re-solve without recompiling.
 5. Every returned design is verified in float64: every LMI, the closed-loop
    Lyapunov inequality and Hurwitz stability at every vertex and at sampled
    interior points.
@@ -161,6 +165,8 @@ class StateFeedbackDesign:
         Seconds spent building, solving and verifying.
     backoff : float or None
         Back-off used.
+    regions : tuple of `LMIRegion`
+        Pole regions the design was constrained to.
     """
 
     system: PolytopicStateSpace
@@ -357,10 +363,12 @@ def quadratic_stabilization(
         Pole regions every frozen closed loop must lie in (`halfplane`,
         `disk`, `sector`).
     gain_bound : float, optional
-        Upper bound on the spectral norm of every gain (sufficient
-        condition). Without it the returned point is the one that
-        maximises the smallest eigenvalue of ``W`` under ``W <= I``
-        (a well-conditioned Lyapunov matrix).
+        Upper bound on the spectral norm of every gain, in the model's
+        units (a sufficient condition, see the module documentation).
+        Without it the returned point maximises ``t`` subject to
+        ``t I <= W <= I``, ``A_cl W + W A_cl' <= -t I`` and ``||Z|| <= 1``
+        (scaled units): a well-conditioned Lyapunov matrix with a decay
+        margin and moderate gains.
     margin : float, optional
         Margin of the strict LMIs, relative to the prescaled data.
     solvers : sequence of (name, options), optional

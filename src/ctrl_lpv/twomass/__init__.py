@@ -4,12 +4,18 @@
 * `plant`: exact (Nordin, Galic, Gutman) and dead-zone backlash models as
   python-control I/O systems;
 * `lpv_model`: the affine LPV model (30) as a `PolytopicStateSpace`;
-* `paper_gain`: the published gain in python-control's sign.
+* `paper_gain`: the published gain in python-control's sign;
+* `lpv_controller`, `backstepping_controller`: position controllers with a
+  common interface (measured states and ``theta_r`` in, ``Tm`` out);
+* `closed_loop`, `simulate`, `alpha_step`: the paper's scenarios.
 """
 
+from .backstepping import backstepping_controller
+from .feedback import backlash_parameter, lpv_controller
 from .model import PAPER_GAIN, PAPER_GAMMA, lpv_model, paper_gain
 from .parameters import Parameters
 from .plant import plant
+from .scenarios import alpha_step, closed_loop, metrics, simulate
 
 __all__ = [
     "Parameters",
@@ -18,4 +24,11 @@ __all__ = [
     "paper_gain",
     "PAPER_GAIN",
     "PAPER_GAMMA",
+    "lpv_controller",
+    "backlash_parameter",
+    "backstepping_controller",
+    "closed_loop",
+    "simulate",
+    "metrics",
+    "alpha_step",
 ]

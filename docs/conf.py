@@ -1,0 +1,179 @@
+"""Sphinx configuration of the ctrl_lpv documentation.
+
+Build (warnings are errors)::
+
+    PYTHONPATH=src python -m sphinx -W --keep-going -b html docs docs/_build/html
+
+Autosummary writes one stub page per public name into ``docs/generated/``
+(regenerated on every build; see `_clean_generated`).
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+import sys
+from pathlib import Path
+
+DOCS = Path(__file__).resolve().parent
+SRC = DOCS.parent / "src"
+# Build from a checkout without installing the package.
+sys.path.insert(0, str(SRC))
+
+import ctrl_lpv  # noqa: E402
+import ctrl_lpv.twomass  # noqa: E402
+
+# -- Project -----------------------------------------------------------------
+project = "ctrl_lpv"
+author = "ctrl_lpv developers"
+copyright = "ctrl_lpv developers"
+release = ctrl_lpv.__version__
+version = ".".join(release.split(".")[:2])
+
+# -- General -----------------------------------------------------------------
+extensions = [
+    "sphinx.ext.autodoc",
+    "sphinx.ext.autosummary",
+    "sphinx.ext.mathjax",
+    "numpydoc",
+]
+# No sphinx.ext.intersphinx: the docs must build without network access.
+
+templates_path = ["_templates"]
+exclude_patterns = ["_build", "scripts", "Thumbs.db", ".DS_Store"]
+source_suffix = {".rst": "restructuredtext"}
+root_doc = "index"
+
+# Single backticks are Python cross-references, as in python-control and in
+# this package's docstrings. Unresolved targets (python-control, numpy,
+# cvxpy names) render as plain literals: nitpicky stays off.
+default_role = "py:obj"
+nitpicky = False
+
+# -- autodoc / autosummary ---------------------------------------------------
+autosummary_generate = True
+autosummary_generate_overwrite = True
+autosummary_imported_members = False
+autodoc_default_options = {
+    "members": True,
+    "show-inheritance": True,
+}
+autodoc_member_order = "bysource"
+# Type hints stay in the signature; numpydoc renders the documented types.
+autodoc_typehints = "signature"
+
+# -- numpydoc ----------------------------------------------------------------
+# Members are documented by autodoc (:members:); numpydoc's own member tables
+# would document them a second time (duplicate object warnings) or link to
+# pages that do not exist.
+numpydoc_show_class_members = False
+numpydoc_show_inherited_class_members = False
+numpydoc_class_members_toctree = False
+numpydoc_attributes_as_param_list = True
+numpydoc_xref_param_type = False
+
+# -- HTML --------------------------------------------------------------------
+html_theme = "alabaster"
+html_static_path: list[str] = []
+html_theme_options = {
+    "description": "Polytopic LPV systems and certified LMI gain scheduling",
+    "fixed_sidebar": True,
+}
+
+
+# -- Build hooks ---------------------------------------------------------------
+def _clean_generated(app):
+    """Remove stale autosummary stubs before they are regenerated.
+
+    A name removed from ``__all__`` would otherwise leave an orphan page in
+    ``docs/generated/``, which fails a ``-W`` build ("document isn't included
+    in any toctree").
+    """
+    shutil.rmtree(Path(app.srcdir) / "generated", ignore_errors=True)
+
+
+_AUTOSUMMARY_ITEM = re.compile(r"^ {3}~?([A-Za-z_][\w.]*)\s*$")
+
+
+def _documented_names(rst: Path) -> set[str]:
+    """Fully qualified names listed in the autosummary tables of `rst`."""
+    names: set[str] = set()
+    module = ""
+    in_table = False
+    for line in rst.read_text(encoding="utf-8").splitlines():
+        stripped = line.strip()
+        if stripped.startswith(".. currentmodule::"):
+            module = stripped.split("::", 1)[1].strip()
+            in_table = False
+        elif stripped.startswith(".. autosummary::"):
+            in_table = True
+        elif in_table and line and not line.startswith(" "):
+            in_table = False
+        elif in_table:
+            match = _AUTOSUMMARY_ITEM.match(line)
+            if match and not stripped.startswith(":"):
+                name = match.group(1)
+                names.add(name if name.startswith("ctrl_lpv") else f"{module}.{name}")
+    return names
+
+
+def _check_api_coverage(app):
+    """Warn (an error under -W) about public names missing from api.rst."""
+    from sphinx.util import logging
+
+    logger = logging.getLogger("ctrl_lpv.docs")
+    listed = _documented_names(Path(app.srcdir) / "api.rst")
+    public = {f"ctrl_lpv.{n}" for n in ctrl_lpv.__all__}
+    public |= {f"ctrl_lpv.twomass.{n}" for n in ctrl_lpv.twomass.__all__}
+    for name in sorted(public - listed):
+        logger.warning(
+            "%s is in __all__ but not in an autosummary table of api.rst",
+            name,
+            location="api",
+        )
+
+
+def _reexported_data_doc(app, what, name, obj, options, lines):
+    """Doc comments (``#:``) of constants re-exported by a package.
+
+    autodoc reads ``#:`` comments only in the module a name is documented
+    under. ``ctrl_lpv.twomass.PAPER_GAIN`` is defined, with its comment, in
+    ``ctrl_lpv.twomass.model``; without this hook autodoc falls back to the
+    docstring of the value's type (`numpy.ndarray`, whose docstring is not
+    valid in this project and breaks the build). The comment is looked up in
+    the submodules of the package that define the same object.
+    """
+    if what != "data" or not name.startswith("ctrl_lpv."):
+        return
+    import importlib
+    import pkgutil
+
+    from sphinx.pycode import ModuleAnalyzer
+
+    modname, _, attr = name.rpartition(".")
+    try:
+        package = importlib.import_module(modname)
+        if ("", attr) in ModuleAnalyzer.for_module(modname).find_attr_docs():
+            return  # documented where it is listed: autodoc found it
+    except Exception:  # noqa: BLE001 (not a module with source: nothing to do)
+        return
+    for info in pkgutil.iter_modules(getattr(package, "__path__", [])):
+        submodule = importlib.import_module(f"{modname}.{info.name}")
+        if getattr(submodule, attr, None) is not obj:
+            continue
+        try:
+            docs = ModuleAnalyzer.for_module(submodule.__name__).find_attr_docs()
+        except Exception:  # noqa: BLE001 (no source: keep the fallback)
+            continue
+        comment = docs.get(("", attr))
+        if comment:
+            lines[:] = list(comment)
+            return
+
+
+def setup(app):
+    # Before autosummary's own builder-inited handler (priority 500).
+    app.connect("builder-inited", _clean_generated, priority=100)
+    app.connect("builder-inited", _check_api_coverage)
+    app.connect("autodoc-process-docstring", _reexported_data_doc)
+    return {"parallel_read_safe": True, "parallel_write_safe": True}
