@@ -693,8 +693,8 @@ def _build(data, scaling, scheduled, hinf, regions, margin, gain_bound):
         return getattr(v, f"Z{k if scheduled else 0}")
 
     for j, k in _pairs(N, scheduled):
-        Aj, B1j, B2j, Cj, D1j, D2j = data[j]
-        Ak, B1k, B2k, Ck, D1k, D2k = data[k]
+        Aj, B2j = data[j][0], data[j][2]
+        Ak, B2k = data[k][0], data[k][2]
         label = f"vertex {j}" if j == k else f"pair ({j}, {k})"
         twice = 1.0 if j == k else 2.0
 

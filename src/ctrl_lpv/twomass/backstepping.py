@@ -124,14 +124,14 @@ class BacksteppingLaw:
         z2 = x2 + self.c1 * z1
         T = self.a * z1 + self.b * x2 + self.Td_hat
         Tdot = self.a * x2 + self.b * a2
-        I, I1, I2 = self.inverse(T)
-        z3 = d - I
-        alpha3 = x2 + I1 * Tdot - self.c3 * z3 - z2
+        inv, inv1, inv2 = self.inverse(T)
+        z3 = d - inv
+        alpha3 = x2 + inv1 * Tdot - self.c3 * z3 - z2
         z4 = x4 - alpha3
         alpha3dot = (
-            I2 * Tdot**2
-            + I1 * (self.a * a2 + self.b * a2dot)
-            - self.c3 * (x4 - x2 - I1 * Tdot)
+            inv2 * Tdot**2
+            + inv1 * (self.a * a2 + self.b * a2dot)
+            - self.c3 * (x4 - x2 - inv1 * Tdot)
             - self.c1 * x2
         )
         return (z1, z2, z3, z4), Dd, alpha3dot
@@ -208,7 +208,9 @@ def backstepping_controller(
             raise ValueError(f"{label}: must be a positive number, got {value}")
     if not np.isfinite(Td_hat):
         raise ValueError(f"Td_hat: must be finite, got {Td_hat}")
-    if torque_limit is not None and not (np.isfinite(torque_limit) and torque_limit > 0):
+    if torque_limit is not None and not (
+        np.isfinite(torque_limit) and torque_limit > 0
+    ):
         raise ValueError(f"torque_limit: must be a positive number, got {torque_limit}")
     law = BacksteppingLaw(params, gains, alpha, sharpness, eps, Td_hat)
     limit = np.inf if torque_limit is None else float(torque_limit)
