@@ -41,7 +41,7 @@ def run_case(eps, torque_weight, backoff):
         model, w="Td", u="Tm", z=model.output_labels, backoff=backoff
     )
     response = twomass.simulate(
-        twomass.lpv_controller(design), alpha=twomass.alpha_step(), method="RK45"
+        twomass.lpv_controller(design), alpha=twomass.alpha_step()
     )
     m = twomass.metrics(response)
     return {
