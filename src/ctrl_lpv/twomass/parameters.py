@@ -26,10 +26,10 @@ _LIMITS = {
 class Parameters:
     """Physical data of a two-mass drive with backlash.
 
-    The defaults are the data of the simulation example of the reference
-    paper (Nordin, Galic and Gutman, 1997, as used in the LPV paper): a
-    motor and a load connected by an elastic, damped shaft through a
-    backlash of half-width `alpha`.
+    The defaults are the data of the simulation example (section V) of the
+    LPV two-mass paper that this package reproduces: a motor and a load
+    connected by an elastic, damped shaft through a backlash of half-width
+    `alpha`.
 
     Parameters
     ----------
