@@ -83,9 +83,13 @@ def scenarios(quick):
     return out
 
 
-def run(quick=False, progress=True):
-    """Simulate every controller in every scenario; return the rows."""
+def run(quick=False, progress=True, keep=()):
+    """Simulate every controller in every scenario.
+
+    Returns the rows and the responses of the scenarios named in `keep`.
+    """
     rows = []
+    responses = {}
     designs = {}
     cases = scenarios(quick)
     for index, (scenario, limit, kwargs) in enumerate(cases, start=1):
@@ -96,6 +100,8 @@ def run(quick=False, progress=True):
             row = {"scenario": scenario, "controller": name, "torque_limit": limit}
             try:
                 response = twomass.simulate(controller, **kwargs)
+                if scenario in keep:
+                    responses[scenario, name] = response
                 metrics = twomass.metrics(response).as_dict()
                 final = response.outputs[response.output_labels.index("theta_l")][-1]
                 row["status"] = "ok" if abs(final - 0.5) < 0.1 else "diverged"
@@ -107,7 +113,37 @@ def run(quick=False, progress=True):
             rows.append(row)
         if progress:
             print(f"[{index}/{len(cases)}] {scenario}", file=sys.stderr, flush=True)
-    return rows
+    return rows, responses
+
+
+def figures(responses, out):
+    """Load angle and motor torque per scenario, one PNG each."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        print("matplotlib is not installed: no figures", file=sys.stderr)
+        return
+    for scenario in sorted({s for s, _ in responses}):
+        fig, (ax1, ax2) = plt.subplots(2, 1, sharex=True, figsize=(7, 6))
+        for (s, name), resp in responses.items():
+            if s != scenario:
+                continue
+            labels = resp.output_labels
+            ax1.plot(resp.time, resp.outputs[labels.index("theta_l")], label=name)
+            ax2.plot(resp.time, resp.outputs[labels.index("Tm")], label=name)
+        ax1.axhline(0.5, color="k", linestyle=":", label="reference")
+        ax1.set_ylabel("load angle theta_l (rad)")
+        ax2.set_ylabel("motor torque Tm (Nm)")
+        ax2.set_xlabel("time (s)")
+        ax2.set_yscale("symlog", linthresh=100.0)
+        ax1.legend(loc="lower right")
+        ax1.set_title(scenario)
+        fig.tight_layout()
+        fig.savefig(out / f"{scenario.replace(' ', '_').replace('=', '')}.png", dpi=100)
+        plt.close(fig)
 
 
 def table(rows):
@@ -133,7 +169,8 @@ def main(argv=None):
     parser.add_argument("--json", help="write the rows to this JSON file")
     parser.add_argument("--out", help="write table.md (and figures) to this folder")
     args = parser.parse_args(argv)
-    rows = run(quick=args.quick)
+    keep = ("paper", "paper alpha step", "Tmax=500") if args.out else ()
+    rows, responses = run(quick=args.quick, keep=keep)
     text = table(rows)
     print(text)
     if args.json:
@@ -142,6 +179,7 @@ def main(argv=None):
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
         (out / "table.md").write_text(text + "\n")
+        figures(responses, out)
     return rows
 
 
