@@ -7,14 +7,21 @@
 * `paper_gain`: the published gain in python-control's sign;
 * `lpv_controller`, `backstepping_controller`: position controllers with a
   common interface (measured states and ``theta_r`` in, ``Tm`` out);
-* `closed_loop`, `simulate`, `alpha_step`: the paper's scenarios.
+* `closed_loop`, `simulate`, `alpha_step`: the paper's scenarios;
+* `design`, `save_gains`, `load_gains`: certified designs in one call and
+  their gain files;
+* `compare`, `reproduce`: the LPV vs backstepping comparison and the whole
+  reproduction of the paper (``ctrl-lpv reproduce``).
 """
 
 from .backstepping import backstepping_controller
+from .comparison import compare, comparison_designs, comparison_scenarios
+from .designs import GainFile, design, load_gains, save_gains
 from .feedback import backlash_parameter, lpv_controller
 from .model import PAPER_GAIN, PAPER_GAMMA, lpv_model, paper_gain
 from .parameters import Parameters
 from .plant import plant
+from .reproduce import errata_findings, reproduce
 from .scenarios import alpha_step, closed_loop, metrics, simulate
 
 __all__ = [
@@ -31,4 +38,13 @@ __all__ = [
     "simulate",
     "metrics",
     "alpha_step",
+    "design",
+    "save_gains",
+    "load_gains",
+    "GainFile",
+    "compare",
+    "comparison_designs",
+    "comparison_scenarios",
+    "reproduce",
+    "errata_findings",
 ]

@@ -13,6 +13,7 @@ from collections.abc import Callable
 import control as ct
 import numpy as np
 
+from ..polytope import box
 from ..synthesis import StateFeedbackDesign
 from .model import paper_gain
 
@@ -49,6 +50,7 @@ def lpv_controller(
     *,
     alpha_estimate: float | Callable[[float], float] | None = None,
     torque_limit: float | None = None,
+    p_bounds: tuple[float, float] | None = None,
     name: str = "lpv",
 ) -> ct.NonlinearIOSystem:
     """Two-mass position controller from a state-feedback design.
@@ -61,9 +63,12 @@ def lpv_controller(
     Parameters
     ----------
     design : `StateFeedbackDesign` or array_like, optional
-        A design on `lpv_model` with the tracking formulation, or a ``1 x 4``
-        gain on the error coordinates (``u = -K x``). Default: the paper's
-        published gain (`paper_gain`).
+        A design on `lpv_model` with the tracking formulation; or a ``1 x 4``
+        (``1 x 5`` with the integral state) gain on the error coordinates
+        (``u = -K x``); or, with `p_bounds`, two such gains, at
+        ``p = p_bounds[0]`` and ``p = p_bounds[1]`` (as read from a gain
+        file by `load_gains`). Default: the paper's published gain
+        (`paper_gain`).
     alpha_estimate : float or callable, optional
         For vertex gains: the backlash estimate used to compute the
         scheduling parameter ``p`` from the measured ``theta_m - theta_l``
@@ -74,6 +79,8 @@ def lpv_controller(
         Saturate ``|Tm| <= torque_limit``; the integral state then stops
         integrating while the torque is saturated in the direction of the
         error (conditional-integration anti-windup).
+    p_bounds : (float, float), optional
+        Interval of ``p`` of vertex gains given as an array.
     name : str, optional
         System name.
 
@@ -96,12 +103,19 @@ def lpv_controller(
         gains = np.stack(design.gains)[:, 0, :]
         domain = design.system.domain
     else:
-        gains = np.asarray(design, dtype=float).reshape(1, -1)
-        if gains.shape != (1, 4) or not np.all(np.isfinite(gains)):
+        rows = 1 if p_bounds is None else 2
+        gains = np.atleast_2d(np.asarray(design, dtype=float))
+        if (
+            gains.ndim != 2
+            or gains.shape[0] != rows
+            or gains.shape[1] not in (4, 5)
+            or not np.all(np.isfinite(gains))
+        ):
             raise ValueError(
-                f"design: expected a finite 1 x 4 gain, got {np.shape(design)}"
+                f"design: expected {rows} finite gain(s) of 4 or 5 states, "
+                f"got shape {np.shape(design)}"
             )
-        domain = None
+        domain = None if p_bounds is None else box(p=p_bounds)
     integral = gains.shape[1] == 5
     scheduled = gains.shape[0] > 1
     if scheduled and alpha_estimate is None:
