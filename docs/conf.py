@@ -171,9 +171,67 @@ def _reexported_data_doc(app, what, name, obj, options, lines):
             return
 
 
+_SECTION = re.compile(r"^# \[([\w-]+)\]\s*$", re.MULTILINE)
+
+
+def _run_tutorial(app):
+    """Run ``scripts/tutorial.py`` section by section into ``generated/``.
+
+    The sections (``# [name]`` comments) run in one namespace, as the script
+    does; each section's printed output goes to
+    ``generated/tutorial/<name>.txt`` and its figures to the same folder, so
+    that ``tutorial.rst`` shows code, output and figures of this very build.
+    """
+    import contextlib
+    import io
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    source_path = Path(app.srcdir) / "scripts" / "tutorial.py"
+    source = source_path.read_text(encoding="utf-8")
+    out = Path(app.srcdir) / "generated" / "tutorial"
+    out.mkdir(parents=True, exist_ok=True)
+    parts = _SECTION.split(source)  # [preamble, name1, code1, name2, code2, ...]
+    namespace = {"__name__": "__tutorial__", "__file__": str(source_path)}
+    argv = sys.argv
+    sys.argv = [str(source_path), str(out)]
+    try:
+        exec(compile(parts[0], str(source_path), "exec"), namespace)
+        for name, code in zip(parts[1::2], parts[2::2]):
+            buffer = io.StringIO()
+            with contextlib.redirect_stdout(buffer):
+                exec(compile(code, f"{source_path}:[{name}]", "exec"), namespace)
+            (out / f"{name}.txt").write_text(buffer.getvalue(), encoding="utf-8")
+    finally:
+        sys.argv = argv
+
+
+def _write_cli_help(app):
+    """``ctrl-lpv --help`` of every command, for ``cli.rst``."""
+    import contextlib
+    import io
+
+    from ctrl_lpv.cli import build_parser
+
+    import os
+
+    out = Path(app.srcdir) / "generated" / "cli"
+    out.mkdir(parents=True, exist_ok=True)
+    os.environ["COLUMNS"] = "80"  # argparse wraps help at the terminal width
+    for command in ("", "reproduce", "design", "simulate"):
+        buffer = io.StringIO()
+        argv = [command, "--help"] if command else ["--help"]
+        with contextlib.redirect_stdout(buffer), contextlib.suppress(SystemExit):
+            build_parser().parse_args(argv)
+        (out / f"{command or 'main'}.txt").write_text(buffer.getvalue())
+
+
 def setup(app):
     # Before autosummary's own builder-inited handler (priority 500).
     app.connect("builder-inited", _clean_generated, priority=100)
+    app.connect("builder-inited", _run_tutorial, priority=200)
+    app.connect("builder-inited", _write_cli_help, priority=200)
     app.connect("builder-inited", _check_api_coverage)
     app.connect("autodoc-process-docstring", _reexported_data_doc)
     return {"parallel_read_safe": True, "parallel_write_safe": True}

@@ -38,16 +38,27 @@ def reproduction(tmp_path_factory):
 def test_reproduce_writes_every_artifact(reproduction):
     code, out = reproduction
     assert code == 0
-    stems = ["coordinates", "paper_gain", "designs", "alpha_step", "backstepping",
-             "torque_limit"]  # fmt: skip
+    stems = [
+        "coordinates",
+        "paper_gain",
+        "designs",
+        "alpha_step",
+        "backstepping",
+        "torque_limit",
+    ]
     for stem in stems:
         assert (out / f"{stem}.png").read_bytes()[:8] == PNG_MAGIC
         assert b"<svg" in (out / f"{stem}.svg").read_bytes()[:500]
     report = (out / "report.md").read_text()
     for stem in stems:
         assert f"({stem}.png)" in report
-    for name in ("errata.json", "comparison.json", "comparison.md",
-                 "design_robust.json", "design_scheduled.json"):  # fmt: skip
+    for name in (
+        "errata.json",
+        "comparison.json",
+        "comparison.md",
+        "design_robust.json",
+        "design_scheduled.json",
+    ):
         assert (out / name).stat().st_size > 0
 
 
@@ -94,8 +105,9 @@ def test_reproduce_comparison_table(reproduction):
 
 def test_saved_designs_stabilize_the_model(reproduction):
     _, out = reproduction
-    model = twomass.lpv_model(p_bounds=(-0.95, 0.0), formulation="tracking",
-                              integral=True)  # fmt: skip
+    model = twomass.lpv_model(
+        p_bounds=(-0.95, 0.0), formulation="tracking", integral=True
+    )
     iu = model.input_labels.index("Tm")
     for name in ("design_robust.json", "design_scheduled.json"):
         gains = twomass.load_gains(out / name)
@@ -115,8 +127,19 @@ def test_design_save_then_simulate(tmp_path, capsys):
     assert saved.scheduled and saved.gains.shape == (2, 1, 5)
     assert list(saved.p_vertices) == [-0.95, 0.0]
     run = tmp_path / "run"
-    code = main(["simulate", "--controller", str(path), "--T", "1",
-                 "--out", str(run), "--formats", "png"])  # fmt: skip
+    code = main(
+        [
+            "simulate",
+            "--controller",
+            str(path),
+            "--T",
+            "1",
+            "--out",
+            str(run),
+            "--formats",
+            "png",
+        ]
+    )
     assert code == 0
     data = np.loadtxt(run / "response.csv", delimiter=",", skiprows=1)
     header = (run / "response.csv").read_text().splitlines()[0].split(",")
@@ -136,8 +159,9 @@ def test_saved_scheduled_gains_give_the_design_controller(tmp_path):
     kwargs = dict(alpha=0.03, T=1.0, npoints=101)
     a = twomass.simulate(loaded.controller(alpha_estimate=0.03), **kwargs)
     b = twomass.simulate(twomass.lpv_controller(design, alpha_estimate=0.03), **kwargs)
-    np.testing.assert_allclose(np.asarray(a.outputs), np.asarray(b.outputs),
-                               rtol=1e-9, atol=1e-9)  # fmt: skip
+    np.testing.assert_allclose(
+        np.asarray(a.outputs), np.asarray(b.outputs), rtol=1e-9, atol=1e-9
+    )
 
 
 @pytest.mark.parametrize(

@@ -111,6 +111,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     rep.add_argument(
         "--formats",
+        metavar="LIST",
         type=_formats,
         default=("png", "svg"),
         help="figure formats, comma-separated (default png,svg)",
@@ -127,13 +128,18 @@ def build_parser() -> argparse.ArgumentParser:
     )
     des.add_argument(
         "--p-min",
+        metavar="P",
         type=_number,
         default=-0.95,
         help="lower bound of the backlash parameter p (default "
         "-0.95; p = -1 is not stabilizable)",
     )
     des.add_argument(
-        "--p-max", type=_number, default=0.0, help="upper bound of p (default 0)"
+        "--p-max",
+        metavar="P",
+        type=_number,
+        default=0.0,
+        help="upper bound of p (default 0)",
     )
     des.add_argument(
         "--formulation",
@@ -155,24 +161,28 @@ def build_parser() -> argparse.ArgumentParser:
     )
     des.add_argument(
         "--torque-weight",
+        metavar="W",
         type=_positive,
         default=2e-3,
         help="weight of Tm in z (default 2e-3)",
     )
     des.add_argument(
         "--integral-weight",
+        metavar="W",
         type=_positive,
         default=10.0,
         help="weight of the error integral in z (default 10)",
     )
     des.add_argument(
         "--backoff",
+        metavar="B",
         type=_backoff,
         default=0.2,
         help="relative back-off from the optimal gamma, or 'none' (default 0.2)",
     )
     des.add_argument(
         "--gain-bound",
+        metavar="K",
         type=_positive,
         default=None,
         help="bound on the norm of every gain (Nm per state unit)",
@@ -205,6 +215,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sim.add_argument(
         "--alpha",
+        metavar="RAD",
         type=_number,
         default=0.03,
         help="backlash half-gap of the plant, rad (default 0.03)",
@@ -217,20 +228,28 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sim.add_argument(
         "--alpha-estimate",
+        metavar="RAD",
         type=_number,
         default=None,
         help="backlash estimate for vertex gains (default: --alpha)",
     )
     sim.add_argument(
-        "--Td", type=_number, default=8.0, help="load torque, Nm (default 8)"
+        "--Td",
+        metavar="NM",
+        type=_number,
+        default=8.0,
+        help="load torque, Nm (default 8)",
     )
     sim.add_argument(
         "--theta-r",
+        metavar="RAD",
         type=_number,
         default=0.5,
         help="load angle reference, rad (default 0.5)",
     )
-    sim.add_argument("--T", type=_positive, default=5.0, help="duration, s (default 5)")
+    sim.add_argument(
+        "--T", metavar="S", type=_positive, default=5.0, help="duration, s (default 5)"
+    )
     sim.add_argument(
         "--model",
         choices=("exact", "deadzone"),
@@ -239,6 +258,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sim.add_argument(
         "--torque-limit",
+        metavar="NM",
         type=_positive,
         default=None,
         help="|Tm| limit of the controller, Nm",
@@ -251,6 +271,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sim.add_argument(
         "--formats",
+        metavar="LIST",
         type=_formats,
         default=("png", "svg"),
         help="figure formats, comma-separated (default png,svg)",

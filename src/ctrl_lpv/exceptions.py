@@ -28,4 +28,10 @@ class CertificationError(InfeasibleError):
     A subclass of `InfeasibleError`: the problem may be feasible, but no point
     that the solvers returned could be verified in float64, so no design is
     returned.
+
+    Attributes
+    ----------
+    attempts : tuple
+        The solver attempts (`ctrl_lpv.lmi.SolveAttempt`), none of them
+        certified, each with the reason.
     """

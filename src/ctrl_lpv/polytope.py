@@ -300,6 +300,16 @@ class Polytope(_Domain):
 def box(**bounds: tuple[float, float]) -> ParameterBox:
     """Create a parameter box from keyword bounds.
 
+    Parameters
+    ----------
+    **bounds : (float, float)
+        ``name=(lower, upper)`` for each parameter, in order.
+
+    Returns
+    -------
+    `ParameterBox`
+        The box ``ParameterBox(bounds)``.
+
     Examples
     --------
     >>> box(p=(-0.95, 0.0)).nvertices

@@ -69,6 +69,11 @@ def halfplane(decay: float) -> LMIRegion:
     decay : float
         Decay rate; ``0`` is the open left half-plane.
 
+    Returns
+    -------
+    `LMIRegion`
+        The region, for the ``regions`` argument of the synthesis functions.
+
     Examples
     --------
     >>> halfplane(2.0).contains([-3.0, -1.0]).tolist()
@@ -87,6 +92,16 @@ def disk(radius: float, center: float = 0.0) -> LMIRegion:
         Radius, positive.
     center : float, optional
         Real center, default 0.
+
+    Returns
+    -------
+    `LMIRegion`
+        The region, for the ``regions`` argument of the synthesis functions.
+
+    Raises
+    ------
+    ValueError
+        If the argument is not finite or out of range.
     """
     radius = _finite(radius, "radius")
     center = _finite(center, "center", positive=False)
@@ -106,6 +121,16 @@ def sector(angle: float) -> LMIRegion:
     ----------
     angle : float
         Half-angle in radians, in ``(0, pi/2)``.
+
+    Returns
+    -------
+    `LMIRegion`
+        The region, for the ``regions`` argument of the synthesis functions.
+
+    Raises
+    ------
+    ValueError
+        If the argument is not finite or out of range.
     """
     angle = _finite(angle, "angle")
     if not 0 < angle < np.pi / 2:
