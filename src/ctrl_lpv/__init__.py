@@ -8,6 +8,7 @@ The data flow is one way: parameter domain (`polytope`) -> polytopic system
 from .analysis import frozen_sweep, l2_gain_bound, quadratic_stability
 from .controllers import integral_augmentation, state_feedback
 from .exceptions import CertificationError, InfeasibleError
+from .interconnection import interconnect
 from .polytope import ParameterBox, Polytope, Simplex, box
 from .regions import LMIRegion, disk, halfplane, sector
 from .synthesis import (
@@ -19,6 +20,7 @@ from .synthesis import (
     hinf_state_feedback,
     quadratic_stabilization,
 )
+from .simulation import simulate
 from .systems import PolytopicStateSpace, pss
 
 __version__ = "0.1.0"
@@ -48,4 +50,6 @@ __all__ = [
     "quadratic_stability",
     "l2_gain_bound",
     "frozen_sweep",
+    "interconnect",
+    "simulate",
 ]

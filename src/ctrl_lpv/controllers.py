@@ -8,6 +8,7 @@ import control as ct
 import numpy as np
 
 from ._checks import signal_indices
+from .interconnection import BlockKernel, kernel_nlsys
 from .systems import PolytopicStateSpace
 
 __all__ = ["state_feedback", "integral_augmentation"]
@@ -83,44 +84,65 @@ def state_feedback(
         inputs += list(sys.param_names)
 
     gains = np.stack(design.gains)  # (N, m, n)
-    N, m, _ = gains.shape
+    kernel = _feedback_kernel(
+        gains,
+        sys.domain,
+        scheduling if design.scheduled else None,
+        reference=reference,
+        nref=nref,
+    )
+    return kernel_nlsys(kernel, inputs=inputs, outputs=outputs, name=name)
+
+
+def _feedback_kernel(gains, domain, scheduling, *, reference, nref) -> BlockKernel:
+    """Scalar and vectorized functions of `state_feedback`.
+
+    ``u = ud - K(delta) (x - xd)`` on Python floats (the gains are small);
+    the scheduled gain ``sum_j delta_j K_j`` comes from the domain's convex
+    coordinates of the projected parameter.
+    """
+    N, m, n = gains.shape
     flat_gains = gains.reshape(N, m * n)
-    domain_weights = sys.domain._weights
+    weights = domain._weights
+    common = tuple(tuple(row) for row in gains[0].tolist())
+    asarray = np.asarray
 
     def error(u):
-        x = u[:n]
         if reference:
-            return x - u[n : 2 * n], u[2 * n : 2 * n + m]
-        return x, 0.0
+            return [u[i] - u[n + i] for i in range(n)], u[2 * n : 2 * n + m]
+        return u[:n], (0.0,) * m
 
-    if not design.scheduled:
-        K = gains[0]
+    def gain(t, u):
+        if scheduling is None:
+            return common
+        if scheduling == "inputs":
+            p = asarray(u[nref:], dtype=float)
+        else:
+            p = asarray(scheduling(t, asarray(u[:n], dtype=float)), float).reshape(-1)
+        flat = (weights(p) @ flat_gains).tolist()
+        return [flat[i * n : (i + 1) * n] for i in range(m)]
 
-        def output(t, x, u, params):
-            e, ud = error(u)
-            return ud - K @ e
+    def out(t, x, u):
+        e, ud = error(u)
+        return [
+            d - sum(k * v for k, v in zip(row, e))
+            for d, row in zip(ud, gain(t, u))
+        ]  # fmt: skip
 
-    elif scheduling == "inputs":
+    def out_many(t, x, u):
+        shape = np.broadcast(t, *u).shape
+        U = np.array([np.broadcast_to(v, shape) for v in u]).reshape(len(u), -1)
+        E = U[:n] - U[n : 2 * n] if reference else U[:n]
+        ud = U[2 * n : 2 * n + m] if reference else 0.0
+        if scheduling is None:
+            return (ud - gains[0] @ E).reshape((m,) + shape)
+        times = np.broadcast_to(t, shape).ravel()
+        Y = np.empty((m, U.shape[1]))
+        for i in range(U.shape[1]):
+            Y[:, i] = out(times[i], (), U[:, i].tolist())
+        return Y.reshape((m,) + shape)
 
-        def output(t, x, u, params):
-            e, ud = error(u)
-            K = (domain_weights(u[nref:]) @ flat_gains).reshape(m, n)
-            return ud - K @ e
-
-    else:
-
-        def output(t, x, u, params):
-            e, ud = error(u)
-            p = np.asarray(scheduling(t, u[:n]), dtype=float).reshape(-1)
-            return ud - (domain_weights(p) @ flat_gains).reshape(m, n) @ e
-
-    return ct.nlsys(
-        None,
-        output,
-        inputs=inputs,
-        outputs=outputs,
-        name=name,
-    )
+    return BlockKernel(out=out, out_many=out_many)
 
 
 def integral_augmentation(

@@ -394,10 +394,12 @@ class PolytopicStateSpace(StateSpace):
     def _update_params(self, params):
         super()._update_params(params)
         # Parameters from the params dict are constant during a simulation:
-        # convert them to convex coordinates once, not on every RHS call.
+        # combine the vertex matrices once, not on every RHS call.
         if self.scheduling is None:
             point = np.array([self._current_params[k] for k in self.domain.names])
             self._params_delta = self.domain._weights(self.domain._as_point(point))
+            self._params_AB = np.tensordot(self._params_delta, self._AB, axes=1)
+            self._params_CD = np.tensordot(self._params_delta, self._CD, axes=1)
 
     def _delta(self, t, x, u) -> np.ndarray:
         if self.scheduling is None:
@@ -408,15 +410,42 @@ class PolytopicStateSpace(StateSpace):
             np.asarray(self.scheduling(t, x, u[: len(self._physical_inputs)]), float)
         )
 
+    # The hot path: python-control passes float vectors; one matrix-vector
+    # product per call when the parameter comes from `params`.
     def _rhs(self, t, x, u):
-        u = np.asarray(u, dtype=float).reshape(-1)
+        if type(u) is not np.ndarray:
+            u = np.asarray(u, dtype=float).reshape(-1)
         xu = np.concatenate((x, u[: len(self._physical_inputs)]))
+        if self.scheduling is None:
+            return self._params_AB @ xu
         return self._delta(t, x, u) @ (self._AB @ xu)
 
     def _out(self, t, x, u):
-        u = np.asarray(u, dtype=float).reshape(-1)
+        if type(u) is not np.ndarray:
+            u = np.asarray(u, dtype=float).reshape(-1)
         xu = np.concatenate((x, u[: len(self._physical_inputs)]))
+        if self.scheduling is None:
+            return self._params_CD @ xu
         return self._delta(t, x, u) @ (self._CD @ xu)
+
+    @property
+    def _feedthrough(self) -> np.ndarray:
+        """Which inputs reach the outputs directly, ``(noutputs, ninputs)``.
+
+        Read by `ctrl_lpv.interconnect`: ``D != 0`` at some vertex for the
+        physical inputs; when ``C`` or ``D`` vary over the vertices, the
+        scheduling inputs (``"inputs"``) or, through a callable
+        ``f(t, x, u)``, all physical inputs reach the varying output rows.
+        """
+        n = self.nstates
+        direct = np.any(self._CD[:, :, n:] != 0.0, axis=0)
+        varying = np.any(self._CD != self._CD[:1], axis=(0, 2))[:, None]
+        if self.scheduling == "inputs":
+            k = self.ninputs - direct.shape[1]
+            return np.hstack([direct, np.repeat(varying, k, axis=1)])
+        if callable(self.scheduling):
+            return direct | varying
+        return direct
 
     def _checked_call(self, method, t, x, u, params):
         x = np.asarray(x, dtype=float).reshape(-1)

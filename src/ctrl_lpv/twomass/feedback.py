@@ -8,11 +8,13 @@ the motor torque ``Tm``.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import control as ct
 import numpy as np
 
+from ..interconnection import BlockKernel, kernel_nlsys
 from ..polytope import box
 from ..synthesis import StateFeedbackDesign
 from .model import paper_gain
@@ -126,40 +128,119 @@ def lpv_controller(
         np.isfinite(torque_limit) and torque_limit > 0
     ):
         raise ValueError(f"torque_limit: must be a positive number, got {torque_limit}")
-    alpha_of_t = (
-        alpha_estimate if callable(alpha_estimate) else (lambda t, a=alpha_estimate: a)
+    kernel = _lpv_kernel(
+        gains, domain, alpha_estimate, np.inf if torque_limit is None else torque_limit
     )
-    limit = np.inf if torque_limit is None else float(torque_limit)
-
-    def gain(t, x):
-        if not scheduled:
-            return gains[0]
-        p = float(backlash_parameter(x[0] - x[2], alpha_of_t(t)))
-        return domain._weights(np.array([p])) @ gains
-
-    def error_state(x, u):
-        e = np.array([u[0] - u[4], u[1], u[2] - u[4], u[3]])
-        return np.concatenate([e, x]) if integral else e
-
-    def torque(t, x, u, params=None):
-        e = error_state(x, u)
-        return np.array([np.clip(-gain(t, e) @ e, -limit, limit)])
-
-    def integrate(t, x, u, params=None):
-        e_l = u[2] - u[4]
-        if np.isfinite(limit):
-            e = error_state(x, u)
-            raw = -gain(t, e) @ e
-            # Stop integrating when saturated and the error pushes further.
-            if abs(raw) > limit and np.sign(raw) == -np.sign(gain(t, e)[4] * e_l):
-                return np.zeros(1)
-        return np.array([e_l])
-
-    return ct.nlsys(
-        integrate if integral else None,
-        torque,
+    return kernel_nlsys(
+        kernel,
         inputs=MEASURED + ["theta_r"],
         outputs=["Tm"],
         states=["int_e_l"] if integral else None,
+        feedthrough=True,
         name=name,
     )
+
+
+def _lpv_kernel(gains: np.ndarray, domain, alpha_estimate, limit) -> BlockKernel:
+    """Scalar and vectorized functions of `lpv_controller`.
+
+    Error coordinates ``e = [theta_m - theta_r, omega_m, theta_l - theta_r,
+    omega_l(, int_e_l)]``, ``Tm = clip(-K(p) e)``; the integral state stops
+    while saturated in the direction of the error.
+    """
+    integral = gains.shape[1] == 5
+    scheduled = gains.shape[0] > 1
+    limit = float(limit)
+    saturates = math.isfinite(limit)
+    alpha_of_t = alpha_estimate if callable(alpha_estimate) else None
+    alpha_const = None if callable(alpha_estimate) else alpha_estimate
+    k_common = tuple(gains[0].tolist())
+
+    # The gain at p: vertex gains combined with the convex coordinates of
+    # the projected p.  On a one-parameter box these are affine in
+    # lam = (p - lower) / (upper - lower), so K(p) = (1 - lam) K_lo + lam K_hi
+    # with plain floats; other domains go through their `_weights`.
+    interval = scheduled and domain.nparams == 1 and hasattr(domain, "lower")
+    if interval:
+        lo, hi = float(domain.lower[0]), float(domain.upper[0])
+        k_lo = tuple((domain._weights(np.array([lo])) @ gains).tolist())
+        k_hi = tuple((domain._weights(np.array([hi])) @ gains).tolist())
+        width = hi - lo
+
+    def gain(t, e_m, e_l):
+        if not scheduled:
+            return k_common
+        a = alpha_const if alpha_of_t is None else alpha_of_t(t)
+        theta_d = abs(e_m - e_l)
+        p = -a / (theta_d if theta_d > 1e-300 else 1e-300) if theta_d > a else -1.0
+        if not interval:
+            return tuple((domain._weights(np.array([p])) @ gains).tolist())
+        lam = (p - lo) / width
+        lam = 0.0 if lam < 0.0 else (1.0 if lam > 1.0 else lam)
+        return tuple((1.0 - lam) * g + lam * h for g, h in zip(k_lo, k_hi))
+
+    def raw_torque(t, x, u):
+        theta_m, omega_m, theta_l, omega_l, theta_r = u
+        e_m, e_l = theta_m - theta_r, theta_l - theta_r
+        k = gain(t, e_m, e_l)
+        raw = k[0] * e_m + k[1] * omega_m + k[2] * e_l + k[3] * omega_l
+        if integral:
+            raw += k[4] * x[0]
+        return -raw, k, e_l
+
+    def out(t, x, u):
+        raw = raw_torque(t, x, u)[0]
+        return (-limit if raw < -limit else (limit if raw > limit else raw),)
+
+    if not (scheduled or integral):
+        # The common case on one call: the paper's gain, robust designs.
+        k0, k1, k2, k3 = k_common
+
+        def out(t, x, u):
+            theta_m, omega_m, theta_l, omega_l, theta_r = u
+            raw = -(
+                k0 * (theta_m - theta_r)
+                + k1 * omega_m
+                + k2 * (theta_l - theta_r)
+                + k3 * omega_l
+            )
+            return (-limit if raw < -limit else (limit if raw > limit else raw),)
+
+    def rhs(t, x, u):
+        if saturates:
+            raw, k, e_l = raw_torque(t, x, u)
+            # Stop integrating when saturated and the error pushes further.
+            if abs(raw) > limit and _sign(raw) == -_sign(k[4] * e_l):
+                return (0.0,)
+            return (e_l,)
+        return (u[2] - u[4],)
+
+    def out_many(t, x, u):
+        theta_m, omega_m, theta_l, omega_l, theta_r = u
+        e_m, e_l = theta_m - theta_r, theta_l - theta_r
+        shape = np.broadcast(t, *x, *u).shape
+        if scheduled:
+            if alpha_of_t is None:
+                a = alpha_const
+            else:
+                a = np.reshape([alpha_of_t(ti) for ti in np.ravel(t)], np.shape(t))
+            p = np.broadcast_to(backlash_parameter(e_m - e_l, a), shape)
+            if interval:
+                lam = np.clip((p - lo) / width, 0.0, 1.0)[..., None]
+                k = (1.0 - lam) * np.array(k_lo) + lam * np.array(k_hi)
+            else:
+                rows = [domain._weights(np.array([v])) @ gains for v in p.ravel()]
+                k = np.reshape(rows, shape + (gains.shape[1],))
+            k = np.moveaxis(k, -1, 0)
+        else:
+            k = k_common
+        raw = k[0] * e_m + k[1] * omega_m + k[2] * e_l + k[3] * omega_l
+        if integral:
+            raw = raw + k[4] * x[0]
+        return (np.clip(-raw, -limit, limit),)
+
+    return BlockKernel(out=out, rhs=rhs if integral else None, out_many=out_many)
+
+
+def _sign(v: float) -> int:
+    return (v > 0.0) - (v < 0.0)

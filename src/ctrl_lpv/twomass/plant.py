@@ -9,6 +9,7 @@ from numbers import Real
 import control as ct
 import numpy as np
 
+from ctrl_lpv.interconnection import BlockKernel, kernel_nlsys
 from ctrl_lpv.twomass.parameters import Parameters
 
 __all__ = ["plant"]
@@ -163,17 +164,20 @@ def plant(
         )
 
     if model == "exact":
-        updfcn, outfcn = _exact_model(params, alpha0, alpha_fun)
+        kernel = _exact_model(params, alpha0, alpha_fun)
         states = list(_STATES)
     else:
-        updfcn, outfcn = _deadzone_model(params, alpha0, alpha_fun)
+        kernel = _deadzone_model(params, alpha0, alpha_fun)
         states = list(_STATES[:4])
-    return ct.nlsys(
-        updfcn,
-        outfcn,
+    # The outputs depend on the state only (no direct feedthrough), and the
+    # first four are states: `ctrl_lpv.interconnect` and the fast path of
+    # `ctrl_lpv.simulate` use both facts.
+    return kernel_nlsys(
+        kernel,
         inputs=list(_INPUTS),
         outputs=list(_OUTPUTS),
         states=states,
+        feedthrough=False,
         name=name,
     )
 
@@ -197,7 +201,7 @@ def _bad_alpha(t: float, value: float) -> ValueError:
 
 
 def _exact_model(params: Parameters, alpha0: float, alpha_fun):
-    """Update and output functions of the exact backlash model."""
+    """Kernel (scalar and vectorized functions) of the exact model."""
     inv_jm, inv_jl = 1.0 / params.Jm, 1.0 / params.Jl
     cm, cl, ks, cs = params.cm, params.cl, params.ks, params.cs
     rate = ks / cs  # the shaft's relaxation rate in the gap, 1/s
@@ -277,29 +281,55 @@ def _exact_model(params: Parameters, alpha0: float, alpha_fun):
             return cs * (s - v), v
         return 0.0, s
 
-    def updfcn(t, x, u, params=None):
-        tm, wm, tl, wl, tb = x.tolist()
-        tq_m, tq_d = u.tolist()
+    # Scalar kernel on lists of floats: no numpy on the hot path.
+    def rhs(t, x, u):
+        tm, wm, tl, wl, tb = x
+        tq_m, tq_d = u
         ts, dtb = shaft(t, tm, wm, tl, wl, tb)
-        return np.array(
-            (
-                wm,
-                (tq_m - cm * wm - ts) * inv_jm,
-                wl,
-                (ts - cl * wl - tq_d) * inv_jl,
-                dtb,
-            )
+        return (
+            wm,
+            (tq_m - cm * wm - ts) * inv_jm,
+            wl,
+            (ts - cl * wl - tq_d) * inv_jl,
+            dtb,
         )
 
-    def outfcn(t, x, u, params=None):
-        tm, wm, tl, wl, tb = x.tolist()
-        return np.array((tm, wm, tl, wl, shaft(t, tm, wm, tl, wl, tb)[0]))
+    def out(t, x, u):
+        tm, wm, tl, wl, tb = x
+        return (tm, wm, tl, wl, shaft(t, tm, wm, tl, wl, tb)[0])
 
-    return updfcn, outfcn
+    def out_many(t, x, u):
+        # Vectorized over times, the same operations as `shaft` branch by
+        # branch (so the same floats).
+        tm, wm, tl, wl, tb = (np.asarray(v, dtype=float) for v in x)
+        a = _alpha_many(t, alpha0, alpha_fun)
+        wd = wm - wl
+        s_up = wd + rate * (tm - tl - a)
+        s_low = wd + rate * (tm - tl + a)
+        s_in = wd + rate * (tm - tl - tb)
+        depth = np.where(s_in > 0.0, a - tb, a + tb)
+        lw = np.minimum(layer, a)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            v_in = s_in * depth / lw
+        ts = np.select(
+            [a == 0.0, tb >= a, tb <= -a, depth < lw],
+            [
+                ks * (tm - tl) + cs * wd,
+                cs * (s_up - np.minimum(s_up, 0.0)),
+                cs * (s_low - np.maximum(s_low, 0.0)),
+                cs * (s_in - v_in),
+            ],
+            0.0,
+        )
+        return (tm, wm, tl, wl, ts)
+
+    return BlockKernel(
+        out=out, rhs=rhs, out_many=out_many, state_outputs=(0, 1, 2, 3, None)
+    )
 
 
 def _deadzone_model(params: Parameters, alpha0: float, alpha_fun):
-    """Update and output functions of the dead-zone backlash model."""
+    """Kernel (scalar and vectorized functions) of the dead-zone model."""
     inv_jm, inv_jl = 1.0 / params.Jm, 1.0 / params.Jl
     cm, cl, ks, cs = params.cm, params.cl, params.ks, params.cs
     inf = math.inf
@@ -319,16 +349,40 @@ def _deadzone_model(params: Parameters, alpha0: float, alpha_fun):
             return ks * (td + a) + cs * (wm - wl)
         return 0.0
 
-    def updfcn(t, x, u, params=None):
-        tm, wm, tl, wl = x.tolist()
-        tq_m, tq_d = u.tolist()
+    def rhs(t, x, u):
+        tm, wm, tl, wl = x
+        tq_m, tq_d = u
         ts = shaft(t, tm, wm, tl, wl)
-        return np.array(
-            (wm, (tq_m - cm * wm - ts) * inv_jm, wl, (ts - cl * wl - tq_d) * inv_jl)
+        return (wm, (tq_m - cm * wm - ts) * inv_jm, wl, (ts - cl * wl - tq_d) * inv_jl)
+
+    def out(t, x, u):
+        tm, wm, tl, wl = x
+        return (tm, wm, tl, wl, shaft(t, tm, wm, tl, wl))
+
+    def out_many(t, x, u):
+        tm, wm, tl, wl = (np.asarray(v, dtype=float) for v in x)
+        a = _alpha_many(t, alpha0, alpha_fun)
+        td = tm - tl
+        ts = np.select(
+            [td >= a, td <= -a],
+            [ks * (td - a) + cs * (wm - wl), ks * (td + a) + cs * (wm - wl)],
+            0.0,
         )
+        return (tm, wm, tl, wl, ts)
 
-    def outfcn(t, x, u, params=None):
-        tm, wm, tl, wl = x.tolist()
-        return np.array((tm, wm, tl, wl, shaft(t, tm, wm, tl, wl)))
+    return BlockKernel(
+        out=out, rhs=rhs, out_many=out_many, state_outputs=(0, 1, 2, 3, None)
+    )
 
-    return updfcn, outfcn
+
+def _alpha_many(t, alpha0: float, alpha_fun) -> np.ndarray | float:
+    """Half-gap at each of the times `t` (checked like the scalar path)."""
+    if alpha_fun is None:
+        return alpha0
+    values = []
+    for ti in np.atleast_1d(np.asarray(t, dtype=float)).tolist():
+        a = float(alpha_fun(ti))
+        if not (0.0 <= a < math.inf):
+            raise _bad_alpha(ti, a)
+        values.append(a)
+    return np.reshape(values, np.shape(t))

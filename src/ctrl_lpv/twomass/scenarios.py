@@ -8,6 +8,7 @@ import control as ct
 import numpy as np
 
 from ..metrics import StepMetrics, step_metrics
+from ..simulation import simulate as run
 from .parameters import Parameters
 from .plant import plant as make_plant
 
@@ -15,12 +16,21 @@ __all__ = ["closed_loop", "simulate", "metrics", "alpha_step"]
 
 
 def alpha_step(before: float = 0.03, after: float = 0.045, at: float = 2.5):
-    """Backlash that steps from `before` to `after` at time `at` (Figs. 6-7).
+    """Backlash that steps from `before` to `after` at time `at`.
+
+    The varying backlash of the paper's Figs. 6-7.
+
+    Parameters
+    ----------
+    before, after : float, optional
+        Half-gap before and from `at` on, rad (default 0.03 and 0.045).
+    at : float, optional
+        Time of the step, s (default 2.5).
 
     Returns
     -------
     callable
-        ``alpha(t)``.
+        ``alpha(t)``, for the ``alpha`` argument of `plant` or `simulate`.
     """
     return lambda t: before if t < at else after
 
@@ -71,29 +81,75 @@ def simulate(
     method: str = "LSODA",
     rtol: float = 1e-6,
     atol: float = 1e-9,
+    engine: str = "control",
 ) -> ct.TimeResponseData:
     """Step of the load reference with a constant load torque.
 
     The paper's scenario: ``theta_r = 0.5`` rad, ``Td = 8`` Nm, 5 s, from
-    rest. Integration with `control.input_output_response` at ``rtol=1e-6``
-    (python-control's default RK45 tolerance is far too loose here).
+    rest, at ``rtol=1e-6`` (python-control's default RK45 tolerance is far
+    too loose here).
+
+    Parameters
+    ----------
+    controller : `control.NonlinearIOSystem`
+        As in `closed_loop`.
+    params, model, alpha : optional
+        Plant data, backlash model and backlash, as in `closed_loop`.
+    theta_r, Td : float, optional
+        Reference step (rad) and load torque (Nm).
+    T : float, optional
+        Duration, s.
+    npoints : int, optional
+        Number of time points, ``T`` included.
+    method : str, optional
+        `scipy.integrate.solve_ivp` method, default ``"LSODA"``.
+    rtol, atol : float, optional
+        Solver tolerances.
+    engine : {"control", "fast"}, optional
+        ``"control"`` (default): `control.input_output_response` on the
+        loop of `closed_loop`.  ``"fast"``: the fused right-hand side of
+        `ctrl_lpv.simulate`, the same loop and solver, 10 to 40 times
+        faster (see ``benchmarks/bench_simulation.py``); results agree to
+        the solver tolerance.
 
     Returns
     -------
     `control.TimeResponseData`
         Outputs as in `closed_loop`.
+
+    Raises
+    ------
+    ValueError
+        For an unknown `engine`.
     """
+    if engine not in ("control", "fast"):
+        raise ValueError(f"engine: expected 'control' or 'fast', got {engine!r}")
     loop = closed_loop(controller, params, model, alpha)
     t = np.linspace(0.0, T, npoints)
     U = np.vstack([np.full_like(t, theta_r), np.full_like(t, Td)])
-    return ct.input_output_response(
+    return run(
         loop, t, U, np.zeros(loop.nstates),
-        solve_ivp_method=method, solve_ivp_kwargs={"rtol": rtol, "atol": atol},
+        engine=engine, method=method, rtol=rtol, atol=atol,
     )  # fmt: skip
 
 
 def metrics(response: ct.TimeResponseData, theta_r: float = 0.5) -> StepMetrics:
-    """Step metrics of the load angle and the motor torque of a response."""
+    """Step metrics of the load angle and motor torque of a response.
+
+    Parameters
+    ----------
+    response : `control.TimeResponseData`
+        A response with outputs ``theta_l`` and ``Tm`` (as from `simulate`),
+        starting from rest.
+    theta_r : float, optional
+        The reference step, rad (default 0.5).
+
+    Returns
+    -------
+    `ctrl_lpv.metrics.StepMetrics`
+        Rise and settling times, overshoot, steady-state error, IAE, ISE,
+        peak torque and control energy.
+    """
     out = response.outputs
     labels = response.output_labels
     return step_metrics(

@@ -1,0 +1,262 @@
+"""`ctrl_lpv.simulate`: the fused fast path against independent references."""
+
+import math
+
+import control as ct
+import numpy as np
+import pytest
+import scipy.linalg
+from scipy.integrate import solve_ivp
+
+import ctrl_lpv as lpv
+from ctrl_lpv import twomass
+from ctrl_lpv.interconnection import interconnect
+from ctrl_lpv.simulation import simulate
+
+P = twomass.Parameters()
+K = twomass.paper_gain()[0]
+
+
+# --------------------------------------------- two-mass loop vs a reference
+
+
+def reference_rhs(alpha, theta_r=0.5, Td=8.0):
+    """The exact plant under the published gain, written independently.
+
+    The smoothed backlash of `twomass.plant` (1e-6 rad contact layer, 1e-5
+    rad rest band, see its Notes), for a constant alpha.
+    """
+    rate, layer, band = P.ks / P.cs, 1e-6, 1e-5
+
+    def rhs(t, x):
+        tm, wm, tl, wl, tb = x
+        Tm = -(K[0] * (tm - theta_r) + K[1] * wm + K[2] * (tl - theta_r) + K[3] * wl)
+        wd = wm - wl
+        if tb >= alpha or tb <= -alpha:
+            bound = alpha if tb >= alpha else -alpha
+            s = wd + rate * (tm - tl - bound)
+            pushing = s > 0 if bound > 0 else s < 0
+            v = 0.0 if pushing else s
+            Ts = P.cs * (s - v)
+            excess = abs(tb) - alpha - band
+            dtb = v - np.sign(bound) * rate * excess if excess > 0 else v
+        else:
+            s = wd + rate * (tm - tl - tb)
+            depth = alpha - tb if s > 0 else alpha + tb
+            dtb = s * min(depth, layer) / layer
+            Ts = P.cs * (s - dtb)
+        return [wm, (Tm - P.cm * wm - Ts) / P.Jm, wl, (Ts - P.cl * wl - Td) / P.Jl, dtb]
+
+    return rhs
+
+
+@pytest.fixture(scope="module")
+def two_mass_reference():
+    T = np.linspace(0.0, 5.0, 5001)
+    ref = solve_ivp(reference_rhs(0.03), (0, 5), np.zeros(5), method="DOP853",
+                    rtol=1e-11, atol=1e-13, t_eval=T)  # fmt: skip
+    assert ref.success
+    return T, ref.y
+
+
+@pytest.mark.parametrize("method", ["LSODA", "RK45"])
+def test_fast_path_matches_tight_reference_on_two_mass_loop(two_mass_reference, method):
+    T, y = two_mass_reference
+    loop = twomass.closed_loop(twomass.lpv_controller(), alpha=0.03)
+    U = [0.5 * np.ones_like(T), 8.0 * np.ones_like(T)]
+    resp = simulate(loop, T, U, 0.0, method=method, return_states=True)
+    assert resp.success
+    theta_l = resp.outputs[resp.output_labels.index("theta_l")]
+    assert np.abs(theta_l - y[2]).max() <= 1e-6
+    # Angles to 1e-5 rad, speeds (up to ~10 rad/s) to 1e-3 rad/s.
+    error = np.abs(resp.states[:4] - y[:4]).max(axis=1)
+    assert np.all(error <= [1e-5, 1e-3, 1e-5, 1e-3]), error
+    Tm = resp.outputs[resp.output_labels.index("Tm")]
+    Tm_ref = -(K @ (y[:4] - np.array([[0.5], [0.0], [0.5], [0.0]])))
+    assert np.abs(Tm - Tm_ref).max() <= 2.0  # of a 21 kNm peak
+
+
+def test_twomass_simulate_engines_agree():
+    for ctrl in (twomass.lpv_controller(torque_limit=2000.0),
+                 twomass.backstepping_controller(Td_hat=8.0)):  # fmt: skip
+        kw = dict(alpha=twomass.alpha_step(0.03, 0.045, at=0.3), T=0.6, npoints=601)
+        slow = twomass.simulate(ctrl, **kw)
+        fast = twomass.simulate(ctrl, engine="fast", **kw)
+        assert fast.output_labels == slow.output_labels
+        # Same right-hand side, same solver: the same steps.
+        np.testing.assert_allclose(fast.outputs, slow.outputs, rtol=1e-9, atol=1e-9)
+    with pytest.raises(ValueError, match="engine"):
+        twomass.simulate(ctrl, engine="numba")
+
+
+# ---------------------------------------------------- analytic linear cases
+
+
+def test_linear_system_matches_matrix_exponential():
+    A = np.array([[0.0, 1.0], [-4.0, -0.4]])
+    B = np.array([[0.0], [1.0]])
+    sys = ct.ss(A, B, np.eye(2), 0, name="osc")
+    T = np.linspace(0.0, 6.0, 121)
+    x0 = np.array([0.3, -0.2])
+    resp = simulate(sys, T, 2.0, x0)
+    # x(t) = e^{At} x0 + A^{-1} (e^{At} - I) B u for a constant input u.
+    expected = np.array([
+        scipy.linalg.expm(A * t) @ x0
+        + np.linalg.solve(A, (scipy.linalg.expm(A * t) - np.eye(2)) @ B[:, 0] * 2.0)
+        for t in T
+    ]).T  # fmt: skip
+    np.testing.assert_allclose(resp.outputs, expected, rtol=0, atol=1e-6)
+
+
+def test_polytopic_plant_with_state_feedback_at_frozen_parameter(mass_spring):
+    design = lpv.hinf_state_feedback(mass_spring, w="w", u="u", z=["x", "uw"])
+    vertices = [(v.A, v.B, np.eye(2), np.zeros((2, 2))) for v in mass_spring.vertices]
+    plant = lpv.pss(vertices, mass_spring.domain, inputs=["w", "u"],
+                    outputs=["x", "v"], states=["x", "v"], name="plant")  # fmt: skip
+    ctrl = design.controller()
+    loop = interconnect([plant, ctrl], inplist=["plant.w"], outlist=["plant.x"],
+                        params={"k": 3.0})  # fmt: skip
+    T = np.linspace(0.0, 4.0, 81)
+    x0 = np.array([0.5, 0.0])
+    resp = simulate(loop, T, 0.0, x0, method="LSODA", return_states=True)
+    # With p fixed the loop is LTI: x' = (A(3) - B_u K) x.
+    Acl = plant.at({"k": 3.0}).A - plant.at({"k": 3.0}).B[:, [1]] @ design.gains[0]
+    expected = np.array([scipy.linalg.expm(Acl * t) @ x0 for t in T]).T
+    np.testing.assert_allclose(resp.states, expected, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(resp.outputs, expected[0], rtol=0, atol=1e-6)
+
+
+def test_time_varying_input_interpolated_as_python_control():
+    sys = ct.ss([[-1.0]], [[1.0]], [[1.0]], 0, name="lag")
+    T = np.linspace(0.0, 3.0, 31)  # coarse: the interpolation matters
+    U = np.sin(2 * T)
+    kw = dict(rtol=1e-10, atol=1e-12)
+    fast = simulate(sys, T, U, 0.0, **kw)
+    # Exact solution of x' = -x + u with u piecewise linear between samples.
+    x, exact = 0.0, [0.0]
+    for k in range(30):
+        h, u0, du = T[k + 1] - T[k], U[k], (U[k + 1] - U[k]) / (T[k + 1] - T[k])
+        # particular solution u0 + du (t - tk) - du, plus decay
+        x = (x - (u0 - du)) * math.exp(-h) + u0 + du * h - du
+        exact.append(x)
+    np.testing.assert_allclose(fast.outputs, exact, rtol=0, atol=1e-8)
+
+
+# -------------------------------------------------------- response object
+
+
+def test_response_matches_input_output_response_shape():
+    P_ = ct.nlsys(lambda t, x, u, p: [x[1], -np.sin(x[0]) + u[0]],
+                  lambda t, x, u, p: x[0], inputs="u", outputs="y",
+                  states=["q", "dq"], name="pend")  # fmt: skip
+    T = np.linspace(0.0, 2.0, 21)
+    kw = dict(solve_ivp_kwargs={"rtol": 1e-9, "atol": 1e-12})
+    ref = ct.input_output_response(P_, T, 0.1, [0.5, 0.0], return_states=True, **kw)
+    got = simulate(P_, T, 0.1, [0.5, 0.0], rtol=1e-9, atol=1e-12, return_states=True)
+    for attr in ("output_labels", "input_labels", "state_labels", "sysname",
+                 "title", "issiso", "success"):  # fmt: skip
+        assert getattr(got, attr) == getattr(ref, attr), attr
+    for attr in ("time", "outputs", "states", "inputs"):
+        a, b = getattr(got, attr), getattr(ref, attr)
+        assert np.shape(a) == np.shape(b), attr
+        np.testing.assert_allclose(a, b, atol=1e-7)
+    t, y, x = got  # return_states: (time, outputs, states)
+    assert y.shape == (21,) and x.shape == (2, 21)
+    engine = simulate(P_, T, 0.1, [0.5, 0.0], engine="control", rtol=1e-9,
+                      atol=1e-12)  # fmt: skip
+    np.testing.assert_array_equal(engine.outputs, ref.outputs)
+
+
+def test_algebraic_loop_and_static_systems():
+    # An undeclared nonlinear plant: looks like an algebraic loop, so the
+    # fast engine falls back on the system's own evaluation.
+    P_ = ct.nlsys(lambda t, x, u, p: -x + u, lambda t, x, u, p: 2 * x,
+                  inputs="u", outputs="y", states=1, name="P")  # fmt: skip
+    C = ct.nlsys(None, lambda t, x, u, p: 3.0 * (u[0] - u[1]),
+                 inputs=["r", "y"], outputs="u", name="C")  # fmt: skip
+    loop = ct.interconnect([P_, C], inplist="C.r", outlist=["P.y", "C.u"])
+    T = np.linspace(0.0, 1.0, 11)
+    got = simulate(loop, T, 1.0, 0.0)
+    # y' = 2 x' = 2 (-x + 3 (1 - 2 x)): x(t) = 3/7 (1 - e^{-7 t}).
+    np.testing.assert_allclose(got.outputs[0], 6 / 7 * (1 - np.exp(-7 * T)), atol=1e-6)
+    static = ct.nlsys(None, lambda t, x, u, p: u**2, inputs=1, outputs=1)
+    resp = simulate(static, T, T)
+    np.testing.assert_allclose(resp.outputs, T**2)
+
+
+def test_solver_failure():
+    blowup = ct.nlsys(lambda t, x, u, p: x**2, None, inputs=0, outputs=1, states=1)
+    T = np.linspace(0.0, 2.0, 21)
+    with pytest.raises(RuntimeError, match="solve_ivp failed"):
+        simulate(blowup, T, X0=1.0)
+    resp = simulate(blowup, T, X0=1.0, ignore_errors=True)
+    assert not resp.success and "solve_ivp failed" in resp.message
+    assert resp.time.size < T.size and resp.outputs.shape == (1, resp.time.size)
+
+
+@pytest.mark.parametrize(
+    "kwargs, error, match",
+    [
+        (dict(sys="plant"), TypeError, "sys"),
+        (dict(engine="numba"), ValueError, "engine"),
+        (dict(T=[0.0, 1.0, 0.5]), ValueError, "T"),
+        (dict(T=[0.0]), ValueError, "T"),
+        (dict(U=np.zeros((3, 11))), ValueError, "U"),
+        (dict(U=[0.0, np.nan]), ValueError, "U"),
+        (dict(X0=np.zeros(7)), ValueError, "X0"),
+        (dict(X0=np.full(5, np.inf)), ValueError, "X0"),
+        (dict(rtol=0.0), ValueError, "rtol"),
+        (dict(atol=-1.0), ValueError, "atol"),
+        (dict(solve_ivp_kwargs={"method": "RK23"}), ValueError, "solve_ivp_kwargs"),
+    ],
+)
+def test_bad_arguments(kwargs, error, match):
+    args = dict(sys=twomass.closed_loop(twomass.lpv_controller()),
+                T=np.linspace(0, 1, 11), U=0.0, X0=0.0)  # fmt: skip
+    for key in ("sys", "T", "U", "X0"):
+        if key in kwargs:
+            args[key] = kwargs.pop(key)
+    with pytest.raises(error, match=match):
+        simulate(args["sys"], args["T"], args["U"], args["X0"], **kwargs)
+
+
+def test_discrete_time_needs_the_control_engine():
+    sys = ct.ss([[0.5]], [[1.0]], [[1.0]], 0, dt=0.1)
+    T = np.arange(0.0, 1.0, 0.1)
+    with pytest.raises(ValueError, match="continuous-time"):
+        simulate(sys, T, 1.0)
+    resp = simulate(sys, T, 1.0, engine="control")
+    assert resp.outputs[-1] == pytest.approx(2.0 * (1 - 0.5**9))
+
+
+# ------------------------------------------- block kernels: one source of truth
+
+
+def random_points(n, scale, seed=0):
+    rng = np.random.default_rng(seed)
+    return rng.normal(size=(n, 400)) * np.reshape(scale, (-1, 1))
+
+
+@pytest.mark.parametrize("model", ["exact", "deadzone"])
+@pytest.mark.parametrize("alpha", [0.0, 0.03, twomass.alpha_step(0.03, 0.01, 0.5)])
+def test_vectorized_outputs_equal_scalar_outputs(model, alpha):
+    blocks = [
+        twomass.plant(model=model, alpha=alpha),
+        twomass.lpv_controller(torque_limit=3000.0),
+        twomass.lpv_controller(np.vstack([K, 1.5 * K]), p_bounds=(-0.95, 0.0),
+                               alpha_estimate=lambda t: 0.03 + 0.01 * t),
+        twomass.backstepping_controller(Td_hat=8.0),
+    ]  # fmt: skip
+    t = np.linspace(0.0, 1.0, 400)
+    for sys in blocks:
+        kernel = sys._kernel
+        # States around the contact: theta_b near +-alpha, shaft angles of
+        # the order of the gap.
+        X = random_points(sys.nstates, [0.03, 3.0, 0.03, 3.0, 0.03][: sys.nstates])
+        U = random_points(sys.ninputs, [0.03, 3.0, 0.03, 3.0, 0.5][: sys.ninputs])
+        if sys.ninputs == 2:
+            U = random_points(2, [1e3, 10.0])
+        many = np.array(kernel.out_many(t, list(X), list(U)), dtype=float)
+        one = np.array([kernel.out(ti, X[:, i].tolist(), U[:, i].tolist())
+                        for i, ti in enumerate(t)]).T  # fmt: skip
+        np.testing.assert_allclose(many, one, rtol=1e-12, atol=1e-9)
