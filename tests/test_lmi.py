@@ -1,3 +1,4 @@
+import cvxpy as cp
 import numpy as np
 import pytest
 
@@ -81,3 +82,49 @@ def test_no_solver_error_messages():
 def test_bad_margin():
     with pytest.raises(ValueError, match="margin"):
         LMIProblem(margin=-1.0)
+
+
+def test_cvxpy_assembly_has_the_numpy_symmetric_part():
+    # cvxpy gets the lower triangle with doubled off-diagonal blocks; its
+    # symmetric part must be the matrix the certificate checks.
+    rng = np.random.default_rng(1)
+    X = cp.Variable((2, 2))
+    Y = cp.Variable((3, 2))
+    X.value, Y.value = rng.normal(size=(2, 2)), rng.normal(size=(3, 2))
+    blocks = [[X + X.T], [Y, -np.eye(3)]]
+    numeric = [[X.value + X.value.T], [Y.value, -np.eye(3)]]
+    M = assemble(blocks, xp=cp).value
+    np.testing.assert_allclose(0.5 * (M + M.T), assemble(numeric), atol=1e-14)
+
+
+def test_symmetric_variable_and_compile_once():
+    A = np.array([[-1.0, 5.0], [0.0, -2.0]])
+    lmi = lyapunov_problem(A)
+    assert lmi.compile() > 0
+    assert lmi.compile() == 0.0  # already compiled for this solver
+    assert lmi.is_dpp()
+    sol = lmi.solve()
+    np.testing.assert_array_equal(sol.P, sol.P.T)
+    assert np.linalg.eigvalsh(A.T @ sol.P + sol.P @ A)[-1] < -0.5e-6
+    assert lmi.compile() == 0.0
+    lmi.invalidate("default")
+    with pytest.raises(ValueError, match="stage"):
+        lmi.is_dpp()
+    assert lmi.compile() > 0
+
+
+def test_set_parameter_checks_values():
+    lmi = LMIProblem()
+    lmi.parameter("a", (2,), nonneg=True)
+    lmi.parameter("b", (2, 2))
+    lmi.set_parameter("a", [0.0, 1.0])
+    lmi.set_parameter("b", 3.0)  # broadcast
+    np.testing.assert_array_equal(lmi._params["b"].value, np.full((2, 2), 3.0))
+    with pytest.raises(ValueError, match="a: the value must be nonnegative"):
+        lmi.set_parameter("a", [-1.0, 1.0])
+    with pytest.raises(ValueError, match="b: the value must be finite"):
+        lmi.set_parameter("b", np.nan)
+    with pytest.raises(ValueError, match=r"b: expected shape \(2, 2\)"):
+        lmi.set_parameter("b", np.ones(3))
+    with pytest.raises(ValueError, match="name: no parameter 'c'"):
+        lmi.set_parameter("c", 1.0)

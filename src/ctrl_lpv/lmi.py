@@ -9,10 +9,16 @@ inequality that was posed, without trusting the solver's status.
 All inequalities have the form ``F(v) <= 0``; a strict one is posed as
 ``F(v) <= -margin * I`` and certified when ``lambda_max(F) <= -margin / 2``
 (half the margin is what is left after the solver's own tolerance).
+
+Each stage is one cvxpy problem, built and compiled once; data that change
+between solves are cvxpy parameters, so a re-solve only applies the new
+parameter values (DPP) and calls the solver. `LMIProblem.compile` does the
+compilation ahead of the first solve so that its cost can be measured apart.
 """
 
 from __future__ import annotations
 
+import functools
 import time
 import warnings
 from collections.abc import Callable, Sequence
@@ -21,6 +27,7 @@ from types import SimpleNamespace
 
 import cvxpy as cp
 import numpy as np
+import scipy.sparse as sp
 
 from .exceptions import CertificationError, InfeasibleError
 
@@ -63,6 +70,10 @@ class SolveAttempt:
         Whether the returned point passed its float64 certificate.
     message : str
         Why it did not certify, or which retry it was.
+    compile_seconds : float
+        Part of `seconds` spent in cvxpy before the solver ran: the
+        compilation, or only the application of new parameter values when
+        the problem was already compiled for this solver.
     """
 
     solver: str
@@ -70,6 +81,7 @@ class SolveAttempt:
     seconds: float
     certified: bool
     message: str = ""
+    compile_seconds: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -137,6 +149,9 @@ class LMISolution:
 def assemble(blocks, xp=np):
     """Symmetric matrix from its lower block triangle.
 
+    Only the symmetric part is ever used, so a diagonal block may be given
+    as ``2 Q`` for ``Q + Q'`` (half the expression for cvxpy to compile).
+
     Parameters
     ----------
     blocks : sequence of sequences
@@ -149,7 +164,9 @@ def assemble(blocks, xp=np):
     Returns
     -------
     ndarray or cvxpy expression
-        ``(M + M.T) / 2`` of the completed block matrix.
+        ``(M + M.T) / 2`` of the completed block matrix ``M``; with cvxpy
+        a matrix with the same symmetric part (cvxpy's ``<<`` and ``>>``
+        constrain the symmetric part).
     """
     nrows = len(blocks)
     sizes = []
@@ -160,6 +177,9 @@ def assemble(blocks, xp=np):
             raise ValueError(f"block ({i}, {i}) must be a square matrix, got {shape}")
         sizes.append(shape[0])
 
+    def zero(i, j):
+        return np.zeros((sizes[i], sizes[j]))
+
     def block(i, j):
         if j <= i:
             item = blocks[i][j]
@@ -168,22 +188,43 @@ def assemble(blocks, xp=np):
             item = blocks[j][i]
             transpose = True
         if isinstance(item, (int, float)) and item == 0:
-            return np.zeros((sizes[i], sizes[j]))
+            return zero(i, j)
         return item.T if transpose else item
 
-    rows = [[block(i, j) for j in range(nrows)] for i in range(nrows)]
-    full = np.block(rows) if xp is np else cp.bmat(rows)
+    if xp is not np:
+        # cvxpy's PSD constraints act on the symmetric part (M + M')/2, so
+        # the lower triangle with doubled off-diagonal blocks is the same
+        # constraint as the full matrix, and compiles each block once.
+        def lower(i, j):
+            if j > i:
+                return zero(i, j)
+            return block(i, j) if j == i else 2 * block(i, j)
+
+        return cp.bmat([[lower(i, j) for j in range(nrows)] for i in range(nrows)])
+    full = np.block([[block(i, j) for j in range(nrows)] for i in range(nrows)])
     return 0.5 * (full + full.T)
+
+
+@functools.cache
+def _installed_solvers() -> frozenset[str]:
+    # cvxpy probes every solver it knows by importing it, about 10 ms a
+    # call: too much to repeat before every re-solve.
+    return frozenset(cp.installed_solvers())
 
 
 def default_solvers() -> list[tuple[str, dict]]:
     """Solver chain: Clarabel, SCS with tight tolerances, then CVXOPT, MOSEK.
 
-    Only installed solvers are listed.
+    Only installed solvers are listed (probed once per process). Clarabel
+    runs without its chordal decomposition: the LMIs here are small dense
+    blocks that it would only split at the zeros of their identity blocks,
+    and with it the gain stage of the two-mass design stalled in a
+    numerical error (measured on the two-mass model and random polytopes:
+    no such failure without it, and less time).
     """
-    installed = set(cp.installed_solvers())
+    installed = _installed_solvers()
     chain = [
-        ("CLARABEL", {}),
+        ("CLARABEL", {"chordal_decomposition_enable": False}),
         ("SCS", {"eps_abs": 1e-9, "eps_rel": 1e-9, "max_iters": 20_000}),
         ("CVXOPT", {}),
         ("MOSEK", {}),
@@ -223,6 +264,9 @@ class LMIProblem:
         self._params: dict[str, cp.Parameter] = {}
         self._lmis: list[tuple[str, BlockFunction, bool, frozenset | None]] = []
         self._problems: dict[str, cp.Problem] = {}
+        # Solver each stage's problem was last compiled for (cvxpy keeps the
+        # compiled DPP program of one solver per problem).
+        self._compiled: dict[str, str] = {}
         self._margin = cp.Parameter(nonneg=True, name="margin", value=float(margin))
 
     @property
@@ -234,11 +278,36 @@ class LMIProblem:
     def margin(self, value: float) -> None:
         self._margin.value = float(value)
 
-    def variable(self, name: str, shape, symmetric: bool = False) -> cp.Variable:
-        """Declare a decision variable (``symmetric=True`` for a square one)."""
+    def variable(self, name: str, shape, symmetric: bool = False) -> cp.Expression:
+        """Declare a decision variable (``symmetric=True`` for a square one).
+
+        A symmetric ``n x n`` variable is returned as the expression
+        ``S @ w`` (reshaped) of a vector ``w`` of its ``n (n + 1) / 2``
+        free entries, with a constant 0/1 matrix ``S``: the same problem as
+        ``cp.Variable(symmetric=True)``, without cvxpy's reduction that
+        rewrites symmetric variables at every compilation.
+        """
         if name in self._vars or name in self._params:
             raise ValueError(f"name: {name!r} is already declared")
-        var = cp.Variable(shape, symmetric=symmetric, name=name)
+        if symmetric:
+            n = shape[0]
+            if len(shape) != 2 or shape[1] != n:
+                raise ValueError(f"shape: a symmetric variable is square, got {shape}")
+            rows, cols = np.triu_indices(n)
+            k = np.arange(rows.size)
+            # Column-major vec(W): entry (i, j) is row i + n j.
+            S = sp.coo_array(
+                (
+                    np.ones(2 * k.size),
+                    (np.concatenate([rows + n * cols, cols + n * rows]), np.tile(k, 2)),
+                ),
+                shape=(n * n, k.size),
+            ).tocsr()
+            S.data[:] = 1.0  # the diagonal is listed twice: 1, not 2
+            free = cp.Variable(k.size, name=f"{name}_free")
+            var = cp.reshape(S @ free, (n, n), order="F")
+        else:
+            var = cp.Variable(shape, name=name)
         self._vars[name] = var
         return var
 
@@ -251,11 +320,37 @@ class LMIProblem:
         return par
 
     def set_parameter(self, name: str, value) -> None:
-        """Set the value of a parameter (no recompilation)."""
+        """Set the value of a parameter (no recompilation).
+
+        Raises
+        ------
+        ValueError
+            If there is no such parameter, or the value is not finite, has
+            the wrong shape or breaks the parameter's sign.
+        """
         if name not in self._params:
             raise ValueError(f"name: no parameter {name!r}")
         par = self._params[name]
-        par.value = np.broadcast_to(np.asarray(value, float), par.shape).copy()
+        try:
+            array = np.array(np.broadcast_to(np.asarray(value, float), par.shape))
+        except ValueError:
+            raise ValueError(
+                f"{name}: expected shape {par.shape}, got {np.shape(value)}"
+            ) from None
+        if not np.isfinite(array).all():
+            raise ValueError(f"{name}: the value must be finite")
+        attributes = {k for k, v in par.attributes.items() if v is True}
+        if attributes - {"nonneg", "pos"}:
+            par.value = array  # let cvxpy check other attributes
+            return
+        if "pos" in attributes and not (array > 0).all():
+            raise ValueError(f"{name}: the value must be positive")
+        if "nonneg" in attributes and not (array >= 0).all():
+            raise ValueError(f"{name}: the value must be nonnegative")
+        # cvxpy's setter checks a value by projecting it on the attributes
+        # (about 0.4 ms a parameter, a noticeable part of a re-solve with
+        # many vertices); the checks above are the same for these ones.
+        par.save_value(array)
 
     def add(
         self,
@@ -285,6 +380,7 @@ class LMIProblem:
             (name, blocks, strict, None if stages is None else frozenset(stages))
         )
         self._problems.clear()
+        self._compiled.clear()
 
     def _active(self, stage: str):
         return [lmi for lmi in self._lmis if lmi[3] is None or stage in lmi[3]]
@@ -306,20 +402,91 @@ class LMIProblem:
             self._problems[stage] = cp.Problem(goal, constraints)
         return self._problems[stage]
 
+    def compile(
+        self,
+        stage: str = "default",
+        objective: Callable[[SimpleNamespace], object] | None = None,
+        solver: str | None = None,
+    ) -> float:
+        """Build and compile a stage's problem ahead of its first solve.
+
+        Solving compiles on demand; calling this first separates the cost
+        of cvxpy's canonicalization from the solver's in timings. Later
+        solves with `solver` only apply the new parameter values (DPP).
+
+        Parameters
+        ----------
+        stage : str, optional
+            Stage name.
+        objective : callable, optional
+            As in `solve` (ignored if the stage is already built).
+        solver : str, optional
+            Solver to compile for; default the first of `default_solvers`.
+
+        Returns
+        -------
+        float
+            Seconds spent (0.0 if the stage was already compiled for
+            `solver`, or if no solver is installed).
+        """
+        if solver is None:
+            chain = default_solvers()
+            if not chain:
+                return 0.0
+            solver = chain[0][0]
+        solver = solver.upper()
+        if self._compiled.get(stage) == solver:
+            return 0.0
+        start = time.perf_counter()
+        problem = self._problem(stage, objective)
+        problem.get_problem_data(solver)
+        self._compiled[stage] = solver
+        return time.perf_counter() - start
+
+    def invalidate(self, stage: str) -> None:
+        """Drop a stage's problem; its next solve builds and compiles it.
+
+        Needed when something its LMIs read as a constant (not a
+        parameter) has changed.
+        """
+        self._problems.pop(stage, None)
+        self._compiled.pop(stage, None)
+
+    def is_dpp(self, stage: str = "default") -> bool:
+        """Whether a built stage re-solves without recompiling (DPP).
+
+        Raises
+        ------
+        ValueError
+            If the stage has not been built (solved or compiled) yet.
+        """
+        if stage not in self._problems:
+            raise ValueError(f"stage: {stage!r} has not been built yet")
+        return bool(self._problems[stage].is_dpp())
+
     def _attempt(self, problem, stage, solver, options, factor=1.0):
         nominal = self.margin
         self._margin.value = nominal * factor
         start = time.perf_counter()
+        # cvxpy keeps one compiled program per problem: a solver change
+        # recompiles, and a failure may leave it half built.
+        self._compiled.pop(stage, None)
         try:
             with warnings.catch_warnings():
                 # Inaccurate solutions are judged by the certificate below.
                 warnings.simplefilter("ignore", UserWarning)
-                problem.solve(solver=solver, **options)
+                # No warm start: cvxpy would otherwise hand the previous
+                # solve's solver object (Clarabel's, updated in place) to
+                # this one, and a reused problem would not give bit for bit
+                # the point a fresh one gives.
+                problem.solve(solver=solver, warm_start=False, **options)
             status, message = problem.status, ""
+            self._compiled[stage] = solver.upper()
         except cp.error.SolverError as exc:
             status, message = "solver_error", str(exc).splitlines()[0]
         finally:
             self._margin.value = nominal
+            compile_seconds = float(problem.compilation_time or 0.0)
         seconds = time.perf_counter() - start
         values, checks = {}, ()
         if status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
@@ -335,7 +502,10 @@ class LMIProblem:
         certified = bool(checks) and all(c.passed for c in checks)
         if factor != 1.0:
             message = f"margin x{factor:g}" + (f"; {message}" if message else "")
-        return SolveAttempt(solver, status, seconds, certified, message), values, checks
+        attempt = SolveAttempt(
+            solver, status, seconds, certified, message, compile_seconds
+        )
+        return attempt, values, checks
 
     def check(self, values: dict[str, np.ndarray], stage: str = "default"):
         """Evaluate every active LMI at `values` in float64.

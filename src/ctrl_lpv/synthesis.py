@@ -38,13 +38,31 @@ Numerical policy
 5. Every returned design is verified in float64: every LMI, the closed-loop
    Lyapunov inequality and Hurwitz stability at every vertex and at sampled
    interior points.
+
+Re-solves
+---------
+The prescaled vertex data, the margin, the pole-region offsets and every
+stage bound are cvxpy parameters, so a compiled problem depends only on the
+structure of the call (function, dimensions, number of vertices, region
+shapes, whether a gain bound is set); the power-of-two state and input
+scalings, read as constants by the gain stage alone, rebuild that stage
+when they change (rarely: not for new weights or gammas). `synthesis_cache`
+keeps compiled problems by structure: a gamma or back-off sweep, new
+performance weights (the rows of ``C`` and ``D`` of z) or another plant of
+the same size reuse them, and a call then costs the solver and the
+verification only (``design.timing["compile"]`` is 0). Each call sets every
+parameter and verifies its own result from scratch, so a reused problem
+gives the same certified design as a fresh one.
 """
 
 from __future__ import annotations
 
 import itertools
+import threading
 import time
+from collections import OrderedDict
 from collections.abc import Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import cvxpy as cp
@@ -53,7 +71,7 @@ from scipy.linalg import matrix_balance
 
 from ._checks import signal_indices
 from .exceptions import CertificationError, InfeasibleError
-from .lmi import LMICheck, LMIProblem, SolveAttempt
+from .lmi import LMICheck, LMIProblem, SolveAttempt, default_solvers
 from .regions import LMIRegion
 from .systems import PolytopicStateSpace
 
@@ -65,6 +83,8 @@ __all__ = [
     "gain_scheduled_stabilization",
     "gain_scheduled_hinf",
     "check_stabilizability",
+    "SynthesisCache",
+    "synthesis_cache",
 ]
 
 # Number of random interior points at which closed loops are verified.
@@ -73,6 +93,8 @@ _VERIFY_SAMPLES = 64
 # decrease of the squared gain bound below which they stop.
 _GAIN_ITERATIONS = 4
 _GAIN_RTOL = 0.05
+# Bounds W <= w_max I (scaled units) tried in turn when gamma is given.
+_FIXED_GAMMA_W_MAX = (1e3, 1e6)
 
 
 # ----------------------------------------------------------------------
@@ -162,7 +184,10 @@ class StateFeedbackDesign:
     attempts : tuple of `ctrl_lpv.lmi.SolveAttempt`
         Every solver attempt of every stage.
     timing : dict
-        Seconds spent building, solving and verifying.
+        Seconds spent: "build" (checks, prescaling, parameter values),
+        "compile" (cvxpy compilation; 0 when the problem was reused from
+        `synthesis_cache`), "solve" (solver calls and parameter
+        application) and "verify".
     backoff : float or None
         Back-off used.
     regions : tuple of `LMIRegion`
@@ -273,7 +298,7 @@ class StateFeedbackDesign:
 # ----------------------------------------------------------------------
 # Stabilizability
 # ----------------------------------------------------------------------
-def check_stabilizability(sys: PolytopicStateSpace, u=None, rtol: float = 1e-9):
+def check_stabilizability(sys: PolytopicStateSpace, u=None, rtol: float = 1e-9) -> None:
     """Raise `InfeasibleError` if a vertex is not stabilizable from `u`.
 
     PBH test: for every eigenvalue ``lambda`` of ``A_j`` with
@@ -287,6 +312,11 @@ def check_stabilizability(sys: PolytopicStateSpace, u=None, rtol: float = 1e-9):
         Control inputs; default all physical inputs.
     rtol : float, optional
         Rank tolerance relative to ``||[A_j, B_j]||``.
+
+    Returns
+    -------
+    None
+        The check passes silently.
 
     Raises
     ------
@@ -357,8 +387,8 @@ def quadratic_stabilization(
     ----------
     sys : `PolytopicStateSpace`
         The plant; all states are measured.
-    u : str, int or list, optional
-        Control inputs (names or indices); default all physical inputs.
+    u : str, int or list
+        Control inputs (names or indices); required.
     regions : sequence of `LMIRegion`, optional
         Pole regions every frozen closed loop must lie in (`halfplane`,
         `disk`, `sector`).
@@ -388,7 +418,7 @@ def quadratic_stabilization(
     >>> import control as ct
     >>> v1 = ct.ss([[0.0, 1.0], [1.0, 0.0]], [[0.0], [1.0]], [[1.0, 0.0]], 0)
     >>> v2 = ct.ss([[0.0, 1.0], [3.0, 0.0]], [[0.0], [1.0]], [[1.0, 0.0]], 0)
-    >>> design = quadratic_stabilization(PolytopicStateSpace([v1, v2]))
+    >>> design = quadratic_stabilization(PolytopicStateSpace([v1, v2]), u=0)
     >>> design.certificate.verified
     True
     """
@@ -413,11 +443,20 @@ def gain_scheduled_stabilization(
     LMIs (20) at every vertex and (21) for every pair; the scheduled gain
     is ``K(delta) = sum_j delta_j K_j`` with ``K_j = -Z_j W^-1``.
 
-    Parameters and return value are those of `quadratic_stabilization`.
+    Parameters
+    ----------
+    sys : `PolytopicStateSpace`
+        The plant; all states are measured.
+    u : str, int or list
+        Control inputs (names or indices); required.
+    regions, gain_bound, margin, solvers
+        See `quadratic_stabilization` (`gain_bound` bounds every vertex
+        gain).
 
     Returns
     -------
     `StateFeedbackDesign`
+        With one gain per vertex.
 
     Raises
     ------
@@ -506,12 +545,22 @@ def gain_scheduled_hinf(
     Theorem 2 of the paper: LMIs (24) at every vertex and (25) for every
     pair of vertices, with a common ``W`` and one ``Z_j`` per vertex.
 
-    Parameters, return value and exceptions are those of
-    `hinf_state_feedback`.
+    Parameters
+    ----------
+    sys : `PolytopicStateSpace`
+        The plant, with `w` and `u` among its inputs and `z` among its
+        outputs.
+    w, u, z : str, int or list
+        Exogenous inputs, control inputs and performance outputs, as in
+        `hinf_state_feedback`.
+    gamma, regions, backoff, gain_bound, margin, solvers
+        See `hinf_state_feedback`.
 
     Returns
     -------
     `StateFeedbackDesign`
+        With one gain per vertex, `gamma` the certified bound and
+        `gamma_opt` the minimum.
 
     Raises
     ------
@@ -656,8 +705,24 @@ def _vertex_channels(sys, iw, iu, iz):
     return out
 
 
-def _kron(L, X):
-    return np.kron(L, X) if isinstance(X, np.ndarray) else cp.kron(L, X)
+def _region_block(L, M, W, q, twice):
+    """``twice kron(L, W) + 2 kron(M, q)`` of a pole region.
+
+    Its symmetric part, the only part `assemble` keeps, is the region's
+    ``twice kron(L, W) + kron(M, q) + kron(M', q')``. With cvxpy objects it
+    is assembled from the blocks ``twice L[a, b] W + 2 M[a, b] q``: cvxpy's
+    ``kron`` of a constant and an expression with parameters is not DPP, a
+    scalar times it is.
+    """
+    if isinstance(W, np.ndarray):
+        return twice * np.kron(L, W) + 2 * np.kron(M, q)
+    k = M.shape[0]
+
+    def block(a, b):
+        out = twice * L[a, b] * W
+        return out + 2 * M[a, b] * q if M[a, b] else out
+
+    return cp.bmat([[block(a, b) for b in range(k)] for a in range(k)])
 
 
 def _pairs(N, scheduled):
@@ -668,98 +733,168 @@ def _pairs(N, scheduled):
     return pairs
 
 
-def _build(data, scaling, scheduled, hinf, regions, margin, gain_bound):
-    """The LMI problem in scaled data (see the module docstring)."""
-    n = data[0][0].shape[0]
-    m = data[0][2].shape[1]
-    N = len(data)
-    nz_ = data[0][3].shape[0]
-    nw = data[0][1].shape[1]
-    lmi = LMIProblem(margin=margin)
+# ----------------------------------------------------------------------
+# Compiled problems: structure, parameter values, cache
+# ----------------------------------------------------------------------
+@dataclass(frozen=True)
+class _Structure:
+    """What fixes the compiled problem; everything else is a parameter.
+
+    The prescaled vertex data, the margin, the time-scaled region offsets
+    ``L`` and the stage bounds are cvxpy parameters. The region matrices
+    ``M`` enter ``kron(M, A_cl W)``, a product with the data, so they are
+    part of the structure (DPP allows a parameter times a variable, not a
+    parameter times a parameter).
+    """
+
+    hinf: bool
+    scheduled: bool
+    n: int
+    m: int
+    nw: int
+    nz: int
+    N: int
+    regions: tuple  # (M.shape, M entries) per region
+    gain_bound: bool
+
+    @classmethod
+    def of(cls, data, hinf, scheduled, regions, gain_bound) -> _Structure:
+        A, B1, B2, C, _, _ = data[0]
+        return cls(
+            hinf=hinf,
+            scheduled=scheduled,
+            n=A.shape[0],
+            m=B2.shape[1],
+            nw=B1.shape[1],
+            nz=C.shape[0],
+            N=len(data),
+            regions=tuple((r.M.shape, tuple(r.M.ravel().tolist())) for r in regions),
+            gain_bound=gain_bound is not None,
+        )
+
+    @property
+    def nZ(self) -> int:
+        return self.N if self.scheduled else 1
+
+    @property
+    def entries(self) -> int:
+        """Number of LMI matrix entries, the measure of its compiled size."""
+        size = self.n + self.nw + self.nz if self.hinf else self.n
+        per_pair = size**2 + sum((shape[0] * self.n) ** 2 for shape, _ in self.regions)
+        return len(_pairs(self.N, self.scheduled)) * per_pair + self.n**2
+
+
+def _stack(blocks, axis):
+    """``np.vstack``/``np.hstack`` or their cvxpy versions."""
+    if all(isinstance(b, np.ndarray) for b in blocks):
+        return np.concatenate(blocks, axis=axis)
+    return cp.vstack(blocks) if axis == 0 else cp.hstack(blocks)
+
+
+def _pair(v, name, j, k):
+    """Data parameter ``name`` ("P", "O" or "Q") of LMI ``(j, k)``."""
+    return getattr(v, f"{name}_{j}_{k}")
+
+
+def _pair_variables(v, j, k, scheduled):
+    """``X = [W; Z_k; Z_j]`` (``[W; Z_j]`` at a vertex) of LMI ``(j, k)``."""
+    if not scheduled:
+        return _stack([v.W, v.Z0], 0)
+    if j == k:
+        return _stack([v.W, getattr(v, f"Z{j}")], 0)
+    return _stack([v.W, getattr(v, f"Z{k}"), getattr(v, f"Z{j}")], 0)
+
+
+def _build(s: _Structure) -> _Compiled:
+    """The LMI problem of a structure, data as parameters (module doc).
+
+    The LMI of a vertex or of a pair ``(j, k)`` of vertices is written with
+    one product of a data parameter and the stacked variables
+    ``X = [W; Z_k; Z_j]``:
+
+    * ``q = A_jk W + B2_j Z_k + B2_k Z_j = Q_jk X`` with
+      ``Q_jk = [A_j + A_k, B2_j, B2_k]`` (``[A_j, B2_j]`` at a vertex), and
+      ``R = [C_j + C_k, D2_j, D2_k] X`` likewise;
+    * the H-infinity LMI is the symmetric part of the lower block triangle
+      ``[[2 q, 0, 0], [2 B1', -c I, 0], [2 R, 2 D1, -c g I]]`` (``c`` is 1 at
+      a vertex, 2 for a pair): ``[P_jk X, 0, g E] + O_jk`` with the data in
+      the parameters ``P_jk`` and ``O_jk`` (filled in by `_load`).
+
+    Written block by block the same LMIs take about twice as long for cvxpy
+    to compile. Parameters get their values from `_load`, before every use.
+    """
+    n, m, nw, nz_, N = s.n, s.m, s.nw, s.nz, s.N
+    lmi = LMIProblem()
     lmi.variable("W", (n, n), symmetric=True)
-    nZ = N if scheduled else 1
-    for k in range(nZ):
+    for k in range(s.nZ):
         lmi.variable(f"Z{k}", (m, n))
-    if hinf:
-        lmi.variable("g", (1, 1), symmetric=True)
-        lmi.parameter("g_max", (1, 1), value=np.ones((1, 1)), nonneg=True)
-    lmi.variable("t", (1, 1), symmetric=True)
-    lmi.variable("kappa", (1, 1), symmetric=True)
-    lmi.parameter("w_max", value=1.0, nonneg=True)
+    if s.hinf:
+        lmi.variable("g", (1, 1))
+        lmi.parameter("g_max", (1, 1), nonneg=True)
+    lmi.variable("t", (1, 1))
+    lmi.variable("kappa", (1, 1))
+    lmi.parameter("w_max", nonneg=True)
+    for r, (shape, _) in enumerate(s.regions):
+        lmi.parameter(f"region{r}_L", shape)
 
     lmi.add("W > 0", lambda v: [[-v.W]])
 
-    def Z(v, k):
-        return getattr(v, f"Z{k if scheduled else 0}")
-
-    for j, k in _pairs(N, scheduled):
-        Aj, B2j = data[j][0], data[j][2]
-        Ak, B2k = data[k][0], data[k][2]
+    size = n + nw + nz_ if s.hinf else n
+    # E: where g enters the H-infinity LMI (its last diagonal block).
+    E = np.zeros((size, nz_))
+    E[n + nw :] = -np.eye(nz_)
+    zero = np.zeros((size, nw))
+    for j, k in _pairs(N, s.scheduled):
         label = f"vertex {j}" if j == k else f"pair ({j}, {k})"
         twice = 1.0 if j == k else 2.0
+        width = n + (m if j == k or not s.scheduled else 2 * m)
+        lmi.parameter(f"P_{j}_{k}", (size, width))
+        if s.regions:
+            lmi.parameter(f"Q_{j}_{k}", (n, width))
 
-        # Sum of the (j, k) and (k, j) terms of the quadratic expansion in
-        # delta; for j == k this is the vertex LMI itself.
-        def Q(v, j=j, k=k, Aj=Aj, Ak=Ak, B2j=B2j, B2k=B2k):
-            if j == k:
-                return Aj @ v.W + B2j @ Z(v, j)
-            return (Aj + Ak) @ v.W + B2j @ Z(v, k) + B2k @ Z(v, j)
+        def PX(v, j=j, k=k):
+            # Twice the first block column (H-infinity), or 2 q.
+            return _pair(v, "P", j, k) @ _pair_variables(v, j, k, s.scheduled)
 
-        if hinf:
+        if s.hinf:
+            lmi.parameter(f"O_{j}_{k}", (size, size))
 
-            def blocks(v, Q=Q, j=j, k=k, twice=twice, data_j=data[j], data_k=data[k]):
-                _, B1j, _, Cj, D1j, D2j = data_j
-                _, B1k, _, Ck, D1k, D2k = data_k
-                q = Q(v)
-                if j == k:
-                    B1, D1 = B1j, D1j
-                    R = Cj @ v.W + D2j @ Z(v, j)
-                else:
-                    B1, D1 = B1j + B1k, D1j + D1k
-                    R = (Cj + Ck) @ v.W + D2j @ Z(v, k) + D2k @ Z(v, j)
-                return [
-                    [q + q.T],
-                    [B1.T, -twice * np.eye(nw)],
-                    [R, D1, -twice * v.g[0, 0] * np.eye(nz_)],
-                ]
+            def blocks(v, PX=PX, j=j, k=k, twice=twice):
+                lower = _stack([PX(v), zero, twice * v.g[0, 0] * E], 1)
+                return [[lower + _pair(v, "O", j, k)]]
 
             lmi.add(f"H-infinity {label}", blocks)
         else:
-            lmi.add(f"Lyapunov {label}", lambda v, Q=Q: [[Q(v) + Q(v).T]])
+            # 2 q stands for q + q' (only the symmetric part counts).
+            lmi.add(f"Lyapunov {label}", lambda v, PX=PX: [[PX(v)]])
             # With W <= I, sym(A_cl W) <= -t I guarantees a decay rate t / 2:
             # maximising t picks a well-damped point, not one on the boundary.
             lmi.add(
                 f"decay {label}",
-                lambda v, Q=Q, twice=twice: [
-                    [Q(v) + Q(v).T + twice * v.t[0, 0] * np.eye(n)]
-                ],
+                lambda v, PX=PX, twice=twice: [[PX(v) + twice * v.t[0, 0] * np.eye(n)]],
                 strict=False,
                 stages=("stabilize",),
             )
 
-        for r, region in enumerate(regions):
+        for r, (shape, entries) in enumerate(s.regions):
+            M = np.array(entries).reshape(shape)
 
-            def region_blocks(v, Q=Q, region=region, twice=twice):
-                q = Q(v)
-                return [
-                    [
-                        twice * _kron(region.L, v.W)
-                        + _kron(region.M, q)
-                        + _kron(region.M.T, q.T)
-                    ]
-                ]
+            def region_blocks(v, j=j, k=k, r=r, M=M, twice=twice):
+                L = getattr(v, f"region{r}_L")
+                q = _pair(v, "Q", j, k) @ _pair_variables(v, j, k, s.scheduled)
+                return [[_region_block(L, M, v.W, q, twice)]]
 
             lmi.add(f"region {r} {label}", region_blocks)
 
     # Stage constraints (non-strict; they shape the point, not the proof).
     back = ("center", "gain")
-    if hinf:
+    if s.hinf:
         lmi.add("g <= g_max", lambda v: [[v.g - v.g_max]], strict=False, stages=back)
     lmi.add(
         "W <= w_max I",
         lambda v: [[v.W - v.w_max * np.eye(n)]],
         strict=False,
-        stages=("center",) if hinf else ("center", "stabilize"),
+        stages=("center",) if s.hinf else ("center", "stabilize"),
     )
     lmi.add(
         "W >= t I",
@@ -767,11 +902,16 @@ def _build(data, scaling, scheduled, hinf, regions, margin, gain_bound):
         strict=False,
         stages=("center", "stabilize"),
     )
-    T, Su = np.diag(scaling.T), np.diag(scaling.Su)
-    lmi.parameter("gain_Ginv", (n, n), value=np.eye(n))
-    lmi.parameter("gain_Ginv_K", (n, n), value=np.eye(n))
-    lmi.parameter("kappa_max", value=1.0, nonneg=True)
-    for k in range(nZ):
+    # The gain bound (see _gain_tangent) reads the state and input scalings
+    # as constants: T W~ G0^-1 with the parameter G0^-1 is DPP, T as a
+    # parameter would not be (a parameter on each side of a variable).
+    # `_load` rebuilds the "gain" stage when they change; being powers of
+    # two from a balancing they rarely do, and a weight sweep never does.
+    scales = {"T": np.eye(n), "Su": np.eye(m)}
+    lmi.parameter("gain_Ginv", (n, n))
+    lmi.parameter("gain_Ginv_K", (n, n))
+    lmi.parameter("kappa_max", nonneg=True)
+    for k in range(s.nZ):
         # The stabilization LMIs are homogeneous in (W, Z): W <= I together
         # with ||Z|| <= 1 fixes the scale and balances decay against gain.
         lmi.add(
@@ -784,20 +924,220 @@ def _build(data, scaling, scheduled, hinf, regions, margin, gain_bound):
         lmi.add(
             f"||K{k}||^2 <= kappa",
             lambda v, k=k: [
-                [-(T @ v.W @ v.gain_Ginv + v.gain_Ginv.T @ v.W @ T - np.eye(n))],
-                [Su @ getattr(v, f"Z{k}") @ v.gain_Ginv_K, -v.kappa[0, 0] * np.eye(m)],
-            ],
+                [
+                    -(
+                        scales["T"] @ v.W @ v.gain_Ginv
+                        + v.gain_Ginv.T @ v.W @ scales["T"]
+                        - np.eye(n)
+                    )
+                ],
+                [
+                    scales["Su"] @ getattr(v, f"Z{k}") @ v.gain_Ginv_K,
+                    -v.kappa[0, 0] * np.eye(m),
+                ],
+            ],  # fmt: skip
             strict=False,
             stages=("gain",),
         )
-    if gain_bound is not None:
+    if s.gain_bound:
         lmi.add(
             "kappa <= kappa_max",
             lambda v: [[v.kappa - v.kappa_max * np.eye(1)]],
             strict=False,
             stages=("gain",),
         )
-    return lmi
+    return _Compiled(lmi, scales)
+
+
+@dataclass
+class _Compiled:
+    """A cached problem: the LMIs and the constants its gain stage reads."""
+
+    lmi: LMIProblem
+    scales: dict
+
+
+def _load(compiled, s: _Structure, data, scaling, regions, margin) -> None:
+    """Set every parameter of a (possibly reused) problem for this call.
+
+    All of them, stage bounds included, so that nothing of a previous call
+    can leak into this one. See `_build` for the pair data.
+    """
+    lmi = compiled.lmi
+    scales = {"T": np.diag(scaling.T), "Su": np.diag(scaling.Su)}
+    if any(not np.array_equal(compiled.scales[k], v) for k, v in scales.items()):
+        compiled.scales.update(scales)
+        lmi.invalidate("gain")
+    n, nw = s.n, s.nw
+    for j, k in _pairs(s.N, s.scheduled):
+        Aj, B1j, B2j, Cj, D1j, D2j = data[j]
+        if j == k:
+            twice, A, B1, C, D1 = 1.0, Aj, B1j, Cj, D1j
+            B2, D2 = [B2j], [D2j]
+        else:
+            Ak, B1k, B2k, Ck, D1k, D2k = data[k]
+            twice, A, B1, C, D1 = 2.0, Aj + Ak, B1j + B1k, Cj + Ck, D1j + D1k
+            B2, D2 = [B2j, B2k], [D2j, D2k]
+        Q = np.hstack([A, *B2])
+        if s.regions:
+            lmi.set_parameter(f"Q_{j}_{k}", Q)
+        if not s.hinf:
+            lmi.set_parameter(f"P_{j}_{k}", 2 * Q)
+            continue
+        R = np.hstack([C, *D2])
+        lmi.set_parameter(
+            f"P_{j}_{k}", np.vstack([2 * Q, np.zeros((nw, Q.shape[1])), 2 * R])
+        )
+        offset = np.zeros((n + nw + s.nz, n + nw + s.nz))
+        offset[n : n + nw, :n] = 2 * B1.T
+        offset[n : n + nw, n : n + nw] = -twice * np.eye(nw)
+        offset[n + nw :, n : n + nw] = 2 * D1
+        lmi.set_parameter(f"O_{j}_{k}", offset)
+    for r, region in enumerate(regions):
+        lmi.set_parameter(f"region{r}_L", region.L)
+    lmi.margin = margin
+    if s.hinf:
+        lmi.set_parameter("g_max", 1.0)
+    lmi.set_parameter("w_max", 1.0)
+    lmi.set_parameter("gain_Ginv", np.eye(s.n))
+    lmi.set_parameter("gain_Ginv_K", np.eye(s.n))
+    lmi.set_parameter("kappa_max", 1.0)
+
+
+class SynthesisCache:
+    """Compiled synthesis problems, reused across calls of one process.
+
+    The four synthesis functions pose their LMIs with the vertex data, the
+    margin and the stage bounds as cvxpy parameters, so the compiled
+    problem depends only on the structure: the function, the dimensions
+    ``n, m, n_w, n_z``, the number of vertices, the pole-region shapes and
+    whether a gain bound is set. A later call with the same structure (a
+    gamma or back-off sweep, new performance weights, another plant of the
+    same size) sets the parameter values and calls the solver without
+    compiling again. Every result is still verified and certified from
+    scratch; the cache holds no results, only compiled problems.
+
+    The cache is least-recently-used and thread-safe: a problem in use by
+    one call is taken out, so concurrent calls with one structure compile
+    their own. Two limits bound it: the number of structures and the total
+    size of their LMIs, since a compiled problem holds about 2 kB per LMI
+    matrix entry (measured: 60 MB for Theorem 2 with 32 vertices and
+    ``n = 4``, 528 LMIs of size 8). ``maxsize = 0`` disables the cache.
+
+    Parameters
+    ----------
+    maxsize : int
+        Largest number of compiled structures kept.
+    max_entries : int
+        Largest total number of LMI matrix entries (``sum size^2`` over
+        the LMIs) of the structures kept; a larger structure is compiled
+        for each call and not kept. The default is about 0.5 GB.
+
+    Examples
+    --------
+    >>> synthesis_cache.info()["maxsize"]
+    8
+    """
+
+    def __init__(self, maxsize: int = 8, max_entries: int = 250_000):
+        self._entries: OrderedDict[_Structure, _Compiled] = OrderedDict()
+        self._lock = threading.Lock()
+        self._hits = 0
+        self._misses = 0
+        self._maxsize = self._count(maxsize, "maxsize")
+        self._max_entries = self._count(max_entries, "max_entries")
+
+    @staticmethod
+    def _count(value, name: str) -> int:
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+            raise TypeError(f"{name}: expected an integer, got {value!r}")
+        if value < 0:
+            raise ValueError(f"{name}: must be nonnegative, got {value}")
+        return int(value)
+
+    @property
+    def maxsize(self) -> int:
+        """Largest number of compiled structures kept."""
+        return self._maxsize
+
+    @maxsize.setter
+    def maxsize(self, value: int) -> None:
+        self._maxsize = self._count(value, "maxsize")
+        with self._lock:
+            self._trim()
+
+    @property
+    def max_entries(self) -> int:
+        """Largest total number of LMI matrix entries kept."""
+        return self._max_entries
+
+    @max_entries.setter
+    def max_entries(self, value: int) -> None:
+        self._max_entries = self._count(value, "max_entries")
+        with self._lock:
+            self._trim()
+
+    def _total(self) -> int:
+        return sum(s.entries for s in self._entries)
+
+    def _trim(self):
+        # Oldest first, until both limits hold.
+        while self._entries and (
+            len(self._entries) > self._maxsize or self._total() > self._max_entries
+        ):
+            self._entries.popitem(last=False)
+
+    def clear(self) -> None:
+        """Drop every compiled problem and reset the counters."""
+        with self._lock:
+            self._entries.clear()
+            self._hits = self._misses = 0
+
+    def info(self) -> dict:
+        """Hits, misses, size, LMI entries held, and the two limits."""
+        with self._lock:
+            return {
+                "hits": self._hits,
+                "misses": self._misses,
+                "size": len(self._entries),
+                "maxsize": self._maxsize,
+                "entries": self._total(),
+                "max_entries": self._max_entries,
+            }
+
+    @contextmanager
+    def _checkout(self, structure: _Structure):
+        """Yield ``(compiled, reused)``; the problem is returned afterwards."""
+        with self._lock:
+            compiled = self._entries.pop(structure, None)
+            if compiled is None:
+                self._misses += 1
+            else:
+                self._hits += 1
+        reused = compiled is not None
+        if compiled is None:
+            compiled = _build(structure)
+        try:
+            yield compiled, reused
+        finally:
+            keep = self._maxsize > 0 and structure.entries <= self._max_entries
+            with self._lock:
+                if keep:  # a structure over the budget would flush the rest
+                    self._entries[structure] = compiled
+                    self._entries.move_to_end(structure)
+                    self._trim()
+
+    def __repr__(self) -> str:
+        info = self.info()
+        return (
+            f"<SynthesisCache {info['size']}/{info['maxsize']} structures, "
+            f"{info['entries']}/{info['max_entries']} LMI entries, "
+            f"{info['hits']} hits, {info['misses']} misses>"
+        )
+
+
+#: The process-wide cache used by the synthesis functions.
+synthesis_cache = SynthesisCache()
 
 
 def _synthesize(
@@ -826,77 +1166,50 @@ def _synthesize(
     scaling = _Scaling.of(original)
     data = [scaling.apply(v) for v in original]
     scaled_regions = tuple(r.time_scaled(scaling.a) for r in regions)
-    lmi = _build(data, scaling, scheduled, hinf, scaled_regions, margin, gain_bound)
-    built = time.perf_counter()
+    structure = _Structure.of(data, hinf, scheduled, regions, gain_bound)
+    chain = None if solvers is None else list(solvers)
+    first_solver = chain[0][0] if chain else None
 
     attempts: list[SolveAttempt] = []
+    with synthesis_cache._checkout(structure) as (compiled, _):
+        _load(compiled, structure, data, scaling, scaled_regions, margin)
+        lmi = compiled.lmi
+        built = time.perf_counter()
+        compiling = 0.0
 
-    def run(stage, objective, certify=True):
-        try:
-            sol = lmi.solve(objective, stage=stage, solvers=solvers, certify=certify)
-        except InfeasibleError as exc:
-            attempts.extend(exc.attempts)
-            raise
-        attempts.extend(sol.attempts)
-        return sol
-
-    gamma_opt = None
-    if hinf:
-        if gamma is None:
-            # With back-off only the value gamma* is used, so a point that
-            # fails its certificate still gives the estimate to back off from.
-            sol = run("optimal", lambda v: v.g[0, 0], certify=backoff is None)
-            g_opt = float(sol.g[0, 0])
-            gamma_opt = float(np.sqrt(scaling.unscale_g(g_opt)))
-        else:
-            g_opt = (gamma**2) / (scaling.sz / scaling.sw) ** 2
-            sol = None
-        if backoff is not None or gamma is not None:
-            relax = backoff is not None and gamma is None
-            factor = (1.0 + backoff) ** 2 if relax else 1.0
-            lmi.set_parameter("g_max", g_opt * factor)
-            w_max = 1e3 if sol is None else max(np.linalg.eigvalsh(sol.W)[-1], 1e-12)
-            lmi.set_parameter("w_max", w_max)
-            sol = run("center", lambda v: -v.t[0, 0])
-    else:
-        lmi.set_parameter("w_max", 1.0)
-        sol = run("stabilize", lambda v: -v.t[0, 0])
-
-    if backoff is not None or gain_bound is not None:
-        nZ = len(data) if scheduled else 1
-        for iteration in range(_GAIN_ITERATIONS):
-            Z = [getattr(sol, f"Z{k}") for k in range(nZ)]
-            _gain_tangent(lmi, scaling, sol.W, Z, gain_bound)
+        def run(stage, objective, certify=True, first_only=False):
+            nonlocal compiling
+            if chain is None or chain:
+                compiling += lmi.compile(stage, objective, first_solver)
+            use = chain
+            if first_only:
+                use = (default_solvers() if chain is None else chain)[:1]
             try:
-                sol_next = run("gain", lambda v: v.kappa[0, 0])
+                sol = lmi.solve(objective, stage=stage, solvers=use, certify=certify)
             except InfeasibleError as exc:
-                if gain_bound is not None and iteration == 0:
-                    raise InfeasibleError(
-                        f"gain_bound: no certified design with every gain norm "
-                        f"below {gain_bound:g} (sufficient condition) [{exc}]",
-                        attempts,
-                    ) from None
-                break  # the previous point is certified: keep it
-            sol = sol_next
-            # kappa is relative to the previous point's squared gain.
-            if float(sol.kappa[0, 0]) > 1 - _GAIN_RTOL:
-                break
-    solved = time.perf_counter()
+                attempts.extend(exc.attempts)
+                raise
+            attempts.extend(sol.attempts)
+            return sol
 
-    gains = tuple(
-        scaling.unscale_K(-getattr(sol, f"Z{k}") @ np.linalg.inv(sol.W))
-        for k in range(len(data) if scheduled else 1)
-    )
-    if gain_bound is not None:
-        worst = max(np.linalg.norm(K, 2) for K in gains)
-        if worst > gain_bound * (1 + 1e-6):
-            raise CertificationError(
-                f"gain_bound: the returned gain norm {worst:.6g} exceeds "
-                f"{gain_bound:g}",
-                attempts,
-            )
-    W = scaling.unscale_W(sol.W)
-    certificate = _verify(sys, original, data, sol, scaling, gains, lmi, scheduled)
+        sol, gamma_opt = _solve_stages(
+            lmi, run, structure, scaling, gamma, backoff, gain_bound, attempts
+        )
+        solved = time.perf_counter()
+        gains = tuple(
+            scaling.unscale_K(-getattr(sol, f"Z{k}") @ np.linalg.inv(sol.W))
+            for k in range(structure.nZ)
+        )
+        if gain_bound is not None:
+            worst = max(np.linalg.norm(K, 2) for K in gains)
+            if worst > gain_bound * (1 + 1e-6):
+                raise CertificationError(
+                    f"gain_bound: the returned gain norm {worst:.6g} exceeds "
+                    f"{gain_bound:g}",
+                    attempts,
+                )
+        W = scaling.unscale_W(sol.W)
+        certificate = _verify(original, data, sol, gains, lmi.margin, scheduled)
     verified = time.perf_counter()
     if not certificate.verified:
         raise CertificationError(
@@ -920,12 +1233,72 @@ def _synthesize(
         attempts=tuple(attempts),
         timing={
             "build": built - start,
-            "solve": solved - built,
+            "compile": compiling,
+            "solve": solved - built - compiling,
             "verify": verified - solved,
         },
         backoff=backoff,
         regions=regions,
     )
+
+
+def _solve_stages(lmi, run, s, scaling, gamma, backoff, gain_bound, attempts):
+    """Optimal gamma, centering and gain stages (module doc, item 4)."""
+    gamma_opt = None
+    if s.hinf:
+        if gamma is None:
+            # With back-off only the value gamma* is used, so a point that
+            # fails its certificate still gives the estimate to back off from.
+            sol = run("optimal", lambda v: v.g[0, 0], certify=backoff is None)
+            g_opt = float(sol.g[0, 0])
+            gamma_opt = float(np.sqrt(scaling.unscale_g(g_opt)))
+        else:
+            g_opt = (gamma**2) / (scaling.sz / scaling.sw) ** 2
+            sol = None
+        if backoff is not None or gamma is not None:
+            relax = backoff is not None and gamma is None
+            factor = (1.0 + backoff) ** 2 if relax else 1.0
+            lmi.set_parameter("g_max", g_opt * factor)
+            if sol is not None:
+                bounds = [max(np.linalg.eigvalsh(sol.W)[-1], 1e-12)]
+            else:
+                # Without gamma*'s point W has no natural size; W <= w_max I
+                # keeps it well conditioned but can cut off a gamma close to
+                # gamma* (two-mass model, scaled W up to 2e3 at 1.02 gamma*).
+                bounds = _FIXED_GAMMA_W_MAX
+            for i, w_max in enumerate(bounds):
+                lmi.set_parameter("w_max", w_max)
+                last = i == len(bounds) - 1
+                try:
+                    # Only the last bound gets the whole (slow) solver chain.
+                    sol = run("center", lambda v: -v.t[0, 0], first_only=not last)
+                    break
+                except InfeasibleError:
+                    if last:
+                        raise
+    else:
+        lmi.set_parameter("w_max", 1.0)
+        sol = run("stabilize", lambda v: -v.t[0, 0])
+
+    if backoff is not None or gain_bound is not None:
+        for iteration in range(_GAIN_ITERATIONS):
+            Z = [getattr(sol, f"Z{k}") for k in range(s.nZ)]
+            _gain_tangent(lmi, scaling, sol.W, Z, gain_bound)
+            try:
+                sol_next = run("gain", lambda v: v.kappa[0, 0])
+            except InfeasibleError as exc:
+                if gain_bound is not None and iteration == 0:
+                    raise InfeasibleError(
+                        f"gain_bound: no certified design with every gain norm "
+                        f"below {gain_bound:g} (sufficient condition) [{exc}]",
+                        attempts,
+                    ) from None
+                break  # the previous point is certified: keep it
+            sol = sol_next
+            # kappa is relative to the previous point's squared gain.
+            if float(sol.kappa[0, 0]) > 1 - _GAIN_RTOL:
+                break
+    return sol, gamma_opt
 
 
 def _gain_tangent(lmi, scaling, W, Z, gain_bound):
@@ -958,7 +1331,7 @@ def _gain_tangent(lmi, scaling, W, Z, gain_bound):
     return kappa0
 
 
-def _verify(sys, original, data, sol, scaling, gains, lmi, scheduled) -> Certificate:
+def _verify(original, data, sol, gains, margin, scheduled) -> Certificate:
     """Independent float64 checks of the returned point (see module doc)."""
     N = len(original)
     rng = np.random.default_rng(12345)
@@ -966,28 +1339,29 @@ def _verify(sys, original, data, sol, scaling, gains, lmi, scheduled) -> Certifi
     if N > 1:
         deltas += list(rng.dirichlet(np.ones(N), size=_VERIFY_SAMPLES))
         deltas += [0.5 * (np.eye(N)[j] + np.eye(N)[k]) for j, k in _pairs(N, True)[N:]]
-    Kstack = np.stack(gains)
-    Ktilde = np.stack(
-        [-getattr(sol, f"Z{k}") @ np.linalg.inv(sol.W) for k in range(len(gains))]
-    )
+    deltas = np.array(deltas)
     W = sol.W
-    max_real = -np.inf
-    max_lyap = -np.inf
-    for delta in deltas:
-        A = np.tensordot(delta, np.stack([v[0] for v in original]), axes=1)
-        B = np.tensordot(delta, np.stack([v[2] for v in original]), axes=1)
-        K = np.tensordot(delta, Kstack, axes=1) if scheduled else Kstack[0]
-        max_real = max(max_real, np.linalg.eigvals(A - B @ K).real.max())
-        At = np.tensordot(delta, np.stack([v[0] for v in data]), axes=1)
-        Bt = np.tensordot(delta, np.stack([v[2] for v in data]), axes=1)
-        Kt = np.tensordot(delta, Ktilde, axes=1) if scheduled else Ktilde[0]
-        Acl_W = (At - Bt @ Kt) @ W
-        lyap = np.linalg.eigvalsh(Acl_W + Acl_W.T)[-1] / np.linalg.norm(W, 2)
-        max_lyap = max(max_lyap, lyap)
+    Winv = np.linalg.inv(W)
+    Kstack = np.stack(gains)
+    Ktilde = np.stack([-getattr(sol, f"Z{k}") @ Winv for k in range(len(gains))])
+
+    def at(stack):
+        # Frozen matrices at every point at once: shape (points, rows, cols).
+        return np.einsum("pj,jab->pab", deltas, np.stack(stack))
+
+    K = at(Kstack) if scheduled else Kstack[0]
+    A = at([v[0] for v in original])
+    B = at([v[2] for v in original])
+    max_real = np.linalg.eigvals(A - B @ K).real.max()
+    Kt = at(Ktilde) if scheduled else Ktilde[0]
+    At = at([v[0] for v in data])
+    Bt = at([v[2] for v in data])
+    Acl_W = (At - Bt @ Kt) @ W
+    lyap = np.linalg.eigvalsh(Acl_W + np.swapaxes(Acl_W, 1, 2))[:, -1]
     return Certificate(
         lmi_checks=sol.checks,
-        margin=lmi.margin,
+        margin=margin,
         max_closed_loop_real=float(max_real),
-        max_lyapunov_eig=float(max_lyap),
+        max_lyapunov_eig=float(lyap.max() / np.linalg.norm(W, 2)),
         npoints=len(deltas),
     )

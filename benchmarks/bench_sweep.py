@@ -1,0 +1,217 @@
+"""Wall time of a two-mass scenario sweep: serial, processes, Dask.
+
+1,000 simulations (250 scenarios x the 4 controllers of the comparison):
+alpha in {0, 0.015, 0.03, 0.045, 0.06} rad, Td in {0, 8} Nm, Jl scaled by
+0.8 ... 1.2, torque limit none (inf), 500, 1000, 2000 or 5000 Nm; step of theta_r
+to 0.5 rad, 5 s, exact backlash model, rtol 1e-6.
+
+Each simulation engine runs under three executors, measured side by side
+(round robin within each repeat, so that the load of the machine hits all
+variants alike):
+
+* ``serial``: `ctrl_lpv.sweep` with ``executor="serial"``;
+* ``processes``: the default `ProcessPoolExecutor` (``--workers``, 2);
+* ``dask``: a `distributed.LocalCluster` with the same number of
+  single-threaded worker processes, through ``Client.get_executor()``
+  (cluster start-up reported separately, not in the sweep time).
+
+Engines: ``python-control`` (`twomass.simulate` with its default
+``engine="control"``, through `control.input_output_response`, ~2 s per
+simulation) on an evenly spread subset (``--subset``), and ``fast``
+(``twomass.simulate(..., engine="fast")``) on all runs. The table gives the median wall
+time, simulations per second and the speed-up over serial with the same
+engine; the checks compare every executor's table with the serial one
+(identical numbers expected) and the fast engine with python-control on the
+subset.
+
+Usage::
+
+    python benchmarks/bench_sweep.py [--quick] [--repeats N] [--json PATH]
+"""
+
+from __future__ import annotations
+
+import argparse
+import inspect
+import json
+import logging
+import math
+import os
+import platform
+import statistics
+import sys
+import time
+
+import numpy as np
+
+from ctrl_lpv import twomass
+from ctrl_lpv.sweep import scenario_grid
+from ctrl_lpv.twomass import sweep as tsweep
+
+GRID = dict(
+    alpha=[0.0, 0.015, 0.03, 0.045, 0.06],
+    Td=[0.0, 8.0],
+    Jl_scale=[0.8, 0.9, 1.0, 1.1, 1.2],
+    torque_limit=[math.inf, 500.0, 1000.0, 2000.0, 5000.0],
+)
+QUICK_GRID = dict(alpha=[0.0, 0.03], Td=[8.0], Jl_scale=[0.8, 1.2],
+                  torque_limit=[math.inf, 2000.0])  # fmt: skip
+METRICS = ("rise_time", "settling_time", "overshoot", "steady_state_error",
+           "iae", "ise", "peak_input", "energy")  # fmt: skip
+
+
+def engines():
+    """Engine name -> keyword arguments of `twomass.sweep`."""
+    out = {"python-control": {}}
+    if "engine" in inspect.signature(twomass.simulate).parameters:
+        out["fast"] = {"engine": "fast"}
+    else:
+        print("twomass.simulate has no fast engine", file=sys.stderr)
+    return out
+
+
+def subset(scenarios, count):
+    """`count` scenarios spread evenly over the list."""
+    index = np.linspace(0, len(scenarios) - 1, max(1, count)).round().astype(int)
+    return [scenarios[i] for i in sorted(set(index))]
+
+
+def max_difference(a, b, relative=False):
+    """Largest difference of the metric columns (inf where inf matches)."""
+    worst = 0.0
+    for key in METRICS:
+        x, y = a[key].to_numpy(float), b[key].to_numpy(float)
+        same = (x == y) | (np.isnan(x) & np.isnan(y))
+        finite = np.isfinite(x) & np.isfinite(y)
+        if np.any(~same & ~finite):
+            return np.inf
+        d = np.abs(x[finite] - y[finite])
+        if relative:
+            d = d / np.maximum(np.abs(y[finite]), 1e-12)
+        worst = max(worst, float(d.max(initial=0.0)))
+    return worst
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="32 runs, 1 repeat")
+    parser.add_argument("--repeats", type=int, help="timed repeats (default 3)")
+    parser.add_argument("--subset", type=int, help="python-control runs (16)")
+    parser.add_argument("--workers", type=int, default=2, help="processes (2)")
+    parser.add_argument("--no-dask", action="store_true", help="skip Dask")
+    parser.add_argument("--json", help="write the results to this JSON file")
+    args = parser.parse_args(argv)
+    repeats = args.repeats or (1 if args.quick else 3)
+    specs = tsweep.comparison_specs()
+    scenarios = scenario_grid(**(QUICK_GRID if args.quick else GRID))
+    per = len(specs)
+    slow = subset(scenarios, (args.subset or (4 if args.quick else 16)) // per)
+    work = {}
+    for engine, kwargs in engines().items():
+        work[engine] = (slow if engine == "python-control" else scenarios, kwargs)
+
+    executors = {"serial": dict(executor="serial"),
+                 "processes": dict(max_workers=args.workers)}  # fmt: skip
+    cluster = client = None
+    startup = None
+    if not args.no_dask:
+        try:
+            import distributed
+        except ImportError:
+            print("distributed is not installed: no Dask column", file=sys.stderr)
+        else:
+            start = time.perf_counter()
+            cluster = distributed.LocalCluster(
+                n_workers=args.workers, threads_per_worker=1, processes=True,
+                dashboard_address=None, silence_logs=logging.ERROR,
+            )  # fmt: skip
+            client = distributed.Client(cluster)
+            # Warm-up: workers import ctrl_lpv (seconds) before any timing.
+            tsweep.sweep(slow[:1], specs, executor=client.get_executor(),
+                         progress=False)  # fmt: skip
+            startup = time.perf_counter() - start
+            executors["dask"] = dict(executor=client.get_executor())
+
+    times = {(e, x): [] for e in work for x in executors}
+    tables = {}
+    try:
+        for rep in range(repeats):
+            for (engine, executor), seconds in times.items():
+                cases, kwargs = work[engine]
+                start = time.perf_counter()
+                table = tsweep.sweep(cases, specs, progress=False,
+                                     **kwargs, **executors[executor])  # fmt: skip
+                seconds.append(time.perf_counter() - start)
+                tables[engine, executor] = table
+                print(f"[{rep + 1}/{repeats}] {engine:>14} {executor:>9}: "
+                      f"{len(table)} runs in {seconds[-1]:.2f} s",
+                      file=sys.stderr, flush=True)  # fmt: skip
+    finally:
+        if client is not None:
+            client.close()
+            cluster.close()
+
+    rows = []
+    for (engine, executor), seconds in times.items():
+        runs = len(tables[engine, executor])
+        median = statistics.median(seconds)
+        serial = statistics.median(times[engine, "serial"])
+        rows.append({
+            "engine": engine, "executor": executor, "runs": runs,
+            "seconds": seconds, "median_s": median, "runs_per_s": runs / median,
+            "speedup_vs_serial": serial / median,
+            "max_abs_diff_vs_serial": max_difference(
+                tables[engine, executor], tables[engine, "serial"]),
+            "failed": int(tables[engine, executor]["status"]
+                          .str.startswith("failed").sum()),
+        })  # fmt: skip
+    base = statistics.median(times["python-control", "serial"]) / len(slow) / per
+    for row in rows:
+        row["per_run_speedup_vs_python_control_serial"] = base * row["runs_per_s"]
+
+    agreement, common = None, 0
+    if "fast" in work:
+        fast, ref = tables["fast", "serial"], tables["python-control", "serial"]
+        keys = list(GRID) + ["controller"]
+        both = ref.merge(fast, on=keys, suffixes=("", "_fast"))
+        ours = both[[k + "_fast" for k in METRICS]].set_axis(list(METRICS), axis=1)
+        agreement = max_difference(ours, both[list(METRICS)], relative=True)
+        common = len(both)
+
+    print(f"\n{len(scenarios) * per} runs (fast), {len(slow) * per} runs "
+          f"(python-control), {args.workers} workers, median of {repeats}, "
+          f"os.cpu_count() = {os.cpu_count()}")  # fmt: skip
+    if startup is not None:
+        print(f"Dask LocalCluster start-up incl. worker warm-up: {startup:.1f} s")
+    print(
+        "\n| engine | executor | runs | median (s) | runs/s | speed-up vs serial "
+        "| per-run vs python-control serial | max abs diff vs serial | failed |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        print(f"| {r['engine']} | {r['executor']} | {r['runs']} | "
+              f"{r['median_s']:.2f} | {r['runs_per_s']:.2f} | "
+              f"{r['speedup_vs_serial']:.2f} | "
+              f"{r['per_run_speedup_vs_python_control_serial']:.1f} | "
+              f"{r['max_abs_diff_vs_serial']:.1e} | {r['failed']} |")  # fmt: skip
+    if agreement is not None:
+        print(f"\nfast vs python-control on {common} common runs: largest "
+              f"relative metric difference {agreement:.1e}")  # fmt: skip
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump({
+                "rows": rows,
+                "dask_startup_s": startup,
+                "fast_vs_python_control_max_rel_diff": agreement,
+                "repeats": repeats,
+                "workers": args.workers,
+                "cpu_count": os.cpu_count(),
+                "python": platform.python_version(),
+                "grid": {k: [None if v == math.inf else v for v in vals]
+                         for k, vals in (QUICK_GRID if args.quick else GRID).items()},
+            }, f, indent=2)  # fmt: skip
+    return rows
+
+
+if __name__ == "__main__":
+    main()
