@@ -32,6 +32,7 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import importlib
 import inspect
 import json
 import logging
@@ -46,7 +47,9 @@ import numpy as np
 
 from ctrl_lpv import twomass
 from ctrl_lpv.sweep import scenario_grid
-from ctrl_lpv.twomass import sweep as tsweep
+
+# The module, not the function `twomass.sweep` that may shadow its name.
+tsweep = importlib.import_module("ctrl_lpv.twomass.sweep")
 
 GRID = dict(
     alpha=[0.0, 0.015, 0.03, 0.045, 0.06],

@@ -211,10 +211,9 @@ def _write_cli_help(app):
     """``ctrl-lpv --help`` of every command, for ``cli.rst``."""
     import contextlib
     import io
+    import os
 
     from ctrl_lpv.cli import build_parser
-
-    import os
 
     out = Path(app.srcdir) / "generated" / "cli"
     out.mkdir(parents=True, exist_ok=True)

@@ -1,6 +1,5 @@
 """The backstepping baseline and the benchmark's quick run."""
 
-
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp

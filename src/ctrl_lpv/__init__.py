@@ -11,6 +11,8 @@ from .exceptions import CertificationError, InfeasibleError
 from .interconnection import interconnect
 from .polytope import ParameterBox, Polytope, Simplex, box
 from .regions import LMIRegion, disk, halfplane, sector
+from .simulation import simulate
+from .sweep import scenario_grid, sweep
 from .synthesis import (
     Certificate,
     StateFeedbackDesign,
@@ -20,7 +22,6 @@ from .synthesis import (
     hinf_state_feedback,
     quadratic_stabilization,
 )
-from .simulation import simulate
 from .systems import PolytopicStateSpace, pss
 
 __version__ = "0.1.0"
@@ -52,4 +53,6 @@ __all__ = [
     "frozen_sweep",
     "interconnect",
     "simulate",
+    "sweep",
+    "scenario_grid",
 ]

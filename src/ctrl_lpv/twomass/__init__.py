@@ -23,6 +23,7 @@ from .parameters import Parameters
 from .plant import plant
 from .reproduce import errata_findings, reproduce
 from .scenarios import alpha_step, closed_loop, metrics, simulate
+from .sweep import backstepping_spec, comparison_specs, lpv_spec, run_scenario, sweep
 
 __all__ = [
     "Parameters",
@@ -47,4 +48,9 @@ __all__ = [
     "comparison_scenarios",
     "reproduce",
     "errata_findings",
+    "sweep",
+    "run_scenario",
+    "lpv_spec",
+    "backstepping_spec",
+    "comparison_specs",
 ]
