@@ -2,8 +2,9 @@
 
 1,000 simulations (250 scenarios x the 4 controllers of the comparison):
 alpha in {0, 0.015, 0.03, 0.045, 0.06} rad, Td in {0, 8} Nm, Jl scaled by
-0.8 ... 1.2, torque limit none (inf), 500, 1000, 2000 or 5000 Nm; step of theta_r
-to 0.5 rad, 5 s, exact backlash model, rtol 1e-6.
+0.8 ... 1.2, torque limit none (inf), 500, 1000, 2000 or 5000 Nm; step of
+theta_r to 0.5 rad, 5 s, exact backlash model, rtol 1e-6. A run that takes
+longer than ``--timeout`` (30 s) is stopped and counted in the table.
 
 Each simulation engine runs under three executors, measured side by side
 (round robin within each repeat, so that the load of the machine hits all
@@ -18,11 +19,11 @@ variants alike):
 Engines: ``python-control`` (`twomass.simulate` with its default
 ``engine="control"``, through `control.input_output_response`, ~2 s per
 simulation) on an evenly spread subset (``--subset``), and ``fast``
-(``twomass.simulate(..., engine="fast")``) on all runs. The table gives the median wall
-time, simulations per second and the speed-up over serial with the same
-engine; the checks compare every executor's table with the serial one
-(identical numbers expected) and the fast engine with python-control on the
-subset.
+(``twomass.simulate(..., engine="fast")``) on all runs. The table gives the
+median wall time, simulations per second and the speed-up over serial with
+the same engine; the checks compare every executor's table with the serial
+one (identical numbers expected) and the fast engine with python-control on
+the subset.
 
 Usage::
 
@@ -102,6 +103,8 @@ def main(argv=None):
     parser.add_argument("--subset", type=int, help="python-control runs (16)")
     parser.add_argument("--workers", type=int, default=2, help="processes (2)")
     parser.add_argument("--no-dask", action="store_true", help="skip Dask")
+    parser.add_argument("--timeout", type=float, default=30.0,
+                        help="wall-time limit of one run, s (30)")  # fmt: skip
     parser.add_argument("--json", help="write the results to this JSON file")
     args = parser.parse_args(argv)
     repeats = args.repeats or (1 if args.quick else 3)
@@ -126,12 +129,12 @@ def main(argv=None):
             start = time.perf_counter()
             cluster = distributed.LocalCluster(
                 n_workers=args.workers, threads_per_worker=1, processes=True,
-                dashboard_address=None, silence_logs=logging.ERROR,
+                dashboard_address=":0", silence_logs=logging.ERROR,
             )  # fmt: skip
             client = distributed.Client(cluster)
             # Warm-up: workers import ctrl_lpv (seconds) before any timing.
             tsweep.sweep(slow[:1], specs, executor=client.get_executor(),
-                         progress=False)  # fmt: skip
+                         timeout=args.timeout, progress=False)  # fmt: skip
             startup = time.perf_counter() - start
             executors["dask"] = dict(executor=client.get_executor())
 
@@ -143,7 +146,8 @@ def main(argv=None):
                 cases, kwargs = work[engine]
                 start = time.perf_counter()
                 table = tsweep.sweep(cases, specs, progress=False,
-                                     **kwargs, **executors[executor])  # fmt: skip
+                                     timeout=args.timeout, **kwargs,
+                                     **executors[executor])  # fmt: skip
                 seconds.append(time.perf_counter() - start)
                 tables[engine, executor] = table
                 print(f"[{rep + 1}/{repeats}] {engine:>14} {executor:>9}: "
@@ -167,6 +171,8 @@ def main(argv=None):
                 tables[engine, executor], tables[engine, "serial"]),
             "failed": int(tables[engine, executor]["status"]
                           .str.startswith("failed").sum()),
+            "timeouts": int(tables[engine, executor]["status"]
+                            .str.startswith("timeout").sum()),
         })  # fmt: skip
     base = statistics.median(times["python-control", "serial"]) / len(slow) / per
     for row in rows:
@@ -188,15 +194,17 @@ def main(argv=None):
         print(f"Dask LocalCluster start-up incl. worker warm-up: {startup:.1f} s")
     print(
         "\n| engine | executor | runs | median (s) | runs/s | speed-up vs serial "
-        "| per-run vs python-control serial | max abs diff vs serial | failed |"
+        "| per-run vs python-control serial | max abs diff vs serial | failed "
+        "| timeouts |"
     )
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         print(f"| {r['engine']} | {r['executor']} | {r['runs']} | "
               f"{r['median_s']:.2f} | {r['runs_per_s']:.2f} | "
               f"{r['speedup_vs_serial']:.2f} | "
               f"{r['per_run_speedup_vs_python_control_serial']:.1f} | "
-              f"{r['max_abs_diff_vs_serial']:.1e} | {r['failed']} |")  # fmt: skip
+              f"{r['max_abs_diff_vs_serial']:.1e} | {r['failed']} | "
+              f"{r['timeouts']} |")  # fmt: skip
     if agreement is not None:
         print(f"\nfast vs python-control on {common} common runs: largest "
               f"relative metric difference {agreement:.1e}")  # fmt: skip
@@ -207,6 +215,7 @@ def main(argv=None):
                 "dask_startup_s": startup,
                 "fast_vs_python_control_max_rel_diff": agreement,
                 "repeats": repeats,
+                "timeout_s": args.timeout,
                 "workers": args.workers,
                 "cpu_count": os.cpu_count(),
                 "python": platform.python_version(),

@@ -8,21 +8,26 @@ Three parts, every comparison measured side by side in one run (medians of
     integral=True)``, w = Td, u = Tm, z = all outputs), time split into
     build / compile / solve / verify, against the same LMIs written as a
     plain cvxpy script (no prescaling, no verification) with the same
-    solver, Clarabel. "cold" is a first call (nothing compiled in the
-    process), "warm" a repeated call that reuses the compiled problem. Like
-    with like: ``backoff=None`` (one solve of the minimum gamma) against the
-    plain minimum; the default pipeline (back-off 0.2: minimum gamma,
-    centering, gain iterations) is listed against the same plain script.
+    solver, Clarabel ("plain": Clarabel's defaults, what a script would
+    use; "p.same": the library's Clarabel settings). "cold" is a first call
+    (nothing compiled in the process), "warm" a repeated call that reuses
+    the compiled problem. Like with like: ``backoff=None`` (one solve of the
+    minimum gamma) against the plain minimum, and the stabilizations (the
+    library's LMIs and objective in both); the default pipeline (back-off
+    0.2: minimum gamma, centering, one to four gain iterations, so three to
+    six solves) is listed against the same one-solve plain script.
 (b) Re-solves on the two-mass model: first call, then cached re-solves for
     a gamma sweep, a back-off sweep, a performance-weight sweep and a plant
     sweep (``p_bounds``), against the plain script per point.
 (c) Scaling on random well-conditioned polytopes (stabilizable by
     construction, m = 2 inputs, one w, z = [C x; u]) for Theorem 2 and
     Lemma 2 with ``backoff=None``: N = 2..64 vertices, n = 4, 8, 12. Each
-    case runs in its own process with a time cap; cases beyond a capped one
-    are skipped. Columns give the LMI count and size, the conic problem
-    size and the dense blocks of Clarabel's KKT system (one
-    ``d(d+1)/2``-square Nesterov-Todd block per PSD cone of size ``d``).
+    case runs in its own process with a time cap per measured call; cases
+    beyond a capped one are skipped. The plain script uses the library's
+    Clarabel settings here. Columns give the LMI count and size, the conic
+    problem size (rows of the PSD cones) and the entries of the dense
+    blocks of Clarabel's KKT system (one ``d(d+1)/2``-square Nesterov-Todd
+    scaling block per PSD cone of size ``d``), and the peak memory.
 
 Usage::
 

@@ -46,8 +46,9 @@ def no_engine(controller, *, params, model, alpha, theta_r, Td, T, npoints):
 
 
 def sleepy(a):
-    if a > 1:
-        time.sleep(60)  # a hung run
+    start = time.monotonic()
+    while a > 1 and time.monotonic() - start < 60:  # a hung run
+        time.sleep(0.01)
     return {"twice": 2 * a}
 
 
@@ -93,7 +94,14 @@ def test_scenario_grid_and_list_agree():
         executor="serial",
         progress=False,
     )
+    by_frame = sweep(
+        no_controller,
+        pd.DataFrame({"a": [1, 2], "b": [3, 3]}),
+        executor="serial",
+        progress=False,
+    )
     pd.testing.assert_frame_equal(by_dict, by_list)
+    pd.testing.assert_frame_equal(by_dict, by_frame)
     assert "controller" not in by_dict.columns
     assert by_dict["s"].tolist() == [4, 5]
 
@@ -139,11 +147,18 @@ def test_processes_keep_the_order_of_scenarios():
     assert procs.attrs["sweep"]["executor"] == "ProcessPoolExecutor"
 
 
-@pytest.mark.parametrize("where", [dict(executor="serial"), dict(max_workers=2)])
+@pytest.mark.parametrize("where", ["serial", "processes", "threads"])
 def test_timeout_stops_a_hung_run(where):
-    with pytest.warns(UserWarning, match="1 of 3 runs failed"):
+    kwargs = {"serial": dict(executor="serial"), "processes": dict(max_workers=2)}
+    threads = ThreadPoolExecutor(max_workers=2)
+    with threads, pytest.warns(UserWarning, match="1 of 3 runs failed"):
         table = sweep(
-            sleepy, {"a": [1, 2, 1]}, timeout=0.5, progress=False, chunksize=3, **where
+            sleepy,
+            {"a": [1, 2, 1]},
+            timeout=0.5,
+            progress=False,
+            chunksize=3,
+            **kwargs.get(where, dict(executor=threads)),
         )
     assert table["status"].tolist() == ["ok", "timeout: run exceeded 0.5 s", "ok"]
     assert table["twice"].tolist()[::2] == [2, 2] and np.isnan(table["twice"][1])
@@ -294,7 +309,7 @@ def test_dask_local_cluster_matches_local_processes(specs):
             n_workers=2,
             threads_per_worker=1,
             processes=True,
-            dashboard_address=None,
+            dashboard_address=":0",
         ) as cluster,
         distributed.Client(cluster) as client,
     ):

@@ -260,7 +260,7 @@ class LMIProblem:
     def __init__(self, margin: float = 1e-6):
         if not (np.isfinite(margin) and margin > 0):
             raise ValueError(f"margin: must be a positive finite number, got {margin}")
-        self._vars: dict[str, cp.Variable] = {}
+        self._vars: dict[str, cp.Expression] = {}
         self._params: dict[str, cp.Parameter] = {}
         self._lmis: list[tuple[str, BlockFunction, bool, frozenset | None]] = []
         self._problems: dict[str, cp.Problem] = {}

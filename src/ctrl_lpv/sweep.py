@@ -11,10 +11,10 @@ order of the scenarios whatever the executor, so results compare exactly.
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import itertools
 import math
 import os
-import signal
 import sys
 import threading
 import time
@@ -32,10 +32,11 @@ __all__ = ["sweep", "scenario_grid", "RunTimeout"]
 CONTROLLER = "controller"
 STATUS = "status"
 
-# Chunks per worker: enough to balance uneven simulation times, few enough
+# Chunks per worker: enough to balance uneven run times (a stiff scenario
+# can cost 20 times the median) and to move the progress bar, few enough
 # that pickling and scheduling (~1 ms per task locally, more on Dask) stay
 # small against the simulations.
-_CHUNKS_PER_WORKER = 4
+_CHUNKS_PER_WORKER = 16
 
 
 def scenario_grid(**values: Sequence[Any]) -> list[dict[str, Any]]:
@@ -115,32 +116,51 @@ class RunTimeout(BaseException):
     Exception`` inside the run does not swallow it.
     """
 
+    def __str__(self) -> str:
+        return "timeout"
+
+
+def _interrupt(thread_id: int, exc) -> None:
+    """Raise `exc` in a thread at its next bytecode (None: cancel)."""
+    ctypes.pythonapi.PyThreadState_SetAsyncExc(
+        ctypes.c_ulong(thread_id), ctypes.py_object(exc) if exc else None
+    )
+
 
 @contextlib.contextmanager
 def _time_limit(seconds: float | None):
     """Raise `RunTimeout` in the block after `seconds` of wall time.
 
-    With SIGALRM, so only in the main thread of a process on POSIX (serial
-    runs and process pools); elsewhere (threads, Dask workers) no limit.
+    A timer thread raises the exception asynchronously in the calling
+    thread, which works in any thread (process pools, Dask worker threads),
+    unlike SIGALRM. Python code, such as an ODE right-hand side called by
+    the solver, is interrupted at its next bytecode.
     """
-    if (
-        seconds is None
-        or not hasattr(signal, "setitimer")
-        or threading.current_thread() is not threading.main_thread()
-    ):
+    if seconds is None or not hasattr(ctypes, "pythonapi"):
         yield
         return
+    target = threading.get_ident()
+    lock = threading.Lock()
+    state = {"active": True, "fired": False}
 
-    def expire(signum, frame):
-        raise RunTimeout(f"timeout: run exceeded {seconds:g} s")
+    def expire():
+        with lock:
+            if state["active"]:
+                state["fired"] = True
+                _interrupt(target, RunTimeout)
 
-    previous = signal.signal(signal.SIGALRM, expire)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
+    timer = threading.Timer(seconds, expire)
+    timer.daemon = True
+    timer.start()
     try:
         yield
     finally:
-        signal.setitimer(signal.ITIMER_REAL, 0.0)
-        signal.signal(signal.SIGALRM, previous)
+        with lock:
+            state["active"] = False
+        timer.cancel()
+        if state["fired"]:
+            # Fired as the block ended: do not let it escape into the caller.
+            _interrupt(target, None)
 
 
 def _run_chunk(run, items, timeout=None) -> list[tuple[int, dict | None, str]]:
@@ -161,8 +181,8 @@ def _run_chunk(run, items, timeout=None) -> list[tuple[int, dict | None, str]]:
             result = dict(result)
             status = str(result.pop(STATUS, "ok"))
             out.append((index, result, status))
-        except RunTimeout as exc:
-            out.append((index, None, str(exc)))
+        except RunTimeout:
+            out.append((index, None, f"timeout: run exceeded {timeout:g} s"))
         except Exception as exc:  # noqa: BLE001 -- reported as the row's status
             out.append((index, None, f"failed: {type(exc).__name__}: {exc}"))
     return out
@@ -288,14 +308,13 @@ def sweep(
     progress : bool, optional
         Show a progress bar (tqdm if installed, else a counter on stderr).
     chunksize : int, optional
-        Runs per task; default about four tasks per worker.
+        Runs per task; default about 16 tasks per worker.
     timeout : float, optional
         Wall-time limit of one run, s: a run that exceeds it is stopped and
-        gets status ``"timeout: ..."`` and NaN metrics (a stiff or chattering
-        simulation must not hold up the sweep). Enforced with SIGALRM where
-        runs execute in the main thread of a process (POSIX, ``"serial"``
-        and the default process pool); ignored in threads, which includes
-        Dask workers.
+        gets status ``"timeout: ..."`` and NaN metrics, so that a stiff or
+        chattering simulation does not hold up the sweep. It interrupts
+        Python code (an ODE right-hand side, say) with any executor, not a
+        long call into compiled code.
 
     Returns
     -------
@@ -387,12 +406,12 @@ def sweep(
         for index, (scenario, spec) in enumerate(itertools.product(scenarios, specs))
     ]
     results: list[tuple[dict | None, str] | None] = [None] * len(items)
-    bar = _Progress(len(items), progress)
     start = time.perf_counter()
-    own = None
+    own = bar = None
     try:
         if executor == "serial":
             label = "serial"
+            bar = _Progress(len(items), progress)
             for item in items:
                 for index, result, status in _run_chunk(run, [item], timeout):
                     results[index] = (result, status)
@@ -411,12 +430,15 @@ def sweep(
                 )
                 for i in range(0, len(items), size)
             }
+            # After the workers are forked: tqdm runs a monitor thread.
+            bar = _Progress(len(items), progress)
             for future in as_completed(futures):
                 for index, result, status in future.result():
                     results[index] = (result, status)
                 bar.update(futures[future])
     finally:
-        bar.close()
+        if bar is not None:
+            bar.close()
         if own is not None:
             own.shutdown(cancel_futures=True)
     seconds = time.perf_counter() - start

@@ -410,7 +410,7 @@ def sweep(
 
     Parameters
     ----------
-    scenarios : list of dict or dict of lists
+    scenarios : list of dict, dict of lists, or DataFrame
         Keyword arguments of `run_scenario`: ``alpha``, ``alpha_after``,
         ``alpha_at``, ``theta_r``, ``Td``, ``torque_limit``, ``model``,
         ``T``, ``npoints``, ``params`` and parameter changes such as
@@ -424,7 +424,7 @@ def sweep(
         Simulation function, default `twomass.simulate`; must pickle
         (module level) for process and cluster executors.
     executor, max_workers, progress, chunksize, timeout
-        As in `ctrl_lpv.sweep`.
+        As in `ctrl_lpv.sweep` (see there for a Dask cluster).
 
     Returns
     -------
@@ -449,12 +449,15 @@ def sweep(
             f"engine: the simulation function {simulate_fn.__name__} has no "
             f"'engine' keyword (requested engine={engine!r})"
         )
-    keys = (
-        set(scenarios)
-        if isinstance(scenarios, Mapping)
-        else {k for s in scenarios if isinstance(s, Mapping) for k in s}
-    )
-    for key in sorted(keys):
+    if isinstance(scenarios, Mapping):
+        keys = set(scenarios)
+    elif hasattr(scenarios, "columns"):  # a DataFrame
+        keys = set(scenarios.columns)
+    else:
+        keys = {k for s in scenarios if isinstance(s, Mapping) for k in s}
+    for key in sorted(keys, key=str):
+        if not isinstance(key, str):
+            continue  # reported by ctrl_lpv.sweep
         if key not in SCENARIO_KEYS and key.removesuffix("_scale") not in _FIELDS:
             raise TypeError(
                 f"scenarios: unknown key {key!r}; expected {list(SCENARIO_KEYS)}, "
