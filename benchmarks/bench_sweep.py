@@ -33,7 +33,6 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import importlib
 import inspect
 import json
 import logging
@@ -47,10 +46,8 @@ import time
 import numpy as np
 
 from ctrl_lpv import twomass
-from ctrl_lpv.sweep import scenario_grid
-
-# The module, not the function `twomass.sweep` that may shadow its name.
-tsweep = importlib.import_module("ctrl_lpv.twomass.sweep")
+from ctrl_lpv.batch import scenario_grid
+from ctrl_lpv.twomass import batch as tsweep
 
 GRID = dict(
     alpha=[0.0, 0.015, 0.03, 0.045, 0.06],

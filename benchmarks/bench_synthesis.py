@@ -51,8 +51,7 @@ import cvxpy as cp
 import numpy as np
 
 import ctrl_lpv as lpv
-from ctrl_lpv import twomass
-from ctrl_lpv.synthesis import synthesis_cache
+from ctrl_lpv import synthesis_cache, twomass
 
 FUNCTIONS = {
     "Lemma 1": (lpv.quadratic_stabilization, False, False),

@@ -158,6 +158,8 @@ def _reexported_data_doc(app, what, name, obj, options, lines):
     except Exception:  # noqa: BLE001 (not a module with source: nothing to do)
         return
     for info in pkgutil.iter_modules(getattr(package, "__path__", [])):
+        if info.name.startswith("_"):  # private, and __main__ runs the CLI
+            continue
         submodule = importlib.import_module(f"{modname}.{info.name}")
         if getattr(submodule, attr, None) is not obj:
             continue

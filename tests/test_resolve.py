@@ -16,8 +16,7 @@ import pytest
 
 import ctrl_lpv as lpv
 from conftest import interior_deltas
-from ctrl_lpv import twomass
-from ctrl_lpv.synthesis import SynthesisCache, synthesis_cache
+from ctrl_lpv import SynthesisCache, synthesis_cache, twomass
 
 HINF = {"w": "w", "u": "u", "z": ["x", "uw"]}
 

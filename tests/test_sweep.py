@@ -1,6 +1,5 @@
 """Scenario sweeps: table layout, order, failures, executors, Dask."""
 
-import importlib
 import itertools
 import math
 import sys
@@ -13,10 +12,8 @@ import pytest
 pd = pytest.importorskip("pandas")
 
 from ctrl_lpv import twomass  # noqa: E402
-from ctrl_lpv.sweep import scenario_grid, sweep  # noqa: E402
-
-# The module, not the function `twomass.sweep` that may shadow its name.
-tsweep = importlib.import_module("ctrl_lpv.twomass.sweep")
+from ctrl_lpv.batch import scenario_grid, sweep  # noqa: E402
+from ctrl_lpv.twomass import batch as tsweep  # noqa: E402
 
 
 # Runners are module level so that worker processes can unpickle them.

@@ -6,13 +6,14 @@ The data flow is one way: parameter domain (`polytope`) -> polytopic system
 """
 
 from .analysis import frozen_sweep, l2_gain_bound, quadratic_stability
+from .batch import scenario_grid, sweep
 from .controllers import integral_augmentation, state_feedback
 from .exceptions import CertificationError, InfeasibleError
 from .interconnection import interconnect
 from .polytope import ParameterBox, Polytope, Simplex, box
+from .problem_cache import SynthesisCache, synthesis_cache
 from .regions import LMIRegion, disk, halfplane, sector
 from .simulation import simulate
-from .sweep import scenario_grid, sweep
 from .synthesis import (
     Certificate,
     StateFeedbackDesign,
@@ -40,6 +41,8 @@ __all__ = [
     "check_stabilizability",
     "StateFeedbackDesign",
     "Certificate",
+    "SynthesisCache",
+    "synthesis_cache",
     "InfeasibleError",
     "CertificationError",
     "LMIRegion",

@@ -3,9 +3,12 @@
 `simulate` returns the same `control.TimeResponseData` as
 `control.input_output_response`.  Its ``"fast"`` engine generates one
 right-hand side for the whole block diagram (`ctrl_lpv.interconnection.plan`)
-and calls `scipy.integrate.solve_ivp` with it directly: no fixed-point
-iteration over the subsystems, no per-call input interpolation through
-numpy, and outputs computed vectorized over the time points afterwards.
+and integrates it directly: no fixed-point iteration over the subsystems,
+no per-call input interpolation through numpy, and outputs computed
+vectorized over the time points afterwards.  LSODA runs through
+`scipy.integrate.odeint`, the same solver as ``solve_ivp(method="LSODA")``
+without solve_ivp's Python loop around every step, which costs more than
+the right-hand side itself.
 """
 
 from __future__ import annotations
@@ -17,13 +20,20 @@ from collections.abc import Callable, Mapping
 
 import control as ct
 import numpy as np
-from scipy.integrate import solve_ivp
+from scipy.integrate import ODEintWarning, odeint, solve_ivp
 
 from .interconnection import _FastMixin, plan
 
 __all__ = ["simulate"]
 
 _ENGINES = ("fast", "control")
+
+# solve_ivp keywords of LSODA under their odeint names; with any other
+# keyword (events, dense_output, ...) the fast engine calls solve_ivp.
+_ODEINT_NAMES = {"first_step": "h0", "max_step": "hmax", "min_step": "hmin"}
+# odeint's limit of steps between two output times (default 500); solve_ivp
+# has none, and a chattering loop can take thousands per output interval.
+_ODEINT_MAX_STEPS = 10**9
 
 
 def simulate(
@@ -63,7 +73,9 @@ def simulate(
         concatenated) padded with zeros as in python-control.  Default 0.
     engine : {"fast", "control"}, optional
         ``"fast"`` (default): one generated right-hand side for the whole
-        diagram, integrated with `scipy.integrate.solve_ivp`.  Blocks
+        diagram, integrated with `scipy.integrate.solve_ivp`, or with
+        `scipy.integrate.odeint` for ``method="LSODA"`` (the same solver,
+        three to four times less overhead per step).  Blocks
         without an algebraic loop are evaluated once per call in
         dependency order; with an algebraic loop the system's own
         (python-control's) evaluation is used.  ``"control"``: call
@@ -163,12 +175,9 @@ def simulate(
     if sys.nstates == 0:
         t, X = T, np.zeros((0, T.size))
     else:
-        soln = solve_ivp(rhs, (T[0], T[-1]), X0, t_eval=T, **kwargs)
-        t, X, success = soln.t, soln.y, bool(soln.success)
-        if not success:
-            message = "solve_ivp failed: " + soln.message
-            if not ignore_errors:
-                raise RuntimeError(message)
+        t, X, success, message = _integrate(rhs, T, X0, kwargs)
+        if not success and not ignore_errors:
+            raise RuntimeError(message)
     Ut = U[:, : t.size]
     if out_many is not None:
         Y = out_many(t, X, Ut)
@@ -183,6 +192,32 @@ def simulate(
         return_x=return_states, squeeze=squeeze, success=success,
         message=message,
     )  # fmt: skip
+
+
+def _integrate(rhs, T, X0, kwargs) -> tuple[np.ndarray, np.ndarray, bool, str | None]:
+    """Times reached, states (one column per time), success, message."""
+    options = {k: v for k, v in kwargs.items() if k not in ("method", "rtol", "atol")}
+    if kwargs["method"] != "LSODA" or not options.keys() <= _ODEINT_NAMES.keys():
+        soln = solve_ivp(rhs, (T[0], T[-1]), X0, t_eval=T, **kwargs)
+        message = None if soln.success else "solve_ivp failed: " + soln.message
+        return soln.t, soln.y, bool(soln.success), message
+    steps = {
+        _ODEINT_NAMES[k]: v
+        for k, v in options.items()
+        if not (k == "max_step" and v == math.inf)  # odeint's default
+    }
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ODEintWarning)  # reported below
+        X, info = odeint(
+            rhs, X0, T, tfirst=True, rtol=kwargs["rtol"], atol=kwargs["atol"],
+            full_output=True, mxstep=_ODEINT_MAX_STEPS, **steps,
+        )  # fmt: skip
+    if info["message"] == "Integration successful.":
+        return T, X.T, True, None
+    # Keep the output times that the solver reached before it stopped.
+    reached = np.cumprod(np.asarray(info["tcur"]) >= T[1:])
+    count = 1 + int(reached.sum())
+    return T[:count], X[:count].T, False, "odeint (LSODA) failed: " + info["message"]
 
 
 def _time_points(T) -> np.ndarray:

@@ -15,6 +15,7 @@
 """
 
 from .backstepping import backstepping_controller
+from .batch import backstepping_spec, comparison_specs, lpv_spec, run_scenario, sweep
 from .comparison import compare, comparison_designs, comparison_scenarios
 from .designs import GainFile, design, load_gains, save_gains
 from .feedback import backlash_parameter, lpv_controller
@@ -23,7 +24,6 @@ from .parameters import Parameters
 from .plant import plant
 from .reproduce import errata_findings, reproduce
 from .scenarios import alpha_step, closed_loop, metrics, simulate
-from .sweep import backstepping_spec, comparison_specs, lpv_spec, run_scenario, sweep
 
 __all__ = [
     "Parameters",

@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     import pandas as pd
 
-__all__ = ["sweep", "scenario_grid", "RunTimeout"]
+__all__ = ["sweep", "scenario_grid"]
 
 #: Columns the engine adds to every table.
 CONTROLLER = "controller"
@@ -109,7 +109,7 @@ def _as_scenarios(scenarios) -> list[dict[str, Any]]:
     return out
 
 
-class RunTimeout(BaseException):
+class _RunTimeout(BaseException):
     """A run exceeded the `timeout` of `sweep` (reported as its status).
 
     A `BaseException`, like `KeyboardInterrupt`, so that an ``except
@@ -129,7 +129,7 @@ def _interrupt(thread_id: int, exc) -> None:
 
 @contextlib.contextmanager
 def _time_limit(seconds: float | None):
-    """Raise `RunTimeout` in the block after `seconds` of wall time.
+    """Raise `_RunTimeout` in the block after `seconds` of wall time.
 
     A timer thread raises the exception asynchronously in the calling
     thread, which works in any thread (process pools, Dask worker threads),
@@ -147,7 +147,7 @@ def _time_limit(seconds: float | None):
         with lock:
             if state["active"]:
                 state["fired"] = True
-                _interrupt(target, RunTimeout)
+                _interrupt(target, _RunTimeout)
 
     timer = threading.Timer(seconds, expire)
     timer.daemon = True
@@ -181,7 +181,7 @@ def _run_chunk(run, items, timeout=None) -> list[tuple[int, dict | None, str]]:
             result = dict(result)
             status = str(result.pop(STATUS, "ok"))
             out.append((index, result, status))
-        except RunTimeout:
+        except _RunTimeout:
             out.append((index, None, f"timeout: run exceeded {timeout:g} s"))
         except Exception as exc:  # noqa: BLE001 -- reported as the row's status
             out.append((index, None, f"failed: {type(exc).__name__}: {exc}"))

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 import control as ct
 import numpy as np
 
-from ..sweep import sweep as _generic_sweep
+from ..batch import sweep as _generic_sweep
 from ..synthesis import StateFeedbackDesign
 from .backstepping import DEFAULT_GAINS, backstepping_controller
 from .comparison import ALPHA_ESTIMATE, CONTROLLERS, comparison_designs
