@@ -18,6 +18,7 @@ fast path of `ctrl_lpv.simulation.simulate`.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -291,6 +292,12 @@ class _Block:
         self.ft = feedthrough(sys)
 
 
+@functools.lru_cache(maxsize=256)
+def _code(name: str, source: str):
+    """Compiled generated source: sweeps build the same loop thousands of times."""
+    return compile(source, f"<ctrl_lpv.interconnect {name}>", "exec")
+
+
 class EvaluationPlan:
     """Generated evaluation functions of a block diagram.
 
@@ -390,7 +397,7 @@ class EvaluationPlan:
 
     def _compile(self, name, source, **extra):
         namespace = dict(self._env, **extra)
-        exec(compile(source, f"<ctrl_lpv.interconnect {name}>", "exec"), namespace)
+        exec(_code(name, source), namespace)
         function = namespace[name]
         function.source = source
         return function

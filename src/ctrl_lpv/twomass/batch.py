@@ -419,7 +419,9 @@ def sweep(
         Name -> spec (`lpv_spec`, `backstepping_spec`); default
         `comparison_specs` (designs computed here, on nominal data).
     engine : str, optional
-        Simulation engine passed to `simulate` (e.g. ``"fast"``).
+        Simulation engine passed to `simulate`; ``"fast"`` with the
+        default `simulate` (``"control"`` gives python-control's
+        reference path, about 100 times slower).
     simulate : callable, optional
         Simulation function, default `twomass.simulate`; must pickle
         (module level) for process and cluster executors.
@@ -439,10 +441,11 @@ def sweep(
 
     Examples
     --------
-    >>> table = sweep({"alpha": [0.0, 0.03], "Jl_scale": [0.8, 1.2]},
-    ...               engine="fast")                       # doctest: +SKIP
+    >>> table = sweep({"alpha": [0.0, 0.03], "Jl_scale": [0.8, 1.2]})  # doctest: +SKIP
     >>> table.pivot_table("iae", "controller", "alpha")    # doctest: +SKIP
     """
+    if simulate is None and engine is None:
+        engine = "fast"
     simulate_fn = default_simulate if simulate is None else simulate
     if engine is not None and not _accepts(simulate_fn, "engine"):
         raise TypeError(
