@@ -240,8 +240,9 @@ def test_specs_pickle_and_build_the_same_controllers(designs, specs):
         np.testing.assert_array_equal(ours.outputs, ref.outputs, err_msg=name)
 
 
-@pytest.mark.parametrize("engine", [None, "fast"])
-def test_run_scenario_matches_a_direct_simulation(designs, specs, engine):
+# twomass.sweep simulates with the fast engine unless told otherwise.
+@pytest.mark.parametrize("engine, used", [(None, "fast"), ("control", "control")])
+def test_run_scenario_matches_a_direct_simulation(designs, specs, engine, used):
     scenario = dict(
         alpha=0.02,
         alpha_after=0.05,
@@ -260,7 +261,6 @@ def test_run_scenario_matches_a_direct_simulation(designs, specs, engine):
         executor="serial",
         progress=False,
     )
-    engine_kw = {} if engine is None else {"engine": engine}
     params = twomass.Parameters().replace(Jl=5.6 * 1.2, cs=3.0)
     controller = twomass.lpv_controller(
         designs["LPV scheduled"], alpha_estimate=0.03, torque_limit=1500.0
@@ -271,7 +271,7 @@ def test_run_scenario_matches_a_direct_simulation(designs, specs, engine):
         alpha=twomass.alpha_step(0.02, 0.05, at=0.05),
         Td=3.0,
         theta_r=0.4,
-        **engine_kw,
+        engine=used,
         **SHORT,
     )
     expected = twomass.metrics(response, 0.4).as_dict()
