@@ -2,8 +2,8 @@
 
 The synthesis functions pose their LMIs with every number that changes
 between calls as a cvxpy parameter, so one compiled problem serves every
-call of the same structure; this module keeps them. It is the package's
-one piece of process-wide state, bounded in count and memory.
+call of the same structure; this module keeps them, in a process-wide
+cache bounded in count and memory.
 """
 
 from __future__ import annotations

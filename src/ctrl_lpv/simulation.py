@@ -13,13 +13,16 @@ the right-hand side itself.
 
 from __future__ import annotations
 
+import contextlib
 import math
+import threading
 import warnings
 from bisect import bisect_left
 from collections.abc import Callable, Mapping
 
 import control as ct
 import numpy as np
+import scipy
 from scipy.integrate import ODEintWarning, odeint, solve_ivp
 
 from .interconnection import _FastMixin, plan
@@ -34,6 +37,13 @@ _ODEINT_NAMES = {"first_step": "h0", "max_step": "hmax", "min_step": "hmin"}
 # odeint's limit of steps between two output times (default 500); solve_ivp
 # has none, and a chattering loop can take thousands per output interval.
 _ODEINT_MAX_STEPS = 10**9
+# LSODA is thread-safe from scipy 1.17 (rewritten in C); before, two threads
+# inside it at once (a threaded executor) corrupt each other's state.
+_LSODA_GUARD = (
+    contextlib.nullcontext()
+    if tuple(int(v) for v in scipy.__version__.split(".")[:2]) >= (1, 17)
+    else threading.Lock()
+)
 
 
 def simulate(
@@ -206,7 +216,7 @@ def _integrate(rhs, T, X0, kwargs) -> tuple[np.ndarray, np.ndarray, bool, str | 
         for k, v in options.items()
         if not (k == "max_step" and v == math.inf)  # odeint's default
     }
-    with warnings.catch_warnings():
+    with _LSODA_GUARD, warnings.catch_warnings():
         warnings.simplefilter("ignore", ODEintWarning)  # reported below
         X, info = odeint(
             rhs, X0, T, tfirst=True, rtol=kwargs["rtol"], atol=kwargs["atol"],
