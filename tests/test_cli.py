@@ -150,6 +150,21 @@ def test_design_save_then_simulate(tmp_path, capsys):
     assert metrics["peak_input"] == pytest.approx(np.abs(data[:, 2]).max())
 
 
+def test_simulate_engines_give_the_same_response(tmp_path):
+    csv = {}
+    for engine in ("control", "fast"):
+        out = tmp_path / engine
+        argv = ["simulate", "--controller", "paper", "--alpha", "0.03", "--T", "1"]
+        assert (
+            main(argv + ["--engine", engine, "--out", str(out), "--formats", "png"])
+            == 0
+        )
+        csv[engine] = np.loadtxt(out / "response.csv", delimiter=",", skiprows=1)
+    control, fast = csv["control"], csv["fast"]
+    np.testing.assert_array_equal(fast[:, 0], control[:, 0])
+    assert np.abs(fast[:, 1] - control[:, 1]).max() <= 1e-6  # theta_l, rad
+
+
 def test_saved_scheduled_gains_give_the_design_controller(tmp_path):
     design = twomass.design(scheduled=True)
     path = twomass.save_gains(design, tmp_path / "g.json")

@@ -76,6 +76,17 @@ def _formats(text: str) -> tuple[str, ...]:
     return formats
 
 
+def _engine_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--engine",
+        choices=("control", "fast"),
+        default="control",
+        help="simulation engine: python-control's input_output_response "
+        "(default, the reference) or ctrl_lpv's fused right-hand side "
+        "(about 100x faster, same results to the solver tolerance)",
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``ctrl-lpv`` (for the docs and tests)."""
     from . import __version__
@@ -116,6 +127,7 @@ def build_parser() -> argparse.ArgumentParser:
         default=("png", "svg"),
         help="figure formats, comma-separated (default png,svg)",
     )
+    _engine_option(rep)
     rep.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
 
     des = commands.add_parser(
@@ -256,6 +268,7 @@ def build_parser() -> argparse.ArgumentParser:
         default="exact",
         help="backlash model of the plant (default exact)",
     )
+    _engine_option(sim)
     sim.add_argument(
         "--torque-limit",
         metavar="NM",
@@ -299,6 +312,7 @@ def _run_reproduce(args) -> int:
         robustness=args.robustness,
         formats=args.formats,
         progress=_progress(time.perf_counter(), args.quiet),
+        engine=args.engine,
     )
     print((args.out / "comparison.md").read_text(), end="")
     print(
@@ -393,6 +407,7 @@ def _run_simulate(args) -> int:
         Td=args.Td,
         T=args.T,
         npoints=int(round(1000 * args.T)) + 1,
+        engine=args.engine,
     )
     m = metrics(response, args.theta_r)
     print(

@@ -69,8 +69,13 @@ def _coordinate_controller(error_x1: bool) -> ct.NonlinearIOSystem:
     )
 
 
-def errata_findings() -> tuple[dict, dict]:
+def errata_findings(engine: str = "control") -> tuple[dict, dict]:
     """Compute the paper's errata that are checkable by computation.
+
+    Parameters
+    ----------
+    engine : {"control", "fast"}, optional
+        Simulation engine of the two coordinate runs, as in `compare`.
 
     Returns
     -------
@@ -99,7 +104,7 @@ def errata_findings() -> tuple[dict, dict]:
         infeasible = str(exc)
     coordinates, responses = {}, {}
     for error_x1, label in ((True, "x1 = theta_m - theta_r"), (False, "x1 = theta_m")):
-        response = simulate(_coordinate_controller(error_x1), alpha=0.03)
+        response = simulate(_coordinate_controller(error_x1), alpha=0.03, engine=engine)
         labels = response.output_labels
         theta_l = response.outputs[labels.index("theta_l")]
         m = step_metrics(response.time, theta_l, 0.5, initial=0.0)
@@ -147,6 +152,7 @@ def reproduce(
     robustness: bool = False,
     formats: tuple[str, ...] = ("png", "svg"),
     progress: Callable[[str], None] | None = None,
+    engine: str = "control",
 ) -> dict:
     """Run the whole reproduction of the paper and write it to `out`.
 
@@ -161,6 +167,8 @@ def reproduce(
         Figure file formats.
     progress : callable, optional
         Called with a one-line message at each step and simulation.
+    engine : {"control", "fast"}, optional
+        Simulation engine, as in `compare`.
 
     Returns
     -------
@@ -190,7 +198,7 @@ def reproduce(
         "errata: eigenvalues of the published gain, Theorem 2 on p in [-1, 0], "
         "first-state coordinates"
     )
-    errata, coordinate_responses = errata_findings()
+    errata, coordinate_responses = errata_findings(engine)
     (out / "errata.json").write_text(json.dumps(errata, indent=2) + "\n")
     files.append(out / "errata.json")
     figure(
@@ -224,7 +232,11 @@ def reproduce(
         say(f"simulation {done}/{total}: {label}")
 
     rows, responses = compare(
-        designs, scenarios, keep=figure_scenarios.__contains__, progress=report
+        designs,
+        scenarios,
+        keep=figure_scenarios.__contains__,
+        progress=report,
+        engine=engine,
     )
     table = markdown_table(rows)
     (out / "comparison.md").write_text(table + "\n")
