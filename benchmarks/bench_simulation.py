@@ -1,4 +1,4 @@
-"""Simulation speed of the two-mass closed loop, five ways, side by side.
+"""Simulation speed of the two-mass closed loop, eight ways, side by side.
 
 The 5 s closed loop of the paper: exact backlash plant (alpha = 0.03 rad)
 under the published LPV gain (`twomass.lpv_controller()`), step of theta_r

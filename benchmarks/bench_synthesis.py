@@ -20,8 +20,9 @@ Three parts, every comparison measured side by side in one run (medians of
     a gamma sweep, a back-off sweep, a performance-weight sweep and a plant
     sweep (``p_bounds``), against the plain script per point.
 (c) Scaling on random well-conditioned polytopes (stabilizable by
-    construction, m = 2 inputs, one w, z = [C x; u]) for Theorem 2 and
-    Lemma 2 with ``backoff=None``: N = 2..64 vertices, n = 4, 8, 12. Each
+    construction, m = 2 inputs, one w, z = [C x; u]) for the four functions
+    (``--functions``; the H-infinity ones with ``backoff=None``, the
+    stabilizations with their one solve): N = 2..64 vertices, n = 4, 8, 12. Each
     case runs in its own process with a time cap per measured call; cases
     beyond a capped one are skipped. The plain script uses the library's
     Clarabel settings here. Columns give the LMI count and size, the conic
@@ -406,9 +407,10 @@ def run_case(spec):
     cold call stayed within the cap.
     """
     name, n, N, what = spec["function"], spec["n"], spec["N"], spec["what"]
-    function, _, _ = FUNCTIONS[name]
+    function, hinf, scheduled = FUNCTIONS[name]
     sys = random_polytope(n, N, seed=1)
-    u, kw = [1, 2], {"w": [0], "z": [0, 1, 2], "backoff": None}
+    u = [1, 2]
+    kw = {"w": [0], "z": [0, 1, 2], "backoff": None} if hinf else {}
     result = {}
     if what == "library":
         result["cold"] = run_library(function, sys, True, u=u, **kw)
@@ -420,9 +422,9 @@ def run_case(spec):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)
             # Same Clarabel settings as the library: like with like.
-            problem, gamma = plain_hinf(
+            problem, gamma = (plain_hinf if hinf else plain_stabilization)(
                 channels(sys, [0], u, [0, 1, 2]),
-                name == "Theorem 2",
+                scheduled,
                 chordal_decomposition_enable=False,
             )
         total = time.perf_counter() - start
@@ -466,7 +468,7 @@ def spawn(spec, cap):
     return result
 
 
-def part_c(quick, cap):
+def part_c(quick, cap, functions):
     Ns = [2, 4, 8] if quick else [2, 4, 8, 16, 32, 64]
     ns = [4, 8] if quick else [4, 8, 12]
     print(
@@ -480,7 +482,7 @@ def part_c(quick, cap):
         f"{'RSS MB':>6s} | {'cold/pl':>7s} {'warm/pl':>7s}"
     )
     out = []
-    for name in ("Theorem 2", "Lemma 2"):
+    for name in functions:
         for n in ns:
             over = {"library": False, "plain": False}
             for N in Ns:
@@ -542,6 +544,11 @@ def main(argv=None):
     parser.add_argument("--json", help="write all results to this JSON file")
     parser.add_argument("--cap", type=float, default=None, help="seconds per case")
     parser.add_argument("--parts", default="abc", help="any of a, b, c")
+    parser.add_argument(
+        "--functions",
+        default="Theorem 2,Lemma 2,Theorem 1,Lemma 1",
+        help="functions of part c, comma-separated (default all four)",
+    )
     parser.add_argument("--case", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.case:
@@ -567,7 +574,11 @@ def main(argv=None):
     if "b" in args.parts:
         results["resolve"] = part_b(repeat, args.quick)
     if "c" in args.parts:
-        results["scaling"] = part_c(args.quick, cap)
+        functions = [f.strip() for f in args.functions.split(",")]
+        unknown = [f for f in functions if f not in FUNCTIONS]
+        if unknown:
+            parser.error(f"--functions: unknown {unknown}; use {list(FUNCTIONS)}")
+        results["scaling"] = part_c(args.quick, cap, functions)
     if args.json:
         with open(args.json, "w") as handle:
             json.dump(results, handle, indent=2, default=float)
