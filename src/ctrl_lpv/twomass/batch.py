@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 import control as ct
 import numpy as np
 
+from ..batch import _as_scenarios
 from ..batch import sweep as _generic_sweep
 from ..synthesis import StateFeedbackDesign
 from .backstepping import DEFAULT_GAINS, backstepping_controller
@@ -452,15 +453,8 @@ def sweep(
             f"engine: the simulation function {simulate_fn.__name__} has no "
             f"'engine' keyword (requested engine={engine!r})"
         )
-    if isinstance(scenarios, Mapping):
-        keys = set(scenarios)
-    elif hasattr(scenarios, "columns"):  # a DataFrame
-        keys = set(scenarios.columns)
-    else:
-        keys = {k for s in scenarios if isinstance(s, Mapping) for k in s}
-    for key in sorted(keys, key=str):
-        if not isinstance(key, str):
-            continue  # reported by ctrl_lpv.sweep
+    scenarios = _as_scenarios(scenarios)
+    for key in sorted({k for s in scenarios for k in s}):
         if key not in SCENARIO_KEYS and key.removesuffix("_scale") not in _FIELDS:
             raise TypeError(
                 f"scenarios: unknown key {key!r}; expected {list(SCENARIO_KEYS)}, "
