@@ -1,33 +1,62 @@
-"""Exceptions raised by ctrl_lpv."""
+"""Exceptions raised by ctrl_lpv.
 
-__all__ = ["InfeasibleError", "CertificationError"]
+A refusal is a statement about the problem, so the two classes say different
+things and neither is a subclass of the other:
+
+* `InfeasibleError`: no solution exists, and the library has a proof of it
+  (a vertex with an uncontrollable unstable mode in balanced coordinates, or
+  a dual (Farkas) certificate of the LMIs verified in float64);
+* `CertificationError`: no certified solution was found, with what was
+  tried. The problem may well be feasible.
+
+Both derive from `SynthesisError`, which catches either.
+"""
+
+__all__ = ["SynthesisError", "InfeasibleError", "CertificationError"]
 
 
-class InfeasibleError(RuntimeError):
-    """No certified solution exists for an LMI synthesis problem.
-
-    Raised when a vertex of the polytope is not stabilizable (the message
-    names the vertex and the uncontrollable mode) or when the solvers report
-    the LMIs infeasible. When no returned point passes the independent
-    float64 certificate, the subclass `CertificationError` is raised.
+class SynthesisError(RuntimeError):
+    """No design was returned (base of the two refusals).
 
     Attributes
     ----------
     attempts : tuple
         The solver attempts (`ctrl_lpv.lmi.SolveAttempt`) made, if any.
+    farkas : `ctrl_lpv.lmi.FarkasCertificate` or None
+        The best dual certificate of infeasibility found: the proof of an
+        `InfeasibleError`, or what a `CertificationError` could verify
+        (too weak to prove infeasibility).
     """
 
-    def __init__(self, message: str, attempts=()):
+    def __init__(self, message: str, attempts=(), farkas=None):
         super().__init__(message)
         self.attempts = tuple(attempts)
+        self.farkas = farkas
 
 
-class CertificationError(InfeasibleError):
-    """Every solver attempt returned a point that failed its certificate.
+class InfeasibleError(SynthesisError):
+    """The problem provably has no solution.
 
-    A subclass of `InfeasibleError`: the problem may be feasible, but no point
-    that the solvers returned could be verified in float64, so no design is
-    returned.
+    Raised only with a proof, stated in the message: a vertex of the
+    polytope that is not stabilizable (the vertex, the uncontrollable mode
+    and its PBH residual in balanced coordinates), or a dual certificate of
+    infeasibility of the LMIs verified in float64 (`farkas` holds it).
+
+    Attributes
+    ----------
+    attempts : tuple
+        The solver attempts (`ctrl_lpv.lmi.SolveAttempt`) made, if any.
+    farkas : `ctrl_lpv.lmi.FarkasCertificate` or None
+        The verified dual certificate, if the proof is one.
+    """
+
+
+class CertificationError(SynthesisError):
+    """No certified solution was found; the problem may be feasible.
+
+    Every point the solvers returned failed its independent float64
+    certificate, or no solver returned a point, and no proof of
+    infeasibility could be verified. The message says what was tried.
 
     Attributes
     ----------

@@ -35,6 +35,7 @@ __all__ = [
     "LMIProblem",
     "LMISolution",
     "LMICheck",
+    "FarkasCertificate",
     "SolveAttempt",
     "assemble",
     "default_solvers",
@@ -46,6 +47,12 @@ BlockFunction = Callable[[SimpleNamespace], Sequence[Sequence[object]]]
 _CERTIFIED_FRACTION = 0.5
 # Margin factor of the retry after a point misses its certificate narrowly.
 _RETRY_MARGIN_FACTOR = 10.0
+# Radius (scaled units) a verified dual certificate must exclude before
+# `LMIProblem.solve` calls the LMIs infeasible.
+_INFEASIBLE_RADIUS = 1e6
+# Alternating projections that polish a solver's dual point into a Farkas
+# certificate (PSD cone, then the null space of the adjoint map).
+_FARKAS_REFINEMENTS = 200
 
 
 def _narrow_miss(checks) -> bool:
@@ -109,6 +116,48 @@ class LMICheck:
     def passed(self) -> bool:
         """Whether ``max_eig <= required``."""
         return bool(self.max_eig <= self.required)
+
+
+@dataclass(frozen=True)
+class FarkasCertificate:
+    """A dual certificate of infeasibility, verified in float64.
+
+    With ``Y_i >= 0`` (one per inequality ``F_i(x) <= -m_i I``, ``m_i`` the
+    margin of a strict one, 0 otherwise) scaled to ``sum_i tr Y_i = 1``,
+    the affine function ``sum_i <F_i(x) + m_i I, Y_i> = b + g'x`` is
+    evaluated in float64 (``b`` at ``x = 0``, ``g`` one entry of the
+    variables at a time). A point that satisfies every inequality makes it
+    ``<= 0``, so it must have ``||x||_2 >= (b - e) / (||g|| + e')``, with
+    ``e``, ``e'`` bounds on the rounding of ``b`` and ``g``: no point within
+    `radius` of the origin is feasible.
+
+    Attributes
+    ----------
+    stage : str
+        The stage whose inequalities the certificate refutes.
+    offset : float
+        ``b``, the value at ``x = 0``.
+    slope : float
+        ``||g||_2`` plus its rounding bound.
+    radius : float
+        No feasible point has ``||x||_2`` below it (``inf`` if ``g = 0``);
+        0 if the certificate proves nothing (``b`` not positive).
+    margin : float
+        The margin ``m`` of the strict inequalities.
+    """
+
+    stage: str
+    offset: float
+    slope: float
+    radius: float
+    margin: float
+
+    def __str__(self) -> str:
+        return (
+            f"dual certificate verified in float64: no point with ||x|| < "
+            f"{self.radius:.3g} satisfies the '{self.stage}' LMIs with margin "
+            f"{self.margin:.3g}"
+        )
 
 
 @dataclass
@@ -230,6 +279,44 @@ def default_solvers() -> list[tuple[str, dict]]:
         ("MOSEK", {}),
     ]
     return [(name, opts) for name, opts in chain if name in installed]
+
+
+def _psd_part(Y):
+    lam, V = np.linalg.eigh(Y)
+    return (V * np.clip(lam, 0.0, None)) @ V.T
+
+
+def _is_symmetric(expression) -> bool:
+    # `LMIProblem.variable` builds symmetric variables as expressions of a
+    # vector of free entries; plain variables are cvxpy Variables.
+    return not isinstance(expression, cp.Variable)
+
+
+def _unit_points(shape, symmetric: bool):
+    """Unit points of a variable: one per free entry."""
+    if symmetric:
+        n = shape[0]
+        for a, b in zip(*np.triu_indices(n)):
+            E = np.zeros((n, n))
+            E[a, b] = E[b, a] = 1.0
+            yield E
+        return
+    for index in np.ndindex(*shape):
+        E = np.zeros(shape)
+        E[index] = 1.0
+        yield E
+
+
+# Solver options that bound a solve's wall time, in seconds.
+_TIME_LIMIT_OPTIONS = {"CLARABEL": "time_limit", "SCS": "time_limit_secs"}
+
+
+def _with_time_limit(solver, options, deadline):
+    key = _TIME_LIMIT_OPTIONS.get(solver.upper())
+    if deadline is None or key is None:
+        return options
+    left = max(deadline - time.perf_counter(), 1e-3)
+    return {**options, key: min(float(options.get(key, np.inf)), left)}
 
 
 class LMIProblem:
@@ -488,7 +575,15 @@ class LMIProblem:
             self._margin.value = nominal
             compile_seconds = float(problem.compilation_time or 0.0)
         seconds = time.perf_counter() - start
-        values, checks = {}, ()
+        values, checks, duals = {}, (), None
+        if status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
+            # The solver's Farkas point, judged by `farkas` (with the margin
+            # this attempt was posed with).
+            duals = [c.dual_value for c in problem.constraints]
+            if any(d is None for d in duals):
+                duals = None
+            else:
+                duals = (duals, nominal * factor)
         if status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
             values = {k: np.array(x.value, dtype=float) for k, x in self._vars.items()}
             checks = self.check(values, stage)
@@ -505,7 +600,7 @@ class LMIProblem:
         attempt = SolveAttempt(
             solver, status, seconds, certified, message, compile_seconds
         )
-        return attempt, values, checks
+        return attempt, values, checks, duals
 
     def check(self, values: dict[str, np.ndarray], stage: str = "default"):
         """Evaluate every active LMI at `values` in float64.
@@ -536,6 +631,8 @@ class LMIProblem:
         stage: str = "default",
         solvers: Sequence[tuple[str, dict]] | None = None,
         certify: bool = True,
+        deadline: float | None = None,
+        infeasible_radius: float = _INFEASIBLE_RADIUS,
     ) -> LMISolution:
         """Solve, trying each solver in turn until a point certifies.
 
@@ -555,6 +652,12 @@ class LMIProblem:
             when it fails its certificate (``solution.certified`` is then
             False). Use it only for estimates, e.g. of an optimal value that
             a certified re-solve backs off from.
+        deadline : float, optional
+            ``time.perf_counter()`` value after which no further solver is
+            started; solvers get the time left as their own limit.
+        infeasible_radius : float, optional
+            Radius a verified dual certificate must exclude (see
+            `FarkasCertificate`) for the LMIs to be called infeasible.
 
         Returns
         -------
@@ -563,23 +666,37 @@ class LMIProblem:
         Raises
         ------
         InfeasibleError
-            If every solver reports the problem infeasible.
+            If no point certifies and a solver's dual certificate of
+            infeasibility verifies in float64 (`FarkasCertificate`) with at
+            least `infeasible_radius`.
         CertificationError
-            If no returned point passes its float64 certificate.
+            If no returned point passes its float64 certificate and no
+            infeasibility is proven.
         """
         problem = self._problem(stage, objective)
         attempts = []
+        dual_points = []
         chain = default_solvers() if solvers is None else list(solvers)
         if not chain:
             raise RuntimeError("no SDP solver installed: install clarabel or scs")
         estimate = None
         for solver, options in chain:
-            attempt, values, checks = self._attempt(problem, stage, solver, options)
+            if deadline is not None and time.perf_counter() >= deadline:
+                attempts.append(
+                    SolveAttempt(solver, "skipped", 0.0, False, "time_limit reached")
+                )
+                break
+            options = _with_time_limit(solver, options, deadline)
+            attempt, values, checks, duals = self._attempt(
+                problem, stage, solver, options
+            )
             attempts.append(attempt)
+            if duals is not None:
+                dual_points.append(duals)
             if not attempt.certified and checks and _narrow_miss(checks):
                 # The solver's own tolerance ate the margin: pose a larger one
                 # (the certificate still asks for the nominal margin).
-                attempt, values, checks = self._attempt(
+                attempt, values, checks, duals = self._attempt(
                     problem, stage, solver, options, _RETRY_MARGIN_FACTOR
                 )
                 attempts.append(attempt)
@@ -596,6 +713,144 @@ class LMIProblem:
             f"{a.solver}: {a.status}" + (f" ({a.message})" if a.message else "")
             for a in attempts
         )
-        if all(a.status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE) for a in attempts):
-            raise InfeasibleError(f"the LMIs are infeasible [{summary}]", attempts)
-        raise CertificationError(f"no certified solution [{summary}]", attempts)
+        proof = self._best_farkas(dual_points, stage)
+        if proof is not None and proof.radius >= infeasible_radius:
+            raise InfeasibleError(
+                f"the LMIs are infeasible: {proof} [{summary}]", attempts, proof
+            )
+        if dual_points:
+            found = "none" if proof is None else f"radius {proof.radius:.3g} only"
+            summary += f"; the solvers' dual certificates did not verify ({found})"
+        raise CertificationError(
+            f"no certified solution found [{summary}]", attempts, farkas=proof
+        )
+
+    def _best_farkas(self, dual_points, stage):
+        best = None
+        for duals, margin in dual_points:
+            proof = self.farkas(duals, stage, margin)
+            if proof is not None and (best is None or proof.radius > best.radius):
+                best = proof
+        return best
+
+    def farkas(self, duals, stage: str = "default", margin: float | None = None):
+        """Verify a dual certificate of infeasibility in float64.
+
+        Parameters
+        ----------
+        duals : sequence of ndarray
+            One symmetric matrix per active inequality of `stage`, in the
+            order they were added (e.g. cvxpy's dual values after an
+            infeasible solve). Each is projected on the PSD cone, then the
+            certificate is evaluated as described in `FarkasCertificate`;
+            both signs are tried.
+        stage : str, optional
+            Stage name.
+        margin : float, optional
+            Margin of the strict inequalities; default the current one.
+
+        Returns
+        -------
+        `FarkasCertificate` or None
+            None if neither sign gives a positive offset.
+        """
+        margin = self.margin if margin is None else float(margin)
+        active = self._active(stage)
+        if len(duals) != len(active):
+            raise ValueError(
+                f"duals: expected {len(active)} matrices, got {len(duals)}"
+            )
+        base, M = self._affine_map(active)
+        gram = sum((m.T @ m).toarray() for m in M)
+        eps = np.finfo(float).eps
+        best = None
+        # Both signs (conventions differ), and without the duals of the
+        # non-strict side constraints: for homogeneous strict LMIs the
+        # normalisations are what make the solver's problem infeasible, and
+        # the strict LMIs alone have an exact certificate.
+        symmetric = [
+            0.5 * (np.asarray(d, float) + np.asarray(d, float).T) for d in duals
+        ]
+        variants = [
+            [sign * y if keep or lmi[2] else 0 * y for y, lmi in zip(symmetric, active)]
+            for sign in (1.0, -1.0)
+            for keep in (True, False)
+        ]
+        for Y in variants:
+            slope_before = np.inf
+            for _ in range(_FARKAS_REFINEMENTS):
+                Y = [_psd_part(y) for y in Y]
+                total = sum(np.trace(y) for y in Y)
+                if not total > 0:
+                    break
+                Y = [y / total for y in Y]
+                # The smallest change of Y that zeroes the slope g; the
+                # projections converge linearly, so stop when they stall.
+                g = sum(m.T @ y.ravel() for m, y in zip(M, Y))
+                slope = float(np.linalg.norm(g))
+                if slope > 0.9 * slope_before or slope < 1e3 * eps:
+                    break
+                slope_before = slope
+                c = np.linalg.lstsq(gram, g, rcond=None)[0]
+                Y = [y - (m @ c).reshape(y.shape) for m, y in zip(M, Y)]
+                Y = [0.5 * (y + y.T) for y in Y]
+            Y = [_psd_part(y) for y in Y]
+            total = sum(np.trace(y) for y in Y)
+            if not total > 0:
+                continue
+            Y = [y / total for y in Y]
+            b, b_err = 0.0, 0.0
+            g = np.zeros(gram.shape[0])
+            g_err = 0.0
+            for (_, _, strict, _), F0, m_i, y in zip(active, base, M, Y):
+                m = margin if strict else 0.0
+                scale = 10 * F0.shape[0] * eps * np.abs(y).max()
+                b += float(np.sum(F0 * y)) + m * float(np.trace(y))
+                b_err += scale * (np.abs(F0).sum() + m * F0.shape[0])
+                g += m_i.T @ y.ravel()
+                g_err += scale * abs(m_i).sum()
+            slope = float(np.linalg.norm(g)) + g_err
+            offset = b - b_err
+            if offset <= 0:
+                radius = 0.0
+            else:
+                radius = np.inf if slope == 0 else offset / slope
+            proof = FarkasCertificate(stage, float(b), slope, float(radius), margin)
+            if best is None or proof.radius > best.radius:
+                best = proof
+        return best
+
+    def _affine_map(self, active):
+        """``F_i(0)`` and the sparse map ``x -> vec(F_i(x) - F_i(0))``.
+
+        Evaluated in float64 with the block functions themselves, one free
+        entry of the variables at a time (only for the variables that
+        inequality ``i`` reads).
+        """
+        numeric = {k: np.asarray(p.value, float) for k, p in self._params.items()}
+        zero = {k: np.zeros(x.shape) for k, x in self._vars.items()}
+        units = {
+            name: list(_unit_points(x.shape, _is_symmetric(x)))
+            for name, x in self._vars.items()
+        }
+        probe = np.random.default_rng(0)
+        base, maps = [], []
+        for _, blocks, _, _ in active:
+
+            def evaluate(values, blocks=blocks):
+                v = self._namespace({**numeric, **zero, **values})
+                return assemble(blocks(v), xp=np)
+
+            F0 = evaluate({})
+            columns = []
+            for name, x in self._vars.items():
+                if np.array_equal(evaluate({name: probe.standard_normal(x.shape)}), F0):
+                    columns.append(sp.csc_array((F0.size, len(units[name]))))
+                    continue
+                dense = np.column_stack(
+                    [(evaluate({name: E}) - F0).ravel() for E in units[name]]
+                )
+                columns.append(sp.csc_array(dense))
+            base.append(F0)
+            maps.append(sp.hstack(columns, format="csr"))
+        return base, maps
