@@ -24,7 +24,7 @@ def lyapunov_problem(A, margin=1e-6):
     lmi.variable("P", (n, n), symmetric=True)
     lmi.add("P > 0", lambda v: [[-v.P]])
     lmi.add("Lyapunov", lambda v: [[A.T @ v.P + v.P @ A]])
-    lmi.add("P <= I", lambda v: [[v.P - np.eye(n)]], strict=False)
+    lmi.add("P <= I", lambda v: [[v.P - np.eye(n)]], strict=False, normalization=True)
     return lmi
 
 
@@ -61,7 +61,7 @@ def test_parameters_resolve_without_rebuilding():
     a = lmi.parameter("a", value=0.5)
     lmi.add("P > 0", lambda v: [[-v.P]])
     lmi.add("decay", lambda v: [[A.T @ v.P + v.P @ A + 2 * v.a * v.P]])
-    lmi.add("P <= I", lambda v: [[v.P - np.eye(2)]], strict=False)
+    lmi.add("P <= I", lambda v: [[v.P - np.eye(2)]], strict=False, normalization=True)
     lmi.solve(stage="decay")
     problem = lmi._problems["decay"]
     assert problem.is_dpp()

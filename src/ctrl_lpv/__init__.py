@@ -8,16 +8,21 @@ The data flow is one way: parameter domain (`polytope`) -> polytopic system
 from .analysis import frozen_sweep, l2_gain_bound, quadratic_stability
 from .batch import scenario_grid, sweep
 from .controllers import integral_augmentation, state_feedback
-from .exceptions import CertificationError, InfeasibleError
+from .exceptions import (
+    CertificationError,
+    InfeasibleError,
+    ProblemSizeWarning,
+    SynthesisError,
+)
 from .interconnection import interconnect
 from .polytope import ParameterBox, Polytope, Simplex, box
 from .problem_cache import SynthesisCache, synthesis_cache
 from .regions import LMIRegion, disk, halfplane, sector
 from .simulation import simulate
+from .stabilizability import ModeResidual, check_stabilizability
 from .synthesis import (
     Certificate,
     StateFeedbackDesign,
-    check_stabilizability,
     gain_scheduled_hinf,
     gain_scheduled_stabilization,
     hinf_state_feedback,
@@ -43,8 +48,11 @@ __all__ = [
     "Certificate",
     "SynthesisCache",
     "synthesis_cache",
+    "SynthesisError",
     "InfeasibleError",
     "CertificationError",
+    "ProblemSizeWarning",
+    "ModeResidual",
     "LMIRegion",
     "halfplane",
     "disk",

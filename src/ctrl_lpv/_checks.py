@@ -6,11 +6,71 @@ from collections.abc import Sequence
 
 import numpy as np
 
-__all__ = ["as_matrix", "as_ss_data", "signal_indices"]
+__all__ = ["as_matrix", "as_ss_data", "real_number", "signal_indices"]
+
+
+def real_number(
+    value,
+    name: str,
+    *,
+    allow_none: bool = False,
+    minimum: float | None = None,
+    positive: bool = False,
+    below: float | None = None,
+) -> float | None:
+    """Return `value` as a finite float, naming `name` on error.
+
+    Strings, booleans and complex numbers are refused with a `TypeError`;
+    ``minimum`` (inclusive), ``positive`` (``> 0``) and ``below`` (exclusive
+    upper bound) give a `ValueError` that states the admissible range.
+    """
+    if value is None:
+        if allow_none:
+            return None
+        raise TypeError(f"{name}: expected a real number, got None")
+    if isinstance(value, (bool, np.bool_, str, bytes)) or not isinstance(
+        value, (int, float, np.integer, np.floating, np.ndarray)
+    ):
+        raise TypeError(f"{name}: expected a real number, got {value!r}")
+    if isinstance(value, np.ndarray):
+        if value.shape != () or not np.issubdtype(value.dtype, np.number):
+            raise TypeError(f"{name}: expected a real number, got {value!r}")
+        if np.iscomplexobj(value):
+            raise TypeError(f"{name}: expected a real number, got {value!r}")
+    number = float(value)
+    if not np.isfinite(number):
+        raise ValueError(f"{name}: must be finite, got {value!r}")
+    if positive and not number > 0:
+        raise ValueError(f"{name}: must be positive, got {value!r}")
+    if minimum is not None and number < minimum:
+        raise ValueError(f"{name}: must be at least {minimum:g}, got {value!r}")
+    if below is not None and not number < below:
+        raise ValueError(f"{name}: must be below {below:g}, got {value!r}")
+    return number
 
 
 def as_matrix(value, name: str, shape: tuple[int, int] | None = None) -> np.ndarray:
     """Return `value` as a finite 2-D float array, naming `name` on error."""
+    try:
+        raw = np.asarray(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name}: expected a numeric matrix, got {value!r}") from None
+    if raw.dtype.kind in "USVb":
+        raise TypeError(f"{name}: expected a numeric matrix, got {value!r}")
+    if raw.dtype.kind == "O":
+        try:
+            raw = raw.astype(complex)
+        except (TypeError, ValueError):
+            raise TypeError(
+                f"{name}: expected a numeric matrix, got {value!r}"
+            ) from None
+    if np.iscomplexobj(raw):
+        if np.any(raw.imag != 0):
+            raise TypeError(
+                f"{name}: complex entries are not supported (the imaginary "
+                "part would be dropped)"
+            )
+        value = raw.real
     try:
         mat = np.array(value, dtype=float)
     except (TypeError, ValueError):
@@ -47,6 +107,8 @@ def as_ss_data(item, name: str) -> tuple[np.ndarray, ...]:
     n = A.shape[0]
     if A.shape != (n, n):
         raise ValueError(f"{name}.A: must be square, got shape {A.shape}")
+    if n == 0:
+        raise ValueError(f"{name}.A: the system has no states")
     B = as_matrix(matrices[1], f"{name}.B")
     if B.shape[0] != n:
         if B.shape == (1, n):  # a 1-D input column written as a row
@@ -68,7 +130,16 @@ def signal_indices(spec, labels: Sequence[str], name: str) -> list[int]:
     """
     if spec is None:
         return []
-    items = [spec] if isinstance(spec, (str, int, np.integer)) else list(spec)
+    if isinstance(spec, (str, int, np.integer)):
+        items = [spec]
+    else:
+        try:
+            items = list(spec)
+        except TypeError:
+            raise TypeError(
+                f"{name}: expected a signal name, an index or a list of them, "
+                f"got {spec!r}"
+            ) from None
     index = {label: i for i, label in enumerate(labels)}
     out = []
     for item in items:

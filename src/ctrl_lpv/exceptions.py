@@ -12,7 +12,12 @@ things and neither is a subclass of the other:
 Both derive from `SynthesisError`, which catches either.
 """
 
-__all__ = ["SynthesisError", "InfeasibleError", "CertificationError"]
+__all__ = [
+    "SynthesisError",
+    "InfeasibleError",
+    "CertificationError",
+    "ProblemSizeWarning",
+]
 
 
 class SynthesisError(RuntimeError):
@@ -63,4 +68,12 @@ class CertificationError(SynthesisError):
     attempts : tuple
         The solver attempts (`ctrl_lpv.lmi.SolveAttempt`), none of them
         certified, each with the reason.
+    """
+
+
+class ProblemSizeWarning(UserWarning):
+    """An LMI problem is large enough to take minutes or much memory.
+
+    The message gives the number of LMIs, their size and the estimated
+    memory of the compiled problem.
     """

@@ -39,6 +39,7 @@ __all__ = [
     "SolveAttempt",
     "assemble",
     "default_solvers",
+    "solver_chain",
 ]
 
 BlockFunction = Callable[[SimpleNamespace], Sequence[Sequence[object]]]
@@ -144,6 +145,10 @@ class FarkasCertificate:
         0 if the certificate proves nothing (``b`` not positive).
     margin : float
         The margin ``m`` of the strict inequalities.
+    normalized : bool
+        Whether the certificate uses the inequalities added with
+        ``normalization=True``: it then refutes the stage with its
+        normalisations, not the LMIs alone.
     """
 
     stage: str
@@ -151,6 +156,7 @@ class FarkasCertificate:
     slope: float
     radius: float
     margin: float
+    normalized: bool = False
 
     def __str__(self) -> str:
         return (
@@ -281,6 +287,12 @@ def default_solvers() -> list[tuple[str, dict]]:
     return [(name, opts) for name, opts in chain if name in installed]
 
 
+def _stronger(proof, other) -> bool:
+    """Whether `proof` beats `other`: refuting without normalisations counts
+    first, then the radius."""
+    return (not proof.normalized, proof.radius) > (not other.normalized, other.radius)
+
+
 def _psd_part(Y):
     lam, V = np.linalg.eigh(Y)
     return (V * np.clip(lam, 0.0, None)) @ V.T
@@ -319,6 +331,59 @@ def _with_time_limit(solver, options, deadline):
     return {**options, key: min(float(options.get(key, np.inf)), left)}
 
 
+def solver_chain(solvers) -> list[tuple[str, dict]] | None:
+    """Validate a `solvers` argument: None, a name, or names/(name, options).
+
+    Returns
+    -------
+    list of (str, dict) or None
+        None for the default chain (`default_solvers`).
+
+    Raises
+    ------
+    ValueError
+        For an empty chain or a solver that is not installed (the message
+        lists the installed ones).
+    TypeError
+        For anything else.
+    """
+    if solvers is None:
+        return None
+    if isinstance(solvers, str):
+        solvers = [solvers]
+    try:
+        items = list(solvers)
+    except TypeError:
+        raise TypeError(
+            f"solvers: expected a solver name or a list of names or (name, "
+            f"options) pairs, got {solvers!r}"
+        ) from None
+    if not items:
+        raise ValueError("solvers: the list is empty; pass None for the default")
+    chain = []
+    for item in items:
+        if isinstance(item, str):
+            name, options = item, {}
+        elif (
+            isinstance(item, Sequence)
+            and len(item) == 2
+            and isinstance(item[0], str)
+            and isinstance(item[1], dict)
+        ):
+            name, options = item
+        else:
+            raise TypeError(
+                f"solvers: expected a name or a (name, options) pair, got {item!r}"
+            )
+        if name.upper() not in _installed_solvers():
+            raise ValueError(
+                f"solvers: {name!r} is not installed; installed: "
+                f"{sorted(_installed_solvers())}"
+            )
+        chain.append((name.upper(), dict(options)))
+    return chain
+
+
 class LMIProblem:
     """LMI problem on cvxpy with named variables, parameters and stages.
 
@@ -350,6 +415,7 @@ class LMIProblem:
         self._vars: dict[str, cp.Expression] = {}
         self._params: dict[str, cp.Parameter] = {}
         self._lmis: list[tuple[str, BlockFunction, bool, frozenset | None]] = []
+        self._normalizations: set[str] = set()
         self._problems: dict[str, cp.Problem] = {}
         # Solver each stage's problem was last compiled for (cvxpy keeps the
         # compiled DPP program of one solver per problem).
@@ -445,6 +511,7 @@ class LMIProblem:
         blocks: BlockFunction,
         strict: bool = True,
         stages: Sequence[str] | None = None,
+        normalization: bool = False,
     ) -> None:
         """Add the inequality ``F(v) < 0`` (or ``<= 0`` if not strict).
 
@@ -460,12 +527,21 @@ class LMIProblem:
             Strict inequalities are posed with the margin and certified.
         stages : sequence of str, optional
             Stages in which the inequality applies; default all.
+        normalization : bool, optional
+            A non-strict constraint that only fixes the scale or shape of
+            the point (e.g. ``W <= I`` for homogeneous LMIs): an
+            infeasibility proof that does not use it refutes the other
+            inequalities alone (`FarkasCertificate.normalized`).
         """
+        if normalization and strict:
+            raise ValueError("normalization: only a non-strict inequality can be one")
         if any(existing == name for existing, *_ in self._lmis):
             raise ValueError(f"name: an LMI named {name!r} already exists")
         self._lmis.append(
             (name, blocks, strict, None if stages is None else frozenset(stages))
         )
+        if normalization:
+            self._normalizations.add(name)
         self._problems.clear()
         self._compiled.clear()
 
@@ -765,18 +841,23 @@ class LMIProblem:
         eps = np.finfo(float).eps
         best = None
         # Both signs (conventions differ), and without the duals of the
-        # non-strict side constraints: for homogeneous strict LMIs the
-        # normalisations are what make the solver's problem infeasible, and
-        # the strict LMIs alone have an exact certificate.
+        # normalisations: a certificate that does not need them refutes the
+        # LMIs themselves (for homogeneous strict LMIs the normalisations
+        # are often what makes the solver's problem infeasible).
         symmetric = [
             0.5 * (np.asarray(d, float) + np.asarray(d, float).T) for d in duals
         ]
+        normalizing = [name in self._normalizations for name, *_ in active]
         variants = [
-            [sign * y if keep or lmi[2] else 0 * y for y, lmi in zip(symmetric, active)]
+            (keep, [sign * y if keep or not nz else 0 * y
+                    for y, nz in zip(symmetric, normalizing)])
             for sign in (1.0, -1.0)
             for keep in (True, False)
-        ]
-        for Y in variants:
+        ]  # fmt: skip
+        for keep, Y in variants:
+            used = keep and any(
+                nz and np.any(y) for y, nz in zip(symmetric, normalizing)
+            )
             slope_before = np.inf
             for _ in range(_FARKAS_REFINEMENTS):
                 Y = [_psd_part(y) for y in Y]
@@ -788,7 +869,7 @@ class LMIProblem:
                 # projections converge linearly, so stop when they stall.
                 g = sum(m.T @ y.ravel() for m, y in zip(M, Y))
                 slope = float(np.linalg.norm(g))
-                if slope > 0.9 * slope_before or slope < 1e3 * eps:
+                if slope > 0.999 * slope_before or slope < 1e3 * eps:
                     break
                 slope_before = slope
                 c = np.linalg.lstsq(gram, g, rcond=None)[0]
@@ -815,8 +896,10 @@ class LMIProblem:
                 radius = 0.0
             else:
                 radius = np.inf if slope == 0 else offset / slope
-            proof = FarkasCertificate(stage, float(b), slope, float(radius), margin)
-            if best is None or proof.radius > best.radius:
+            proof = FarkasCertificate(
+                stage, float(b), slope, float(radius), margin, bool(used)
+            )
+            if best is None or _stronger(proof, best):
                 best = proof
         return best
 

@@ -58,7 +58,9 @@ gives the same certified design as a fresh one.
 from __future__ import annotations
 
 import itertools
+import os
 import time
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -66,11 +68,12 @@ import cvxpy as cp
 import numpy as np
 from scipy.linalg import matrix_balance
 
-from ._checks import signal_indices
-from .exceptions import CertificationError, InfeasibleError
-from .lmi import LMICheck, LMIProblem, SolveAttempt, default_solvers
+from ._checks import real_number, signal_indices
+from .exceptions import CertificationError, InfeasibleError, ProblemSizeWarning
+from .lmi import LMICheck, LMIProblem, SolveAttempt, solver_chain
 from .problem_cache import synthesis_cache
 from .regions import LMIRegion
+from .stabilizability import check_stabilizability
 from .systems import PolytopicStateSpace
 
 __all__ = [
@@ -80,7 +83,6 @@ __all__ = [
     "hinf_state_feedback",
     "gain_scheduled_stabilization",
     "gain_scheduled_hinf",
-    "check_stabilizability",
 ]
 
 # Number of random interior points at which closed loops are verified.
@@ -90,7 +92,19 @@ _VERIFY_SAMPLES = 64
 _GAIN_ITERATIONS = 4
 _GAIN_RTOL = 0.05
 # Bounds W <= w_max I (scaled units) tried in turn when gamma is given.
-_FIXED_GAMMA_W_MAX = (1e3, 1e6)
+_FIXED_GAMMA_W_MAX = (1e3, 1e6, 1e9)
+# Squared bounds ||Z|| <= sqrt(z_max) of the stabilization stage, in turn:
+# the LMIs are homogeneous, so a larger bound admits a smaller decay.
+_STABILIZE_Z_MAX = (1.0, 1e4, 1e8)
+# Margins tried in turn, relative to the given one.
+_MARGIN_FACTORS = (1.0, 1e-3)
+# A given gamma is posed as gamma^2 (1 - _GAMMA_SLACK) so that the
+# certified bound is met strictly.
+_GAMMA_SLACK = (1e-6, 1e-3)
+# Above this many LMI matrix entries a warning gives the estimate; a
+# problem estimated to need more than half the memory is refused.
+_WARN_ENTRIES = 2_000_000
+_BYTES_PER_ENTRY = 400  # cvxpy's compiled problem, measured order of magnitude
 
 
 # ----------------------------------------------------------------------
@@ -180,7 +194,7 @@ class StateFeedbackDesign:
     attempts : tuple of `ctrl_lpv.lmi.SolveAttempt`
         Every solver attempt of every stage.
     timing : dict
-        Seconds spent: "build" (checks, prescaling, parameter values),
+        Seconds spent: "build" (checks and the stabilizability test),
         "compile" (building and compiling the cvxpy problems; 0 when they
         were reused from `synthesis_cache`), "solve" (solver calls,
         parameter application and certificates) and "verify" (closed
@@ -189,6 +203,10 @@ class StateFeedbackDesign:
         Back-off used.
     regions : tuple of `LMIRegion`
         Pole regions the design was constrained to.
+    ladder : tuple of str
+        What the fallback ladder tried before this design certified (empty
+        when the first point did): each rung (prescaling, margin, stage
+        bound) and why it was passed over.
     """
 
     system: PolytopicStateSpace
@@ -205,6 +223,7 @@ class StateFeedbackDesign:
     timing: dict = field(default_factory=dict)
     backoff: float | None = None
     regions: tuple[LMIRegion, ...] = ()
+    ladder: tuple[str, ...] = ()
 
     @property
     def scheduled(self) -> bool:
@@ -293,76 +312,6 @@ class StateFeedbackDesign:
 
 
 # ----------------------------------------------------------------------
-# Stabilizability
-# ----------------------------------------------------------------------
-def check_stabilizability(sys: PolytopicStateSpace, u=None, rtol: float = 1e-9) -> None:
-    """Raise `InfeasibleError` if a vertex is not stabilizable from `u`.
-
-    PBH test: for every eigenvalue ``lambda`` of ``A_j`` with
-    ``Re(lambda) >= 0``, ``[A_j - lambda I, B_j]`` must have full row rank.
-
-    Parameters
-    ----------
-    sys : `PolytopicStateSpace`
-        The system.
-    u : str, int or list, optional
-        Control inputs; default all physical inputs.
-    rtol : float, optional
-        Rank tolerance relative to ``||[A_j, B_j]||``.
-
-    Returns
-    -------
-    None
-        The check passes silently.
-
-    Raises
-    ------
-    InfeasibleError
-        Naming the vertex, its parameter value and the uncontrollable mode
-        (the eigenvalue and the left eigenvector written on the states).
-    """
-    _require_pss(sys)
-    iu = signal_indices(
-        range(len(sys.physical_inputs)) if u is None else u, sys.physical_inputs, "u"
-    )
-    for j, (A, B, _, _) in enumerate(sys.vertex_data()):
-        Bu = B[:, iu]
-        scale = max(1.0, np.linalg.norm(np.hstack([A, Bu]), 2))
-        for lam in np.linalg.eigvals(A):
-            if lam.real < -rtol * scale:
-                continue
-            M = np.hstack([A - lam * np.eye(A.shape[0]), Bu])
-            U, s, _ = np.linalg.svd(M)
-            if s[-1] <= rtol * scale:
-                mode = _describe(np.real_if_close(U[:, -1]), sys.state_labels)
-                point = dict(zip(sys.domain.names, sys.domain.points[j].tolist()))
-                raise InfeasibleError(
-                    f"vertex {j} (p = {point}) is not stabilizable: the mode with "
-                    f"eigenvalue {_fmt_complex(lam)} is uncontrollable from "
-                    f"u = {[sys.physical_inputs[i] for i in iu]}; the combination "
-                    f"{mode} of the states does not respond to the input. No "
-                    "state feedback can make this vertex asymptotically stable, "
-                    "so the strict LMIs are infeasible; shrink the parameter "
-                    "domain away from this vertex."
-                )
-
-
-def _describe(vector, labels) -> str:
-    vector = vector / vector[np.argmax(np.abs(vector))]
-    terms = [
-        f"{_fmt_complex(c)}*{name}" for c, name in zip(vector, labels) if abs(c) > 1e-9
-    ]
-    return " + ".join(terms)
-
-
-def _fmt_complex(value) -> str:
-    value = complex(value)
-    if abs(value.imag) < 1e-12 * max(1.0, abs(value)):
-        return f"{value.real:.6g}"
-    return f"{value.real:.6g}{value.imag:+.6g}j"
-
-
-# ----------------------------------------------------------------------
 # Public synthesis functions
 # ----------------------------------------------------------------------
 def quadratic_stabilization(
@@ -373,6 +322,7 @@ def quadratic_stabilization(
     gain_bound: float | None = None,
     margin: float = 1e-6,
     solvers=None,
+    time_limit: float | None = None,
 ) -> StateFeedbackDesign:
     """Common state feedback that quadratically stabilizes the polytope.
 
@@ -421,7 +371,7 @@ def quadratic_stabilization(
     """
     return _synthesize(
         sys, None, u, None, "Lemma 1", False, None, regions, None, gain_bound,
-        margin, solvers,
+        margin, solvers, time_limit,
     )  # fmt: skip
 
 
@@ -433,6 +383,7 @@ def gain_scheduled_stabilization(
     gain_bound: float | None = None,
     margin: float = 1e-6,
     solvers=None,
+    time_limit: float | None = None,
 ) -> StateFeedbackDesign:
     """Vertex gains that quadratically stabilize the polytope.
 
@@ -462,7 +413,7 @@ def gain_scheduled_stabilization(
     """
     return _synthesize(
         sys, None, u, None, "Theorem 1", True, None, regions, None, gain_bound,
-        margin, solvers,
+        margin, solvers, time_limit,
     )  # fmt: skip
 
 
@@ -478,6 +429,7 @@ def hinf_state_feedback(
     gain_bound: float | None = None,
     margin: float = 1e-6,
     solvers=None,
+    time_limit: float | None = None,
 ) -> StateFeedbackDesign:
     """Common state feedback with a certified H-infinity bound.
 
@@ -520,7 +472,7 @@ def hinf_state_feedback(
     """
     return _synthesize(
         sys, w, u, z, "Lemma 2", False, gamma, regions, backoff, gain_bound,
-        margin, solvers, hinf=True,
+        margin, solvers, time_limit, hinf=True,
     )  # fmt: skip
 
 
@@ -536,6 +488,7 @@ def gain_scheduled_hinf(
     gain_bound: float | None = None,
     margin: float = 1e-6,
     solvers=None,
+    time_limit: float | None = None,
 ) -> StateFeedbackDesign:
     """Vertex gains with a certified H-infinity bound.
 
@@ -566,7 +519,7 @@ def gain_scheduled_hinf(
     """
     return _synthesize(
         sys, w, u, z, "Theorem 2", True, gamma, regions, backoff, gain_bound,
-        margin, solvers, hinf=True,
+        margin, solvers, time_limit, hinf=True,
     )  # fmt: skip
 
 
@@ -638,10 +591,14 @@ class _Scaling:
     a: float  # time scaling, t~ = a t
 
     @classmethod
-    def of(cls, vertices) -> _Scaling:
-        absA = sum(np.abs(v[0]) for v in vertices)
-        _, (t, _) = matrix_balance(absA, permute=False, separate=True)
-        T = np.array([_pow2(x) for x in t])
+    def of(cls, vertices, balance: bool = True) -> _Scaling:
+        n = vertices[0][0].shape[0]
+        if balance:
+            absA = sum(np.abs(v[0]) for v in vertices)
+            _, (t, _) = matrix_balance(absA, permute=False, separate=True)
+            T = np.array([_pow2(x) for x in t])
+        else:
+            T = np.ones(n)
         a = _pow2(max(np.linalg.norm(v[0] * (T / T[:, None]), 2) for v in vertices))
         Su = np.array(
             [
@@ -774,6 +731,12 @@ class _Structure:
         return self.N if self.scheduled else 1
 
     @property
+    def lmi_size(self) -> int:
+        """Size of the largest LMI of a vertex or pair."""
+        size = self.n + self.nw + self.nz if self.hinf else self.n
+        return max([size] + [shape[0] * self.n for shape, _ in self.regions])
+
+    @property
     def entries(self) -> int:
         """Number of LMI matrix entries, the measure of its compiled size."""
         size = self.n + self.nw + self.nz if self.hinf else self.n
@@ -878,6 +841,7 @@ def _build(s: _Structure) -> _Compiled:
                 lambda v, PX=PX, twice=twice: [[PX(v) + twice * v.t[0, 0] * np.eye(n)]],
                 strict=False,
                 stages=("stabilize",),
+                normalization=True,
             )
 
         for r, (shape, entries) in enumerate(s.regions):
@@ -899,12 +863,14 @@ def _build(s: _Structure) -> _Compiled:
         lambda v: [[v.W - v.w_max * np.eye(n)]],
         strict=False,
         stages=("center",) if s.hinf else ("center", "stabilize"),
+        normalization=True,
     )
     lmi.add(
         "W >= t I",
         lambda v: [[v.t[0, 0] * np.eye(n) - v.W]],
         strict=False,
         stages=("center", "stabilize"),
+        normalization=True,
     )
     # The gain bound (see _gain_tangent) reads the state and input scalings
     # as constants: T W~ G0^-1 with the parameter G0^-1 is DPP, T as a
@@ -915,14 +881,17 @@ def _build(s: _Structure) -> _Compiled:
     lmi.parameter("gain_Ginv", (n, n))
     lmi.parameter("gain_Ginv_K", (n, n))
     lmi.parameter("kappa_max", nonneg=True)
+    lmi.parameter("z_max", nonneg=True)
     for k in range(s.nZ):
         # The stabilization LMIs are homogeneous in (W, Z): W <= I together
-        # with ||Z|| <= 1 fixes the scale and balances decay against gain.
+        # with ||Z|| <= 1 fixes the scale and balances decay against gain;
+        # larger z_max admit the smaller decays of badly scaled problems.
         lmi.add(
-            f"||Z{k}|| <= 1",
-            lambda v, k=k: [[-np.eye(n)], [getattr(v, f"Z{k}"), -np.eye(m)]],
+            f"||Z{k}||^2 <= z_max",
+            lambda v, k=k: [[-v.z_max * np.eye(n)], [getattr(v, f"Z{k}"), -np.eye(m)]],
             strict=False,
             stages=("stabilize",),
+            normalization=True,
         )
         # Normalised ||K_k||^2 <= kappa in original units (see _gain_tangent).
         lmi.add(
@@ -1006,167 +975,363 @@ def _load(compiled, s: _Structure, data, scaling, regions, margin) -> None:
     lmi.set_parameter("gain_Ginv", np.eye(s.n))
     lmi.set_parameter("gain_Ginv_K", np.eye(s.n))
     lmi.set_parameter("kappa_max", 1.0)
+    lmi.set_parameter("z_max", 1.0)
+
+
+def _validated_options(
+    regions, backoff, gamma, gain_bound, margin, solvers, time_limit
+):
+    """Check the keyword options of the four functions at their boundary."""
+    if isinstance(regions, LMIRegion):
+        regions = (regions,)
+    try:
+        regions = tuple(regions)
+    except TypeError:
+        raise TypeError(
+            f"regions: expected an LMIRegion or a sequence of them, got {regions!r}"
+        ) from None
+    for region in regions:
+        if not isinstance(region, LMIRegion):
+            raise TypeError(f"regions: expected LMIRegion objects, got {region!r}")
+    backoff = real_number(backoff, "backoff", allow_none=True, minimum=0.0)
+    # gamma^2 and gain_bound^2 must stay finite in float64.
+    gamma = real_number(gamma, "gamma", allow_none=True, positive=True, below=1e150)
+    gain_bound = real_number(gain_bound, "gain_bound", allow_none=True, positive=True)
+    margin = real_number(margin, "margin", positive=True, below=1.0)
+    time_limit = real_number(time_limit, "time_limit", allow_none=True, positive=True)
+    return (
+        regions,
+        backoff,
+        gamma,
+        gain_bound,
+        margin,
+        solver_chain(solvers),
+        time_limit,
+    )
+
+
+def _guard_size(structure) -> None:
+    """Warn about, or refuse, a problem too large for this machine."""
+    entries = structure.entries
+    estimate = entries * _BYTES_PER_ENTRY
+    npairs = len(_pairs(structure.N, structure.scheduled))
+    text = (
+        f"{npairs} LMIs of size up to {structure.lmi_size}, about {entries:,} "
+        f"matrix entries, estimated {estimate / 2**30:.2g} GiB to compile"
+    )
+    try:
+        memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):  # pragma: no cover
+        memory = None
+    if memory is not None and estimate > 0.5 * memory:
+        raise ValueError(
+            f"sys: the problem is too large for this machine ({text}, more than "
+            f"half of its {memory / 2**30:.3g} GiB); use fewer vertices or a "
+            "common gain"
+        )
+    if entries > _WARN_ENTRIES:
+        warnings.warn(
+            f"large LMI problem: {text}; compiling and solving may take minutes "
+            "(time_limit= bounds the solve)",
+            ProblemSizeWarning,
+            stacklevel=4,
+        )
 
 
 def _synthesize(
     sys, w, u, z, method, scheduled, gamma, regions, backoff, gain_bound, margin,
-    solvers, hinf=False,
+    solvers, time_limit=None, hinf=False,
 ):  # fmt: skip
     start = time.perf_counter()
     iw, iu, iz = _resolve_channels(sys, w, u, z, hinf)
-    regions = tuple(regions)
-    for region in regions:
-        if not isinstance(region, LMIRegion):
-            raise TypeError(f"regions: expected LMIRegion objects, got {region!r}")
-    if backoff is not None and not (np.isfinite(backoff) and backoff >= 0):
-        raise ValueError(
-            f"backoff: must be None or a nonnegative number, got {backoff}"
-        )
-    if gamma is not None and not (np.isfinite(gamma) and gamma > 0):
-        raise ValueError(f"gamma: must be a positive number, got {gamma}")
-    if gain_bound is not None and not (np.isfinite(gain_bound) and gain_bound > 0):
-        raise ValueError(f"gain_bound: must be a positive number, got {gain_bound}")
-    if not (np.isfinite(margin) and 0 < margin < 1):
-        raise ValueError(f"margin: must be in (0, 1), got {margin}")
-    check_stabilizability(sys, iu)
-
+    regions, backoff, gamma, gain_bound, margin, chain, time_limit = _validated_options(
+        regions, backoff, gamma, gain_bound, margin, solvers, time_limit
+    )
+    suspects = check_stabilizability(sys, iu)
+    deadline = None if time_limit is None else start + time_limit
     original = _vertex_channels(sys, iw, iu, iz)
-    scaling = _Scaling.of(original)
-    data = [scaling.apply(v) for v in original]
-    scaled_regions = tuple(r.time_scaled(scaling.a) for r in regions)
-    structure = _Structure.of(data, hinf, scheduled, regions, gain_bound)
-    chain = None if solvers is None else list(solvers)
-    first_solver = chain[0][0] if chain else None
+    _guard_size(_Structure.of(original, hinf, scheduled, regions, gain_bound))
 
+    record: list[str] = []
     attempts: list[SolveAttempt] = []
-    with synthesis_cache.checkout(structure, _build) as (compiled, _):
-        _load(compiled, structure, data, scaling, scaled_regions, margin)
-        lmi = compiled.lmi
-        built = time.perf_counter()
-        compiling = 0.0
-
-        def run(stage, objective, certify=True, first_only=False):
-            nonlocal compiling
-            if chain is None or chain:
-                compiling += lmi.compile(stage, objective, first_solver)
-            use = chain
-            if first_only:
-                use = (default_solvers() if chain is None else chain)[:1]
+    compiling = verifying = 0.0
+    built = time.perf_counter()
+    for scaling_name, scaling in _scalings(original):
+        for factor in _MARGIN_FACTORS:
+            rung = f"{scaling_name} scaling, margin {margin * factor:g}"
+            if deadline is not None and time.perf_counter() > deadline:
+                record.append(f"{rung}: not tried (time_limit {time_limit:g} s)")
+                continue
+            job = _Job(
+                original, scaling, regions, scheduled, hinf, gamma, backoff,
+                gain_bound, margin * factor, chain, deadline,
+            )  # fmt: skip
             try:
-                sol = lmi.solve(objective, stage=stage, solvers=use, certify=certify)
+                found = job.run(attempts)
             except InfeasibleError as exc:
-                attempts.extend(exc.attempts)
-                raise
-            attempts.extend(sol.attempts)
-            return sol
-
-        sol, gamma_opt = _solve_stages(
-            lmi, run, structure, scaling, gamma, backoff, gain_bound, attempts
-        )
-        solved = time.perf_counter()
-        gains = tuple(
-            scaling.unscale_K(-getattr(sol, f"Z{k}") @ np.linalg.inv(sol.W))
-            for k in range(structure.nZ)
-        )
-        if gain_bound is not None:
-            worst = max(np.linalg.norm(K, 2) for K in gains)
-            if worst > gain_bound * (1 + 1e-6):
-                raise CertificationError(
-                    f"gain_bound: the returned gain norm {worst:.6g} exceeds "
-                    f"{gain_bound:g}",
-                    attempts,
-                )
-        W = scaling.unscale_W(sol.W)
-        certificate = _verify(original, data, sol, gains, lmi.margin, scheduled)
-    verified = time.perf_counter()
-    if not certificate.verified:
-        raise CertificationError(
-            f"{method}: the solver's point failed the closed-loop verification "
-            f"({certificate})",
-            attempts,
-        )
-    gamma_cert = float(np.sqrt(scaling.unscale_g(float(sol.g[0, 0])))) if hinf else None
-    labels = sys.physical_inputs
-    return StateFeedbackDesign(
-        system=sys,
-        method=method,
-        gains=gains,
-        P=np.linalg.inv(W),
-        gamma=gamma_cert,
-        gamma_opt=gamma_opt,
-        w=tuple(labels[i] for i in iw),
-        u=tuple(labels[i] for i in iu),
-        z=tuple(sys.output_labels[i] for i in iz),
-        certificate=certificate,
-        attempts=tuple(attempts),
-        timing={
-            "build": built - start,
-            "compile": compiling,
-            "solve": solved - built - compiling,
-            "verify": verified - solved,
-        },
-        backoff=backoff,
-        regions=regions,
+                raise InfeasibleError(
+                    f"{method}: {exc}", attempts, exc.farkas
+                ) from None
+            compiling += job.compiling
+            verifying += job.verifying
+            record.extend(f"{rung}: {note}" for note in job.notes)
+            if found is None:
+                continue
+            sol, gains, certificate, gamma_opt = found
+            solved = time.perf_counter()
+            gamma_cert = (
+                float(np.sqrt(scaling.unscale_g(float(sol.g[0, 0])))) if hinf else None
+            )
+            labels = sys.physical_inputs
+            return StateFeedbackDesign(
+                system=sys,
+                method=method,
+                gains=gains,
+                P=np.linalg.inv(scaling.unscale_W(sol.W)),
+                gamma=gamma_cert,
+                gamma_opt=gamma_opt,
+                w=tuple(labels[i] for i in iw),
+                u=tuple(labels[i] for i in iu),
+                z=tuple(sys.output_labels[i] for i in iz),
+                certificate=certificate,
+                attempts=tuple(attempts),
+                timing={
+                    "build": built - start,
+                    "compile": compiling,
+                    "solve": solved - built - compiling - verifying,
+                    "verify": verifying,
+                },
+                backoff=backoff,
+                regions=regions,
+                ladder=tuple(record),
+            )
+    hint = "".join(f"; weakly controllable: {m}" for m in suspects)
+    raise CertificationError(
+        f"{method}: no certified solution found; tried: " + "; ".join(record) + hint,
+        attempts,
     )
 
 
-def _solve_stages(lmi, run, s, scaling, gamma, backoff, gain_bound, attempts):
-    """Optimal gamma, centering and gain stages (module doc, item 4)."""
-    gamma_opt = None
-    if s.hinf:
-        if gamma is None:
-            # With back-off only the value gamma* is used, so a point that
-            # fails its certificate still gives the estimate to back off from.
-            sol = run("optimal", lambda v: v.g[0, 0], certify=backoff is None)
-            g_opt = float(sol.g[0, 0])
-            gamma_opt = float(np.sqrt(scaling.unscale_g(g_opt)))
-        else:
-            g_opt = (gamma**2) / (scaling.sz / scaling.sw) ** 2
-            sol = None
-        if backoff is not None or gamma is not None:
-            relax = backoff is not None and gamma is None
-            factor = (1.0 + backoff) ** 2 if relax else 1.0
-            lmi.set_parameter("g_max", g_opt * factor)
-            if sol is not None:
-                bounds = [max(np.linalg.eigvalsh(sol.W)[-1], 1e-12)]
-            else:
-                # Without gamma*'s point W has no natural size; W <= w_max I
-                # keeps it well conditioned but can cut off a gamma close to
-                # gamma* (two-mass model, scaled W up to 2e3 at 1.02 gamma*).
-                bounds = _FIXED_GAMMA_W_MAX
-            for i, w_max in enumerate(bounds):
-                lmi.set_parameter("w_max", w_max)
-                last = i == len(bounds) - 1
-                try:
-                    # Only the last bound gets the whole (slow) solver chain.
-                    sol = run("center", lambda v: -v.t[0, 0], first_only=not last)
-                    break
-                except InfeasibleError:
-                    if last:
-                        raise
-    else:
-        lmi.set_parameter("w_max", 1.0)
-        sol = run("stabilize", lambda v: -v.t[0, 0])
+def _scalings(original):
+    """Prescalings tried in turn: balanced, then time scaling alone."""
+    balanced = _Scaling.of(original)
+    yield "balanced", balanced
+    plain = _Scaling.of(original, balance=False)
+    if not np.array_equal(plain.T, balanced.T):
+        yield "unbalanced", plain
 
-    if backoff is not None or gain_bound is not None:
-        for iteration in range(_GAIN_ITERATIONS):
-            Z = [getattr(sol, f"Z{k}") for k in range(s.nZ)]
-            _gain_tangent(lmi, scaling, sol.W, Z, gain_bound)
-            try:
-                sol_next = run("gain", lambda v: v.kappa[0, 0])
-            except InfeasibleError as exc:
-                if gain_bound is not None and iteration == 0:
-                    raise InfeasibleError(
-                        f"gain_bound: no certified design with every gain norm "
-                        f"below {gain_bound:g} (sufficient condition) [{exc}]",
-                        attempts,
-                    ) from None
-                break  # the previous point is certified: keep it
-            sol = sol_next
-            # kappa is relative to the previous point's squared gain.
-            if float(sol.kappa[0, 0]) > 1 - _GAIN_RTOL:
+
+class _Job:
+    """One rung of the ladder: a scaling and a margin, all stages.
+
+    `run` returns ``(solution, gains, certificate, gamma_opt)`` for the best
+    certified point of this rung, or None (`notes` says why); an
+    `InfeasibleError` escapes only with a proof that needs no normalisation.
+    """
+
+    def __init__(
+        self, original, scaling, regions, scheduled, hinf, gamma, backoff,
+        gain_bound, margin, chain, deadline,
+    ):  # fmt: skip
+        self.original = original
+        self.scaling = scaling
+        self.data = [scaling.apply(v) for v in original]
+        self.regions = tuple(r.time_scaled(scaling.a) for r in regions)
+        self.scheduled = scheduled
+        self.hinf = hinf
+        self.gamma = gamma
+        self.backoff = backoff
+        self.gain_bound = gain_bound
+        self.margin = margin
+        self.chain = chain
+        self.deadline = deadline
+        self.structure = _Structure.of(self.data, hinf, scheduled, regions, gain_bound)
+        self.notes: list[str] = []
+        self.compiling = self.verifying = 0.0
+
+    def run(self, attempts):
+        s = self.structure
+        with synthesis_cache.checkout(s, _build) as (compiled, _):
+            _load(compiled, s, self.data, self.scaling, self.regions, self.margin)
+            self.lmi = compiled.lmi
+            self.attempts = attempts
+            if s.hinf:
+                return self._hinf()
+            return self._stabilize()
+
+    # -- one solve -----------------------------------------------------
+    def _solve(self, stage, objective, certify=True, proof=False):
+        """Solve a stage; None if it gave no certified point.
+
+        A verified infeasibility proof that needs no normalisation is
+        re-raised when `proof` is set (the stage poses the user's problem
+        itself); otherwise it only ends this branch.
+        """
+        lmi = self.lmi
+        first = self.chain[0][0] if self.chain else None
+        self.compiling += lmi.compile(stage, objective, first)
+        try:
+            sol = lmi.solve(
+                objective, stage=stage, solvers=self.chain, certify=certify,
+                deadline=self.deadline,
+            )  # fmt: skip
+        except InfeasibleError as exc:
+            self.attempts.extend(exc.attempts)
+            if proof and not exc.farkas.normalized:
+                raise
+            self.notes.append(f"{stage}: infeasible with its normalisation")
+            return None
+        except CertificationError as exc:
+            self.attempts.extend(exc.attempts)
+            self.notes.append(f"{stage}: {exc}")
+            return None
+        self.attempts.extend(sol.attempts)
+        return sol
+
+    def _accept(self, sol, label, bounded=False):
+        """Full verification of a point; the design tuple or None.
+
+        `bounded` also asks for the gain bound (met only after the gain
+        stage, in general).
+        """
+        if sol is None or not sol.certified:
+            return None
+        scaling = self.scaling
+        gains = tuple(
+            scaling.unscale_K(-getattr(sol, f"Z{k}") @ np.linalg.inv(sol.W))
+            for k in range(self.structure.nZ)
+        )
+        if bounded and self.gain_bound is not None:
+            worst = max(np.linalg.norm(K, 2) for K in gains)
+            if worst > self.gain_bound:
+                self.notes.append(
+                    f"{label}: gain norm {worst:.4g} above gain_bound "
+                    f"{self.gain_bound:g}"
+                )
+                return None
+        if self.hinf and self.gamma is not None:
+            certified = float(np.sqrt(scaling.unscale_g(float(sol.g[0, 0]))))
+            if not certified < self.gamma:
+                self.notes.append(
+                    f"{label}: certified gamma {certified:.8g} not below the "
+                    f"required {self.gamma:.8g}"
+                )
+                return None
+        started = time.perf_counter()
+        certificate = _verify(
+            self.original, self.data, sol, gains, self.lmi.margin, self.scheduled
+        )
+        self.verifying += time.perf_counter() - started
+        if not certificate.verified:
+            self.notes.append(
+                f"{label}: closed-loop verification failed ({certificate})"
+            )
+            return None
+        return sol, gains, certificate
+
+    # -- stage sequences -------------------------------------------------
+    def _stabilize(self):
+        lmi = self.lmi
+        lmi.set_parameter("w_max", 1.0)
+        best = None
+        for z_max in _STABILIZE_Z_MAX:
+            lmi.set_parameter("z_max", z_max)
+            sol = self._solve("stabilize", lambda v: -v.t[0, 0], proof=True)
+            best = self._accept(sol, f"stabilize (z_max {z_max:g})")
+            if best is not None:
                 break
-    return sol, gamma_opt
+        if best is None:
+            return None
+        if self.gain_bound is None:
+            return (*best, None)
+        return self._minimise_gain(best, None)
+
+    def _hinf(self):
+        lmi, scaling = self.lmi, self.scaling
+        to_scaled = (scaling.sw / scaling.sz) ** 2
+        if self.gamma is not None:
+            # A required gamma, posed slightly below so it is met strictly.
+            best = None
+            for slack in _GAMMA_SLACK:
+                lmi.set_parameter("g_max", self.gamma**2 * to_scaled * (1 - slack))
+                for w_max in _FIXED_GAMMA_W_MAX:
+                    lmi.set_parameter("w_max", w_max)
+                    sol = self._solve("center", lambda v: -v.t[0, 0], proof=True)
+                    best = self._accept(sol, f"gamma given (w_max {w_max:g})")
+                    if best is not None:
+                        break
+                if best is not None:
+                    break
+            if best is None:
+                return None
+            if self.backoff is None and self.gain_bound is None:
+                return (*best, None)
+            return self._minimise_gain(best, None)
+
+        raw = self._solve("optimal", lambda v: v.g[0, 0], certify=False, proof=True)
+        if raw is None:
+            return None
+        g_opt = float(raw.g[0, 0])
+        if not (np.isfinite(g_opt) and g_opt > 0):
+            self.notes.append(
+                f"optimal: the solver's gamma^2 = {g_opt:g} is not positive"
+            )
+            return None
+        gamma_opt = float(np.sqrt(scaling.unscale_g(g_opt)))
+        raw_design = self._accept(raw, "raw optimum")
+        if not self.backoff:
+            if raw_design is not None:
+                return (*raw_design, gamma_opt)
+            self.notes.append("raw optimum: not certified; backing off")
+            factors = (1.001, 1.01, 1.05, 1.2)
+        else:
+            b = self.backoff
+            factors = (1 + b, 1 + b / 2, 1 + b / 8, 1 + 2 * b)
+        w_star = max(float(np.linalg.eigvalsh(raw.W)[-1]), 1e-12)
+        best = None
+        for factor in factors:
+            lmi.set_parameter("g_max", g_opt * factor**2)
+            for w_max in (w_star, 1e3 * w_star):
+                lmi.set_parameter("w_max", w_max)
+                sol = self._solve("center", lambda v: -v.t[0, 0])
+                best = self._accept(sol, f"back-off x{factor:g} (w_max {w_max:.3g})")
+                if best is not None:
+                    break
+            if best is not None:
+                break
+        if best is None:
+            if raw_design is None:
+                return None
+            self.notes.append("back-off: no certified point; the raw optimum is kept")
+            best = raw_design
+            lmi.set_parameter("g_max", g_opt * (1 + 1e-9))
+        if not self.backoff and self.gain_bound is None:
+            return (*best, gamma_opt)
+        return self._minimise_gain(best, gamma_opt)
+
+    def _minimise_gain(self, best, gamma_opt):
+        """Convex-concave gain iterations from a certified point.
+
+        Returns the design tuple with `gamma_opt`, or None if a gain bound
+        is not met by any certified point.
+        """
+        s = self.structure
+        for _ in range(_GAIN_ITERATIONS):
+            sol = best[0]
+            Z = [getattr(sol, f"Z{k}") for k in range(s.nZ)]
+            _gain_tangent(self.lmi, self.scaling, sol.W, Z, self.gain_bound)
+            candidate = self._accept(
+                self._solve("gain", lambda v: v.kappa[0, 0]), "gain stage"
+            )
+            if candidate is None:
+                break  # the previous point is certified: keep it
+            best = candidate
+            # kappa is relative to the previous point's squared gain.
+            if float(candidate[0].kappa[0, 0]) > 1 - _GAIN_RTOL:
+                break
+        if self._accept(best[0], "final point", bounded=True) is None:
+            return None
+        return (*best, gamma_opt)
 
 
 def _gain_tangent(lmi, scaling, W, Z, gain_bound):
