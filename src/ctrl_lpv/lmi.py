@@ -48,9 +48,11 @@ BlockFunction = Callable[[SimpleNamespace], Sequence[Sequence[object]]]
 _CERTIFIED_FRACTION = 0.5
 # Margin factor of the retry after a point misses its certificate narrowly.
 _RETRY_MARGIN_FACTOR = 10.0
-# Radius (scaled units) a verified dual certificate must exclude before
-# `LMIProblem.solve` calls the LMIs infeasible.
-_INFEASIBLE_RADIUS = 1e6
+# What a verified dual certificate must show before `LMIProblem.solve`
+# calls the LMIs infeasible: no solution within this radius (scaled units),
+# or a margin relative to the point's size at the rounding level.
+INFEASIBLE_RADIUS = 1e6
+INFEASIBLE_RELATIVE_MARGIN = 1e-12
 # Alternating projections that polish a solver's dual point into a Farkas
 # certificate (PSD cone, then the null space of the adjoint map).
 _FARKAS_REFINEMENTS = 200
@@ -125,26 +127,26 @@ class FarkasCertificate:
 
     With ``Y_i >= 0`` (one per inequality ``F_i(x) <= -m_i I``, ``m_i`` the
     margin of a strict one, 0 otherwise) scaled to ``sum_i tr Y_i = 1``,
-    the affine function ``sum_i <F_i(x) + m_i I, Y_i> = b + g'x`` is
-    evaluated in float64 (``b`` at ``x = 0``, ``g`` one entry of the
-    variables at a time). A point that satisfies every inequality makes it
-    ``<= 0``, so it must have ``||x||_2 >= (b - e) / (||g|| + e')``, with
-    ``e``, ``e'`` bounds on the rounding of ``b`` and ``g``: no point within
-    `radius` of the origin is feasible.
+    the affine function ``sum_i <F_i(x), Y_i> = b + g'x`` is evaluated in
+    float64 (``b`` at ``x = 0``, ``g`` one entry of the variables at a time,
+    both with bounds on their rounding). Any point has
+    ``max_i lambda_max(F_i(x)) >= b + g'x``, so:
+
+    * no point with ``||x|| < b / ||g||`` (`radius`) satisfies the
+      inequalities, even with margin 0;
+    * every point has a margin ``-max_i lambda_max(F_i(x))`` of at most
+      ``||g|| ||x|| - b``: for homogeneous LMIs (``b = 0``, such as a
+      Lyapunov inequality), whose solutions form a cone, the margin
+      relative to ``||x||`` is at most ``||g||`` (`relative_margin`).
 
     Attributes
     ----------
     stage : str
         The stage whose inequalities the certificate refutes.
     offset : float
-        ``b``, the value at ``x = 0``.
+        ``b`` less its rounding bound.
     slope : float
         ``||g||_2`` plus its rounding bound.
-    radius : float
-        No feasible point has ``||x||_2`` below it (``inf`` if ``g = 0``);
-        0 if the certificate proves nothing (``b`` not positive).
-    margin : float
-        The margin ``m`` of the strict inequalities.
     normalized : bool
         Whether the certificate uses the inequalities added with
         ``normalization=True``: it then refutes the stage with its
@@ -154,15 +156,45 @@ class FarkasCertificate:
     stage: str
     offset: float
     slope: float
-    radius: float
-    margin: float
     normalized: bool = False
 
-    def __str__(self) -> str:
+    @property
+    def radius(self) -> float:
+        """No point with ``||x||_2`` below it satisfies the inequalities."""
+        if self.offset <= 0:
+            return 0.0
+        return np.inf if self.slope == 0 else self.offset / self.slope
+
+    @property
+    def relative_margin(self) -> float:
+        """Bound on ``margin / ||x||`` of any point (homogeneous LMIs)."""
+        return self.slope
+
+    @property
+    def proves_infeasible(self) -> bool:
+        """Whether no solution exists to float64 precision.
+
+        Either no point within `INFEASIBLE_RADIUS` satisfies the
+        inequalities, or every point's margin relative to its size is at
+        the rounding level (`INFEASIBLE_RELATIVE_MARGIN`).
+        """
         return (
-            f"dual certificate verified in float64: no point with ||x|| < "
-            f"{self.radius:.3g} satisfies the '{self.stage}' LMIs with margin "
-            f"{self.margin:.3g}"
+            self.radius >= INFEASIBLE_RADIUS
+            or self.relative_margin <= INFEASIBLE_RELATIVE_MARGIN
+        )
+
+    def __str__(self) -> str:
+        if self.radius >= INFEASIBLE_RADIUS:
+            claim = f"no point with ||x|| < {self.radius:.3g} satisfies them"
+        else:
+            claim = (
+                "no point satisfies them with a margin above "
+                f"{self.relative_margin:.2g} ||x|| - {self.offset:.2g}"
+            )
+        scope = " with their normalisation" if self.normalized else ""
+        return (
+            f"a dual certificate verified in float64 refutes the "
+            f"'{self.stage}' LMIs{scope}: {claim}"
         )
 
 
@@ -288,9 +320,13 @@ def default_solvers() -> list[tuple[str, dict]]:
 
 
 def _stronger(proof, other) -> bool:
-    """Whether `proof` beats `other`: refuting without normalisations counts
-    first, then the radius."""
-    return (not proof.normalized, proof.radius) > (not other.normalized, other.radius)
+    """Whether `proof` beats `other`: proving infeasibility first, then not
+    needing the normalisations, then the radius and the margin bound."""
+
+    def rank(p):
+        return (p.proves_infeasible, not p.normalized, p.radius, -p.slope)
+
+    return rank(proof) > rank(other)
 
 
 def _psd_part(Y):
@@ -653,13 +689,10 @@ class LMIProblem:
         seconds = time.perf_counter() - start
         values, checks, duals = {}, (), None
         if status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
-            # The solver's Farkas point, judged by `farkas` (with the margin
-            # this attempt was posed with).
+            # The solver's Farkas point, judged by `farkas`.
             duals = [c.dual_value for c in problem.constraints]
             if any(d is None for d in duals):
                 duals = None
-            else:
-                duals = (duals, nominal * factor)
         if status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
             values = {k: np.array(x.value, dtype=float) for k, x in self._vars.items()}
             checks = self.check(values, stage)
@@ -708,7 +741,6 @@ class LMIProblem:
         solvers: Sequence[tuple[str, dict]] | None = None,
         certify: bool = True,
         deadline: float | None = None,
-        infeasible_radius: float = _INFEASIBLE_RADIUS,
     ) -> LMISolution:
         """Solve, trying each solver in turn until a point certifies.
 
@@ -731,9 +763,6 @@ class LMIProblem:
         deadline : float, optional
             ``time.perf_counter()`` value after which no further solver is
             started; solvers get the time left as their own limit.
-        infeasible_radius : float, optional
-            Radius a verified dual certificate must exclude (see
-            `FarkasCertificate`) for the LMIs to be called infeasible.
 
         Returns
         -------
@@ -743,8 +772,8 @@ class LMIProblem:
         ------
         InfeasibleError
             If no point certifies and a solver's dual certificate of
-            infeasibility verifies in float64 (`FarkasCertificate`) with at
-            least `infeasible_radius`.
+            infeasibility verifies in float64 and proves it
+            (`FarkasCertificate.proves_infeasible`).
         CertificationError
             If no returned point passes its float64 certificate and no
             infeasibility is proven.
@@ -790,26 +819,26 @@ class LMIProblem:
             for a in attempts
         )
         proof = self._best_farkas(dual_points, stage)
-        if proof is not None and proof.radius >= infeasible_radius:
+        if proof is not None and proof.proves_infeasible:
             raise InfeasibleError(
                 f"the LMIs are infeasible: {proof} [{summary}]", attempts, proof
             )
         if dual_points:
-            found = "none" if proof is None else f"radius {proof.radius:.3g} only"
-            summary += f"; the solvers' dual certificates did not verify ({found})"
+            found = "none verified" if proof is None else str(proof)
+            summary += f"; not proven infeasible ({found})"
         raise CertificationError(
             f"no certified solution found [{summary}]", attempts, farkas=proof
         )
 
     def _best_farkas(self, dual_points, stage):
         best = None
-        for duals, margin in dual_points:
-            proof = self.farkas(duals, stage, margin)
+        for duals in dual_points:
+            proof = self.farkas(duals, stage)
             if proof is not None and (best is None or proof.radius > best.radius):
                 best = proof
         return best
 
-    def farkas(self, duals, stage: str = "default", margin: float | None = None):
+    def farkas(self, duals, stage: str = "default"):
         """Verify a dual certificate of infeasibility in float64.
 
         Parameters
@@ -822,15 +851,12 @@ class LMIProblem:
             both signs are tried.
         stage : str, optional
             Stage name.
-        margin : float, optional
-            Margin of the strict inequalities; default the current one.
 
         Returns
         -------
         `FarkasCertificate` or None
             None if neither sign gives a positive offset.
         """
-        margin = self.margin if margin is None else float(margin)
         active = self._active(stage)
         if len(duals) != len(active):
             raise ValueError(
@@ -883,22 +909,14 @@ class LMIProblem:
             b, b_err = 0.0, 0.0
             g = np.zeros(gram.shape[0])
             g_err = 0.0
-            for (_, _, strict, _), F0, m_i, y in zip(active, base, M, Y):
-                m = margin if strict else 0.0
+            for F0, m_i, y in zip(base, M, Y):
                 scale = 10 * F0.shape[0] * eps * np.abs(y).max()
-                b += float(np.sum(F0 * y)) + m * float(np.trace(y))
-                b_err += scale * (np.abs(F0).sum() + m * F0.shape[0])
+                b += float(np.sum(F0 * y))
+                b_err += scale * np.abs(F0).sum()
                 g += m_i.T @ y.ravel()
                 g_err += scale * abs(m_i).sum()
             slope = float(np.linalg.norm(g)) + g_err
-            offset = b - b_err
-            if offset <= 0:
-                radius = 0.0
-            else:
-                radius = np.inf if slope == 0 else offset / slope
-            proof = FarkasCertificate(
-                stage, float(b), slope, float(radius), margin, bool(used)
-            )
+            proof = FarkasCertificate(stage, b - b_err, slope, bool(used))
             if best is None or _stronger(proof, best):
                 best = proof
         return best
