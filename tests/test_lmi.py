@@ -39,9 +39,25 @@ def test_lyapunov_solution_is_certified_independently():
 
 
 def test_unstable_matrix_has_no_certificate():
+    # Homogeneous LMIs: the dual certificate bounds the relative margin of
+    # any solution (near rounding) but proves no infeasibility on its own.
     A = np.array([[0.1, 1.0], [0.0, -1.0]])
-    with pytest.raises(InfeasibleError):
+    with pytest.raises(CertificationError) as info:
         lyapunov_problem(A).solve()
+    proof = info.value.farkas
+    assert proof is not None and not proof.normalized
+    assert proof.relative_margin < 1e-9
+
+
+def test_inhomogeneous_infeasibility_is_proven():
+    # P > 0 with trace(P) <= -1: infeasible even with margin 0.
+    lmi = LMIProblem()
+    lmi.variable("P", (2, 2), symmetric=True)
+    lmi.add("P > 0", lambda v: [[-v.P]])
+    lmi.add("trace", lambda v: [[np.eye(1) + v.P[0:1, 0:1] + v.P[1:2, 1:2]]])
+    with pytest.raises(InfeasibleError) as info:
+        lmi.solve()
+    assert info.value.farkas.proves_infeasible
 
 
 def test_check_rejects_a_wrong_point():
@@ -66,7 +82,7 @@ def test_parameters_resolve_without_rebuilding():
     problem = lmi._problems["decay"]
     assert problem.is_dpp()
     lmi.set_parameter("a", 1.5)  # decay 1.5 > 1: infeasible
-    with pytest.raises(InfeasibleError):
+    with pytest.raises(CertificationError):
         lmi.solve(stage="decay")
     assert lmi._problems["decay"] is problem
     assert a.value == 1.5

@@ -9,6 +9,7 @@ import control as ct
 import numpy as np
 
 from ._checks import signal_indices
+from .exceptions import InfeasibleError
 from .lmi import LMICheck, LMIProblem
 from .systems import PolytopicStateSpace
 
@@ -120,11 +121,21 @@ def quadratic_stability(sys: PolytopicStateSpace, margin: float = 1e-6):
     Raises
     ------
     InfeasibleError
-        If no certified common Lyapunov matrix was found.
+        If a vertex has an eigenvalue with ``Re >= 0`` (then no ``P > 0``
+        has ``A' P + P A < 0``).
+    CertificationError
+        If no certified common Lyapunov matrix was found otherwise.
     """
     if not isinstance(sys, PolytopicStateSpace):
         raise TypeError(f"sys: expected a PolytopicStateSpace, got {type(sys)!r}")
     As = [d[0] for d in sys.vertex_data()]
+    for j, A in enumerate(As):
+        worst = np.linalg.eigvals(A).real.max()
+        if worst >= 0:
+            raise InfeasibleError(
+                f"vertex {j} is not asymptotically stable (eigenvalue with real "
+                f"part {worst:.6g}), so no common Lyapunov matrix exists"
+            )
     scale = max(1.0, max(np.linalg.norm(A, 2) for A in As))
     As = [A / scale for A in As]
     n = sys.nstates
@@ -134,8 +145,13 @@ def quadratic_stability(sys: PolytopicStateSpace, margin: float = 1e-6):
     lmi.add("P > 0", lambda v: [[-v.P]])
     for j, A in enumerate(As):
         lmi.add(f"Lyapunov vertex {j}", lambda v, A=A: [[A.T @ v.P + v.P @ A]])
-    lmi.add("P <= I", lambda v: [[v.P - np.eye(n)]], strict=False)
-    lmi.add("P >= t I", lambda v: [[v.t[0, 0] * np.eye(n) - v.P]], strict=False)
+    lmi.add("P <= I", lambda v: [[v.P - np.eye(n)]], strict=False, normalization=True)
+    lmi.add(
+        "P >= t I",
+        lambda v: [[v.t[0, 0] * np.eye(n) - v.P]],
+        strict=False,
+        normalization=True,
+    )
     sol = lmi.solve(lambda v: -v.t[0, 0])
     return QuadraticStability(sol.P, sol.checks)
 

@@ -49,10 +49,9 @@ _CERTIFIED_FRACTION = 0.5
 # Margin factor of the retry after a point misses its certificate narrowly.
 _RETRY_MARGIN_FACTOR = 10.0
 # What a verified dual certificate must show before `LMIProblem.solve`
-# calls the LMIs infeasible: no solution within this radius (scaled units),
-# or a margin relative to the point's size at the rounding level.
+# calls the LMIs infeasible: no solution, even with margin 0, within this
+# radius (scaled units).
 INFEASIBLE_RADIUS = 1e6
-INFEASIBLE_RELATIVE_MARGIN = 1e-12
 # Alternating projections that polish a solver's dual point into a Farkas
 # certificate (PSD cone, then the null space of the adjoint map).
 _FARKAS_REFINEMENTS = 200
@@ -172,16 +171,14 @@ class FarkasCertificate:
 
     @property
     def proves_infeasible(self) -> bool:
-        """Whether no solution exists to float64 precision.
+        """Whether no solution exists: none within `INFEASIBLE_RADIUS`.
 
-        Either no point within `INFEASIBLE_RADIUS` satisfies the
-        inequalities, or every point's margin relative to its size is at
-        the rounding level (`INFEASIBLE_RELATIVE_MARGIN`).
+        A bound on the relative margin is not a proof: homogeneous LMIs
+        whose only solutions have relative margins near the rounding level
+        (modes whose time scales differ by 1e18) give the same bound as
+        infeasible ones.
         """
-        return (
-            self.radius >= INFEASIBLE_RADIUS
-            or self.relative_margin <= INFEASIBLE_RELATIVE_MARGIN
-        )
+        return self.radius >= INFEASIBLE_RADIUS
 
     def __str__(self) -> str:
         if self.radius >= INFEASIBLE_RADIUS:

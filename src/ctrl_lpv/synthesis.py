@@ -101,9 +101,11 @@ _MARGIN_FACTORS = (1.0, 1e-3)
 # A given gamma is posed as gamma^2 (1 - _GAMMA_SLACK) so that the
 # certified bound is met strictly.
 _GAMMA_SLACK = (1e-6, 1e-3)
-# Above this many LMI matrix entries a warning gives the estimate; a
+# Above this many LMI matrix entries or LMIs (cvxpy compiles each LMI in
+# Python: thousands take minutes) a warning gives the estimate; a
 # problem estimated to need more than half the memory is refused.
 _WARN_ENTRIES = 2_000_000
+_WARN_LMIS = 2_000
 _BYTES_PER_ENTRY = 400  # cvxpy's compiled problem, measured order of magnitude
 
 
@@ -1029,7 +1031,7 @@ def _guard_size(structure) -> None:
             f"half of its {memory / 2**30:.3g} GiB); use fewer vertices or a "
             "common gain"
         )
-    if entries > _WARN_ENTRIES:
+    if entries > _WARN_ENTRIES or npairs > _WARN_LMIS:
         warnings.warn(
             f"large LMI problem: {text}; compiling and solving may take minutes "
             "(time_limit= bounds the solve)",
@@ -1360,7 +1362,9 @@ def _gain_tangent(lmi, scaling, W, Z, gain_bound):
     lmi.set_parameter("gain_Ginv", Ginv)
     lmi.set_parameter("gain_Ginv_K", Ginv / np.sqrt(kappa0))
     if gain_bound is not None:
-        lmi.set_parameter("kappa_max", gain_bound**2 / kappa0)
+        # A bound far above the current gain is inactive: cap it in float64.
+        ratio = min(gain_bound / np.sqrt(kappa0), 1e100)
+        lmi.set_parameter("kappa_max", ratio**2)
     return kappa0
 
 
