@@ -350,8 +350,12 @@ def quadratic_stabilization(
         margin and moderate gains.
     margin : float, optional
         Margin of the strict LMIs, relative to the prescaled data.
-    solvers : sequence of (name, options), optional
-        Solver chain; default Clarabel, then SCS, then CVXOPT/MOSEK.
+    solvers : str or sequence, optional
+        A solver name, or names or ``(name, options)`` pairs tried in
+        turn; default Clarabel, then SCS, then CVXOPT/MOSEK if installed.
+    time_limit : float, optional
+        Wall-time limit in seconds: solvers get the time left, and no
+        fallback is started after it (`CertificationError`).
 
     Returns
     -------
@@ -360,7 +364,9 @@ def quadratic_stabilization(
     Raises
     ------
     InfeasibleError
-        If a vertex is not stabilizable or no certified solution exists.
+        If a vertex is not stabilizable (the mode and its PBH residual).
+    CertificationError
+        If no certified design was found, with every fallback tried.
 
     Examples
     --------
@@ -399,7 +405,7 @@ def gain_scheduled_stabilization(
         The plant; all states are measured.
     u : str, int or list
         Control inputs (names or indices); required.
-    regions, gain_bound, margin, solvers
+    regions, gain_bound, margin, solvers, time_limit
         See `quadratic_stabilization` (`gain_bound` bounds every vertex
         gain).
 
@@ -411,7 +417,9 @@ def gain_scheduled_stabilization(
     Raises
     ------
     InfeasibleError
-        If a vertex is not stabilizable or no certified solution exists.
+        If a vertex is not stabilizable (the mode and its PBH residual).
+    CertificationError
+        If no certified design was found, with every fallback tried.
     """
     return _synthesize(
         sys, None, u, None, "Theorem 1", True, None, regions, None, gain_bound,
@@ -453,7 +461,7 @@ def hinf_state_feedback(
     gamma : float, optional
         Required bound; if given the LMIs are solved for feasibility at this
         gamma instead of minimising it.
-    regions, gain_bound, margin, solvers
+    regions, gain_bound, margin, solvers, time_limit
         See `quadratic_stabilization`.
     backoff : float or None, optional
         Relax the minimum gamma by this fraction (default 0.2), then
@@ -502,11 +510,31 @@ def gain_scheduled_hinf(
     sys : `PolytopicStateSpace`
         The plant, with `w` and `u` among its inputs and `z` among its
         outputs.
-    w, u, z : str, int or list
-        Exogenous inputs, control inputs and performance outputs, as in
-        `hinf_state_feedback`.
-    gamma, regions, backoff, gain_bound, margin, solvers
-        See `hinf_state_feedback`.
+    w : str, int or list, optional
+        Exogenous inputs; default every physical input not in `u`.
+    u : str, int or list
+        Control inputs.
+    z : str, int or list, optional
+        Performance outputs; default all outputs.
+    gamma : float, optional
+        Required bound, met strictly; if given the LMIs are solved for
+        feasibility at this gamma instead of minimising it.
+    regions : LMIRegion or sequence of LMIRegion, optional
+        Pole regions every frozen closed loop must lie in.
+    backoff : float or None, optional
+        Relax the minimum gamma by this fraction (default 0.2), then
+        re-solve for a well-conditioned ``W`` and small vertex gains; None
+        or 0 returns the raw minimum-gamma point.
+    gain_bound : float, optional
+        Bound on the spectral norm of every vertex gain (a sufficient
+        condition: missing it raises `CertificationError`).
+    margin : float, optional
+        Margin of the strict LMIs, relative to the prescaled data.
+    solvers : str or sequence, optional
+        A solver name, or names or ``(name, options)`` pairs tried in
+        turn; default Clarabel, then SCS, then CVXOPT/MOSEK if installed.
+    time_limit : float, optional
+        Wall-time limit in seconds.
 
     Returns
     -------
@@ -517,7 +545,10 @@ def gain_scheduled_hinf(
     Raises
     ------
     InfeasibleError
-        See `hinf_state_feedback`.
+        If a vertex is not stabilizable or, for a given `gamma`, a dual
+        certificate proves the LMIs infeasible.
+    CertificationError
+        If no certified design was found (with what was tried).
     """
     return _synthesize(
         sys, w, u, z, "Theorem 2", True, gamma, regions, backoff, gain_bound,
