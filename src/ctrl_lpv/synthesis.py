@@ -459,8 +459,8 @@ def hinf_state_feedback(
     z : str, int or list, optional
         Performance outputs; default all outputs.
     gamma : float, optional
-        Required bound; if given the LMIs are solved for feasibility at this
-        gamma instead of minimising it.
+        Required bound, met strictly; if given the LMIs are solved for
+        feasibility at this gamma instead of minimising it.
     regions, gain_bound, margin, solvers, time_limit
         See `quadratic_stabilization`.
     backoff : float or None, optional
@@ -477,8 +477,10 @@ def hinf_state_feedback(
     Raises
     ------
     InfeasibleError
-        If a vertex is not stabilizable, the LMIs are infeasible (for the
-        given `gamma`) or no certified solution exists.
+        If a vertex is not stabilizable or, for a given `gamma`, a dual
+        certificate proves the LMIs infeasible.
+    CertificationError
+        If no certified design was found (with what was tried).
     """
     return _synthesize(
         sys, w, u, z, "Lemma 2", False, gamma, regions, backoff, gain_bound,
