@@ -57,6 +57,7 @@ gives the same certified design as a fresh one.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import os
 import time
@@ -70,7 +71,7 @@ from scipy.linalg import matrix_balance
 
 from ._checks import real_number, signal_indices
 from .exceptions import CertificationError, InfeasibleError, ProblemSizeWarning
-from .lmi import LMICheck, LMIProblem, SolveAttempt, solver_chain
+from .lmi import LMICheck, LMIProblem, SolveAttempt, default_solvers, solver_chain
 from .problem_cache import synthesis_cache
 from .regions import LMIRegion
 from .stabilizability import check_stabilizability
@@ -1091,59 +1092,83 @@ def _synthesize(
     attempts: list[SolveAttempt] = []
     compiling = verifying = 0.0
     built = time.perf_counter()
-    for scaling_name, scaling in _scalings(original):
-        for factor in _MARGIN_FACTORS:
-            rung = f"{scaling_name} scaling, margin {margin * factor:g}"
-            if deadline is not None and time.perf_counter() > deadline:
-                record.append(f"{rung}: not tried (time_limit {time_limit:g} s)")
-                continue
-            job = _Job(
-                original, scaling, regions, scheduled, hinf, gamma, backoff,
-                gain_bound, margin * factor, chain, deadline,
-            )  # fmt: skip
-            try:
-                found = job.run(attempts)
-            except InfeasibleError as exc:
-                raise InfeasibleError(
-                    f"{method}: {exc}", attempts, exc.farkas
-                ) from None
-            compiling += job.compiling
-            verifying += job.verifying
-            record.extend(f"{rung}: {note}" for note in job.notes)
-            if found is None:
-                continue
-            sol, gains, certificate, gamma_opt = found
-            solved = time.perf_counter()
-            gamma_cert = (
-                float(np.sqrt(scaling.unscale_g(float(sol.g[0, 0])))) if hinf else None
-            )
-            labels = sys.physical_inputs
-            return StateFeedbackDesign(
-                system=sys,
-                method=method,
-                gains=gains,
-                P=np.linalg.inv(scaling.unscale_W(sol.W)),
-                gamma=gamma_cert,
-                gamma_opt=gamma_opt,
-                w=tuple(labels[i] for i in iw),
-                u=tuple(labels[i] for i in iu),
-                z=tuple(sys.output_labels[i] for i in iz),
-                certificate=certificate,
-                attempts=tuple(attempts),
-                timing={
-                    "build": built - start,
-                    "compile": compiling,
-                    "solve": solved - built - compiling - verifying,
-                    "verify": verifying,
-                },
-                backoff=backoff,
-                regions=regions,
-                ladder=tuple(record),
-            )
+    # The ladder: each solver in turn (the slow ones last), then the
+    # prescalings, then the margins; the stages have rungs of their own.
+    solver_rungs = [[entry] for entry in (chain or default_solvers())]
+    if not solver_rungs:
+        raise RuntimeError("no SDP solver installed: install clarabel or scs")
+    scalings = list(_scalings(original))
+    # The slower solvers after the first get the nominal margin only.
+    rungs = [
+        (one, scaling, factor)
+        for i, one in enumerate(solver_rungs)
+        for scaling in scalings
+        for factor in (_MARGIN_FACTORS if i == 0 else _MARGIN_FACTORS[:1])
+    ]
+    for one_solver, (scaling_name, scaling), factor in rungs:
+        rung = f"{one_solver[0][0]}, {scaling_name} scaling, margin {margin * factor:g}"
+        if deadline is not None and time.perf_counter() > deadline:
+            record.append(f"{rung}: not tried (time_limit {time_limit:g} s)")
+            continue
+        job = _Job(
+            original, scaling, regions, scheduled, hinf, gamma, backoff,
+            gain_bound, margin * factor, one_solver, deadline,
+        )  # fmt: skip
+        try:
+            found = job.run(attempts)
+        except InfeasibleError as exc:
+            raise InfeasibleError(f"{method}: {exc}", attempts, exc.farkas) from None
+        compiling += job.compiling
+        verifying += job.verifying
+        record.extend(f"{rung}: {note}" for note in job.notes)
+        if found is None:
+            continue
+        point, gamma_opt = found
+        solved = time.perf_counter()
+        labels = sys.physical_inputs
+        return StateFeedbackDesign(
+            system=sys,
+            method=method,
+            gains=point.gains,
+            P=point.P,
+            gamma=point.gamma,
+            gamma_opt=gamma_opt,
+            w=tuple(labels[i] for i in iw),
+            u=tuple(labels[i] for i in iu),
+            z=tuple(sys.output_labels[i] for i in iz),
+            certificate=point.certificate,
+            attempts=tuple(attempts),
+            timing={
+                "build": built - start,
+                "compile": compiling,
+                "solve": solved - built - compiling - verifying,
+                "verify": verifying,
+            },
+            backoff=backoff,
+            regions=regions,
+            ladder=tuple(record),
+        )
     hint = "".join(f"; weakly controllable: {m}" for m in suspects)
     raise CertificationError(
-        f"{method}: no certified solution found; tried: " + "; ".join(record) + hint,
+        f"{method}: no certified solution found after {len(rungs)} rungs "
+        f"(solvers {[one[0][0] for one in solver_rungs]}, prescalings "
+        f"{[name for name, _ in scalings]}, margins "
+        f"{[margin * f for f in _MARGIN_FACTORS]}); what failed: "
+        + _summary(record)
+        + hint,
         attempts,
+    )
+
+
+def _summary(record) -> str:
+    """The ladder's notes without repeats (rung prefix dropped), counted."""
+    counts: dict[str, int] = {}
+    for note in record:
+        reason = note.split(": ", 1)[-1]
+        counts[reason] = counts.get(reason, 0) + 1
+    return "; ".join(
+        f"{reason} (x{count})" if count > 1 else reason
+        for reason, count in counts.items()
     )
 
 
@@ -1156,11 +1181,22 @@ def _scalings(original):
         yield "unbalanced", plain
 
 
+@dataclass(frozen=True)
+class _Point:
+    """A fully verified point, in the model's units."""
+
+    solution: object  # the LMISolution, in the scaled units of its job
+    gains: tuple
+    certificate: Certificate
+    gamma: float | None
+    P: np.ndarray
+
+
 class _Job:
     """One rung of the ladder: a scaling and a margin, all stages.
 
-    `run` returns ``(solution, gains, certificate, gamma_opt)`` for the best
-    certified point of this rung, or None (`notes` says why); an
+    `run` returns ``(point, gamma_opt)`` for the best certified `_Point` of
+    this rung, or None (`notes` says why); an
     `InfeasibleError` escapes only with a proof that needs no normalisation.
     """
 
@@ -1188,6 +1224,7 @@ class _Job:
         s = self.structure
         with synthesis_cache.checkout(s, _build) as (compiled, _):
             _load(compiled, s, self.data, self.scaling, self.regions, self.margin)
+            self.compiled = compiled
             self.lmi = compiled.lmi
             self.attempts = attempts
             if s.hinf:
@@ -1224,7 +1261,7 @@ class _Job:
         return sol
 
     def _accept(self, sol, label, bounded=False):
-        """Full verification of a point; the design tuple or None.
+        """Full verification of a point: a `_Point`, or None.
 
         `bounded` also asks for the gain bound (met only after the gain
         stage, in general).
@@ -1244,8 +1281,10 @@ class _Job:
                     f"{self.gain_bound:g}"
                 )
                 return None
+        certified = (
+            float(np.sqrt(scaling.unscale_g(float(sol.g[0, 0])))) if self.hinf else None
+        )
         if self.hinf and self.gamma is not None:
-            certified = float(np.sqrt(scaling.unscale_g(float(sol.g[0, 0]))))
             if not certified < self.gamma:
                 self.notes.append(
                     f"{label}: certified gamma {certified:.8g} not below the "
@@ -1262,7 +1301,8 @@ class _Job:
                 f"{label}: closed-loop verification failed ({certificate})"
             )
             return None
-        return sol, gains, certificate
+        P = np.linalg.inv(scaling.unscale_W(sol.W))
+        return _Point(sol, gains, certificate, certified, P)
 
     # -- stage sequences -------------------------------------------------
     def _stabilize(self):
@@ -1278,14 +1318,36 @@ class _Job:
         if best is None:
             return None
         if self.gain_bound is None:
-            return (*best, None)
+            return best, None
         return self._minimise_gain(best, None)
 
+    def _normalise_gamma(self, gamma) -> bool:
+        """Rescale z so that ``gamma^2`` is about 1 in scaled units.
+
+        A ``-g I`` block of 1e3 beside data of order one costs the solvers
+        three digits (measured: Clarabel's "optimal" points then miss the
+        H-infinity LMI by 1e-4). The scaling of z is exact (a power of two)
+        and leaves ``W`` and ``Z`` unchanged; it is only ever made larger.
+        Returns whether it changed.
+        """
+        sz = _pow2(gamma * self.scaling.sw)
+        if sz <= self.scaling.sz:
+            # Only shrink z: a tiny gamma would blow its rows up instead.
+            return False
+        self.scaling = dataclasses.replace(self.scaling, sz=sz)
+        self.data = [self.scaling.apply(v) for v in self.original]
+        _load(
+            self.compiled, self.structure, self.data, self.scaling, self.regions,
+            self.margin,
+        )  # fmt: skip
+        return True
+
     def _hinf(self):
-        lmi, scaling = self.lmi, self.scaling
-        to_scaled = (scaling.sw / scaling.sz) ** 2
+        lmi = self.lmi
         if self.gamma is not None:
             # A required gamma, posed slightly below so it is met strictly.
+            self._normalise_gamma(self.gamma)
+            to_scaled = (self.scaling.sw / self.scaling.sz) ** 2
             best = None
             for slack in _GAMMA_SLACK:
                 lmi.set_parameter("g_max", self.gamma**2 * to_scaled * (1 - slack))
@@ -1300,7 +1362,7 @@ class _Job:
             if best is None:
                 return None
             if self.backoff is None and self.gain_bound is None:
-                return (*best, None)
+                return best, None
             return self._minimise_gain(best, None)
 
         raw = self._solve("optimal", lambda v: v.g[0, 0], certify=False, proof=True)
@@ -1312,11 +1374,18 @@ class _Job:
                 f"optimal: the solver's gamma^2 = {g_opt:g} is not positive"
             )
             return None
-        gamma_opt = float(np.sqrt(scaling.unscale_g(g_opt)))
+        if abs(np.log2(g_opt)) > 2:
+            # The stages after this one are posed with gamma^2 about 1. The
+            # raw point stays as it is: W and Z do not depend on z's scale.
+            old_sz = self.scaling.sz
+            self._normalise_gamma(float(np.sqrt(self.scaling.unscale_g(g_opt))))
+            g_opt *= (old_sz / self.scaling.sz) ** 2
+            raw.values["g"] = np.array([[g_opt]])
+        gamma_opt = float(np.sqrt(self.scaling.unscale_g(g_opt)))
         raw_design = self._accept(raw, "raw optimum")
         if not self.backoff:
             if raw_design is not None:
-                return (*raw_design, gamma_opt)
+                return raw_design, gamma_opt
             self.notes.append("raw optimum: not certified; backing off")
             factors = (1.001, 1.01, 1.05, 1.2)
         else:
@@ -1341,7 +1410,7 @@ class _Job:
             best = raw_design
             lmi.set_parameter("g_max", g_opt * (1 + 1e-9))
         if not self.backoff and self.gain_bound is None:
-            return (*best, gamma_opt)
+            return best, gamma_opt
         return self._minimise_gain(best, gamma_opt)
 
     def _minimise_gain(self, best, gamma_opt):
@@ -1352,7 +1421,7 @@ class _Job:
         """
         s = self.structure
         for _ in range(_GAIN_ITERATIONS):
-            sol = best[0]
+            sol = best.solution
             Z = [getattr(sol, f"Z{k}") for k in range(s.nZ)]
             _gain_tangent(self.lmi, self.scaling, sol.W, Z, self.gain_bound)
             candidate = self._accept(
@@ -1362,11 +1431,11 @@ class _Job:
                 break  # the previous point is certified: keep it
             best = candidate
             # kappa is relative to the previous point's squared gain.
-            if float(candidate[0].kappa[0, 0]) > 1 - _GAIN_RTOL:
+            if float(candidate.solution.kappa[0, 0]) > 1 - _GAIN_RTOL:
                 break
-        if self._accept(best[0], "final point", bounded=True) is None:
+        if self._accept(best.solution, "final point", bounded=True) is None:
             return None
-        return (*best, gamma_opt)
+        return best, gamma_opt
 
 
 def _gain_tangent(lmi, scaling, W, Z, gain_bound):
