@@ -46,8 +46,10 @@ BlockFunction = Callable[[SimpleNamespace], Sequence[Sequence[object]]]
 
 # The fraction of the nominal margin that a certified point must keep.
 _CERTIFIED_FRACTION = 0.5
-# Margin factor of the retry after a point misses its certificate narrowly.
-_RETRY_MARGIN_FACTOR = 10.0
+# Retries with a larger margin after a point misses its certificate on
+# strict LMIs only: at most this many, each margin at most this factor up.
+_MARGIN_RETRIES = 2
+_MAX_RETRY_FACTOR = 1e4
 # What a verified dual certificate must show before `LMIProblem.solve`
 # calls the LMIs infeasible: no solution, even with margin 0, within this
 # radius (scaled units).
@@ -57,10 +59,19 @@ INFEASIBLE_RADIUS = 1e6
 _FARKAS_REFINEMENTS = 200
 
 
-def _narrow_miss(checks) -> bool:
-    """Whether only strict LMIs failed and all are still negative definite."""
+def _retry_factor(checks, margin) -> float | None:
+    """Margin factor that should absorb a solver's miss, or None.
+
+    Only a point that misses strict LMIs alone (the side constraints hold)
+    is worth a retry: the solver's tolerance ate the margin, so pose one
+    about four times the miss, a power of ten, at least ten times larger.
+    """
     failed = [c for c in checks if not c.passed]
-    return all(c.strict and c.max_eig < 0 for c in failed)
+    if not failed or not all(c.strict for c in failed):
+        return None
+    miss = max(c.max_eig for c in failed) + margin
+    factor = 10.0 ** np.ceil(np.log10(max(10.0, 4 * miss / margin)))
+    return min(float(factor), _MAX_RETRY_FACTOR)
 
 
 @dataclass(frozen=True)
@@ -211,12 +222,17 @@ class LMISolution:
         Float64 checks of every active LMI at the point.
     attempts : list of `SolveAttempt`
         The attempts made by the solve that returned it.
+    nominal : `LMISolution` or None
+        When the point certified only after a retry with a larger margin:
+        the solver's (uncertified) point at the nominal margin, the better
+        estimate of an optimal value.
     """
 
     values: dict[str, np.ndarray]
     objective: float | None
     checks: tuple[LMICheck, ...]
     attempts: list[SolveAttempt] = field(default_factory=list)
+    nominal: LMISolution | None = None
 
     @property
     def certified(self) -> bool:
@@ -795,20 +811,34 @@ class LMIProblem:
             attempts.append(attempt)
             if duals is not None:
                 dual_points.append(duals)
-            if not attempt.certified and checks and _narrow_miss(checks):
-                # The solver's own tolerance ate the margin: pose a larger one
-                # (the certificate still asks for the nominal margin).
-                attempt, values, checks, duals = self._attempt(
-                    problem, stage, solver, options, _RETRY_MARGIN_FACTOR
-                )
-                attempts.append(attempt)
             value = (
                 None if objective is None or problem.value is None else problem.value
             )
-            if attempt.certified:
-                return LMISolution(values, value, checks, attempts)
             if checks and estimate is None:
+                # The nominal-margin point: the best estimate of an optimum.
                 estimate = LMISolution(values, value, checks, attempts)
+            factor = 1.0
+            for _ in range(_MARGIN_RETRIES):
+                step = (
+                    None
+                    if attempt.certified
+                    else _retry_factor(checks, self.margin * factor)
+                )
+                if step is None:
+                    break
+                # The solver's own tolerance ate the margin: pose a larger one
+                # (the certificate still asks for the nominal margin).
+                factor *= step
+                attempt, values, checks, duals = self._attempt(
+                    problem, stage, solver, options, factor
+                )
+                attempts.append(attempt)
+            if attempt.certified:
+                value = None if objective is None else problem.value
+                solution = LMISolution(values, value, checks, attempts)
+                if factor != 1.0:
+                    solution.nominal = estimate
+                return solution
         if not certify and estimate is not None:
             return estimate
         summary = "; ".join(

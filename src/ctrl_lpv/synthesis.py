@@ -1368,7 +1368,9 @@ class _Job:
         raw = self._solve("optimal", lambda v: v.g[0, 0], certify=False, proof=True)
         if raw is None:
             return None
-        g_opt = float(raw.g[0, 0])
+        # gamma* from the nominal-margin point, even when the raw point only
+        # certified with a larger margin (and so a larger gamma).
+        g_opt = float((raw.nominal or raw).g[0, 0])
         if not (np.isfinite(g_opt) and g_opt > 0):
             self.notes.append(
                 f"optimal: the solver's gamma^2 = {g_opt:g} is not positive"
@@ -1379,8 +1381,9 @@ class _Job:
             # raw point stays as it is: W and Z do not depend on z's scale.
             old_sz = self.scaling.sz
             self._normalise_gamma(float(np.sqrt(self.scaling.unscale_g(g_opt))))
-            g_opt *= (old_sz / self.scaling.sz) ** 2
-            raw.values["g"] = np.array([[g_opt]])
+            rescale = (old_sz / self.scaling.sz) ** 2
+            g_opt *= rescale
+            raw.values["g"] = raw.values["g"] * rescale
         gamma_opt = float(np.sqrt(self.scaling.unscale_g(g_opt)))
         raw_design = self._accept(raw, "raw optimum")
         if not self.backoff:
