@@ -2,7 +2,11 @@
 
 Exit codes: 0 success, 1 failure while running (e.g. an integrator
 failure), 2 bad command-line options, 3 no certified design exists
-(`ctrl_lpv.InfeasibleError`).
+(`ctrl_lpv.InfeasibleError`), 130 interrupted (Ctrl-C).
+
+Parsing the options imports neither python-control, cvxpy nor matplotlib
+(``--help`` and ``--version`` answer at once); each command imports what it
+needs when it runs.
 """
 
 from __future__ import annotations
@@ -15,13 +19,11 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
-EXIT_FAILURE, EXIT_USAGE, EXIT_INFEASIBLE = 1, 2, 3
+EXIT_FAILURE, EXIT_USAGE, EXIT_INFEASIBLE, EXIT_INTERRUPTED = 1, 2, 3, 130
 
 _EPILOG = """\
 exit codes: 0 success, 1 failure while running, 2 bad options,
-3 no certified design exists (InfeasibleError).
+3 no certified design exists (InfeasibleError), 130 interrupted.
 
 examples:
   ctrl-lpv reproduce --out results
@@ -45,6 +47,13 @@ def _positive(text: str) -> float:
     value = _number(text)
     if value <= 0:
         raise argparse.ArgumentTypeError(f"must be positive: {text!r}")
+    return value
+
+
+def _nonnegative(text: str) -> float:
+    value = _number(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0: {text!r}")
     return value
 
 
@@ -109,16 +118,23 @@ def build_parser() -> argparse.ArgumentParser:
         "LPV vs backstepping table, written to a folder",
         description="Reproduce the paper: errata findings, the certified "
         "designs, every figure and the LPV vs backstepping comparison "
-        "(Markdown and JSON). A few minutes on 2 cores.",
+        "(Markdown and JSON). The folder is written atomically: the files "
+        "go to a temporary folder beside DIR, moved into place at the end "
+        "(a previous reproduction in DIR is replaced; on Ctrl-C or an error "
+        "nothing is left behind).",
     )
     rep.add_argument(
-        "--out", required=True, type=Path, metavar="DIR", help="output folder (created)"
+        "--out",
+        required=True,
+        type=Path,
+        metavar="DIR",
+        help="output folder (created; replaced if it holds a previous reproduction)",
     )
     rep.add_argument(
         "--robustness",
         action="store_true",
         help="add the 24 robustness scenarios to the comparison "
-        "(alpha, Td and load inertia mismatch; about 4x longer)",
+        "(alpha, Td and load inertia mismatch)",
     )
     rep.add_argument(
         "--formats",
@@ -128,7 +144,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="figure formats, comma-separated (default png,svg)",
     )
     _engine_option(rep)
-    rep.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
+    rep.add_argument(
+        "-q",
+        "--quiet",
+        action="store_true",
+        help="print nothing (no progress, no table); errors still go to stderr",
+    )
 
     des = commands.add_parser(
         "design",
@@ -241,9 +262,10 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument(
         "--alpha-estimate",
         metavar="RAD",
-        type=_number,
+        type=_nonnegative,
         default=None,
-        help="backlash estimate for vertex gains (default: --alpha)",
+        help="backlash estimate, rad, of vertex gains (scheduled or a "
+        "gain file with vertex gains; refused for a common gain; default: --alpha)",
     )
     sim.add_argument(
         "--Td",
@@ -307,18 +329,22 @@ def _progress(start: float, quiet: bool):
 def _run_reproduce(args) -> int:
     from .twomass.reproduce import reproduce
 
-    result = reproduce(
-        args.out,
-        robustness=args.robustness,
-        formats=args.formats,
-        progress=_progress(time.perf_counter(), args.quiet),
-        engine=args.engine,
-    )
-    print((args.out / "comparison.md").read_text(), end="")
-    print(
-        f"\nwrote {len(result['files'])} files to {args.out} "
-        f"(report: {args.out / 'report.md'})"
-    )
+    try:
+        result = reproduce(
+            args.out,
+            robustness=args.robustness,
+            formats=args.formats,
+            progress=_progress(time.perf_counter(), args.quiet),
+            engine=args.engine,
+        )
+    except ValueError as exc:
+        return _usage(f"--{exc}" if str(exc).startswith("out:") else str(exc))
+    if not args.quiet:
+        print((args.out / "comparison.md").read_text(), end="")
+        print(
+            f"\nwrote {len(result['files'])} files to {args.out} "
+            f"(report: {args.out / 'report.md'})"
+        )
     return 0
 
 
@@ -366,6 +392,20 @@ def _controller(args):
     name = args.controller
     estimate = args.alpha if args.alpha_estimate is None else args.alpha_estimate
     limit = {"torque_limit": args.torque_limit}
+
+    def common(what: str) -> None:
+        if args.alpha_estimate is not None:
+            raise ValueError(
+                f"--alpha-estimate: {what} is a common gain, not scheduled by "
+                "the backlash; drop the option or use vertex gains"
+            )
+
+    if name in ("paper", "robust", "backstepping"):
+        common(
+            {"paper": "the published gain", "robust": "the robust design"}.get(
+                name, "backstepping"
+            )
+        )
     if name == "paper":
         return lpv_controller(**limit)
     if name == "backstepping":
@@ -380,7 +420,12 @@ def _controller(args):
             f"--controller: {name!r} is neither paper, robust, scheduled, "
             "backstepping nor an existing gain file"
         )
-    gains = designs.load_gains(path)
+    try:
+        gains = designs.load_gains(path)
+    except ValueError as exc:
+        raise ValueError(f"--controller: {exc}") from None
+    if not gains.scheduled:
+        common(f"the gain file {path}")
     extra = {"alpha_estimate": estimate} if gains.scheduled else {}
     return gains.controller(**extra, **limit)
 
@@ -391,6 +436,11 @@ def _run_simulate(args) -> int:
 
     if args.alpha < 0 or (args.alpha_step and args.alpha_step[0] < 0):
         return _usage("--alpha/--alpha-step: the backlash must be >= 0")
+    if args.alpha_step is not None and args.alpha_step[1] >= args.T:
+        return _usage(
+            f"--alpha-step: the step time {args.alpha_step[1]:g} s is not "
+            f"before the end of the run, --T {args.T:g} s"
+        )
     try:
         controller = _controller(args)
     except ValueError as exc:
@@ -409,6 +459,8 @@ def _run_simulate(args) -> int:
         npoints=int(round(1000 * args.T)) + 1,
         engine=args.engine,
     )
+    import numpy as np
+
     m = metrics(response, args.theta_r)
     print(
         f"controller {args.controller}: "
@@ -460,22 +512,25 @@ def main(argv: list[str] | None = None) -> int:
     Returns
     -------
     int
-        0 success, 1 failure, 2 bad options, 3 infeasible design.
+        0 success, 1 failure, 2 bad options, 3 infeasible design, 130
+        interrupted (Ctrl-C: one line on stderr, no traceback).
     """
-    import matplotlib
-
-    matplotlib.use("Agg")  # files only, also on machines without a display
-
     from .exceptions import InfeasibleError
 
-    args = build_parser().parse_args(argv)
-    runners = {
-        "reproduce": _run_reproduce,
-        "design": _run_design,
-        "simulate": _run_simulate,
-    }
     try:
+        args = build_parser().parse_args(argv)
+        runners = {
+            "reproduce": _run_reproduce,
+            "design": _run_design,
+            "simulate": _run_simulate,
+        }
+        import matplotlib
+
+        matplotlib.use("Agg")  # files only, also on machines without a display
         return runners[args.command](args)
+    except KeyboardInterrupt:
+        print("ctrl-lpv: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
     except InfeasibleError as exc:
         print(f"ctrl-lpv: no certified design: {exc}", file=sys.stderr)
         return EXIT_INFEASIBLE
