@@ -327,18 +327,19 @@ def _progress(start: float, quiet: bool):
 
 
 def _run_reproduce(args) -> int:
-    from .twomass.reproduce import reproduce
+    from .twomass.reproduce import _check_target, reproduce
 
     try:
-        result = reproduce(
-            args.out,
-            robustness=args.robustness,
-            formats=args.formats,
-            progress=_progress(time.perf_counter(), args.quiet),
-            engine=args.engine,
-        )
+        _check_target(args.out)
     except ValueError as exc:
-        return _usage(f"--{exc}" if str(exc).startswith("out:") else str(exc))
+        return _usage(f"--{exc}")
+    result = reproduce(
+        args.out,
+        robustness=args.robustness,
+        formats=args.formats,
+        progress=_progress(time.perf_counter(), args.quiet),
+        engine=args.engine,
+    )
     if not args.quiet:
         print((args.out / "comparison.md").read_text(), end="")
         print(
