@@ -81,7 +81,9 @@ def errata_findings(engine: str = "control") -> tuple[dict, dict]:
     Parameters
     ----------
     engine : {"control", "fast"}, optional
-        Simulation engine of the two coordinate runs, as in `compare`.
+        Simulation engine of the two coordinate runs: python-control's
+        `control.input_output_response` (the reference) or ctrl_lpv's fused
+        right-hand side (same results to the solver tolerance, faster).
 
     Returns
     -------
@@ -180,7 +182,9 @@ def reproduce(
     progress : callable, optional
         Called with a one-line message at each step and simulation.
     engine : {"control", "fast"}, optional
-        Simulation engine, as in `compare`.
+        Simulation engine of every run: python-control's
+        `control.input_output_response` (the reference) or ctrl_lpv's fused
+        right-hand side (same results to the solver tolerance, faster).
 
     Returns
     -------
