@@ -428,7 +428,10 @@ def _controller(args):
     if not gains.scheduled:
         common(f"the gain file {path}")
     extra = {"alpha_estimate": estimate} if gains.scheduled else {}
-    return gains.controller(**extra, **limit)
+    try:
+        return gains.controller(**extra, **limit)
+    except ValueError as exc:
+        raise ValueError(f"--controller: {path}: {exc}") from None
 
 
 def _run_simulate(args) -> int:
