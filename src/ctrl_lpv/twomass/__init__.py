@@ -52,3 +52,4 @@ _EXPORTS = {
 __all__ = list(_EXPORTS)
 
 __getattr__, __dir__ = install(__name__, _EXPORTS)
+del install
