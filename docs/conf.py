@@ -35,9 +35,13 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
     "sphinx.ext.mathjax",
+    # MathJax 3 bundled in the wheel and copied to _static/mathjax: maths
+    # renders offline, with no CDN (the package sets mathjax_path).
+    "sphinx-mathjax-offline",
     "numpydoc",
 ]
-# No sphinx.ext.intersphinx: the docs must build without network access.
+# No sphinx.ext.intersphinx: the docs must build and read without network
+# access (tests/test_docs.py checks that no page loads a remote script).
 
 templates_path = ["_templates"]
 exclude_patterns = ["_build", "scripts", "Thumbs.db", ".DS_Store"]

@@ -3,67 +3,54 @@
 The data flow is one way: parameter domain (`polytope`) -> polytopic system
 (`systems`) -> LMI problem (`lmi`, `regions`) -> certified design
 (`synthesis`) -> controller I/O system (`controllers`) -> analysis.
+
+The public names are imported lazily (PEP 562): ``import ctrl_lpv`` loads
+none of python-control, cvxpy or matplotlib; a name's module is imported the
+first time the name is used.
 """
 
-from .analysis import frozen_sweep, l2_gain_bound, quadratic_stability
-from .batch import scenario_grid, sweep
-from .controllers import integral_augmentation, state_feedback
-from .exceptions import (
-    CertificationError,
-    InfeasibleError,
-    ProblemSizeWarning,
-    SynthesisError,
-)
-from .interconnection import interconnect
-from .polytope import ParameterBox, Polytope, Simplex, box
-from .problem_cache import SynthesisCache, synthesis_cache
-from .regions import LMIRegion, disk, halfplane, sector
-from .simulation import simulate
-from .stabilizability import ModeResidual, check_stabilizability
-from .synthesis import (
-    Certificate,
-    StateFeedbackDesign,
-    gain_scheduled_hinf,
-    gain_scheduled_stabilization,
-    hinf_state_feedback,
-    quadratic_stabilization,
-)
-from .systems import PolytopicStateSpace, pss
+from ._lazy import install
 
 __version__ = "0.1.0"
 
-__all__ = [
-    "PolytopicStateSpace",
-    "pss",
-    "ParameterBox",
-    "Polytope",
-    "Simplex",
-    "box",
-    "quadratic_stabilization",
-    "hinf_state_feedback",
-    "gain_scheduled_stabilization",
-    "gain_scheduled_hinf",
-    "check_stabilizability",
-    "StateFeedbackDesign",
-    "Certificate",
-    "SynthesisCache",
-    "synthesis_cache",
-    "SynthesisError",
-    "InfeasibleError",
-    "CertificationError",
-    "ProblemSizeWarning",
-    "ModeResidual",
-    "LMIRegion",
-    "halfplane",
-    "disk",
-    "sector",
-    "state_feedback",
-    "integral_augmentation",
-    "quadratic_stability",
-    "l2_gain_bound",
-    "frozen_sweep",
-    "interconnect",
-    "simulate",
-    "sweep",
-    "scenario_grid",
-]
+#: Public name -> submodule that defines it. To export a name, add it here.
+_EXPORTS = {
+    "PolytopicStateSpace": "systems",
+    "pss": "systems",
+    "ParameterBox": "polytope",
+    "Polytope": "polytope",
+    "Simplex": "polytope",
+    "box": "polytope",
+    "quadratic_stabilization": "synthesis",
+    "hinf_state_feedback": "synthesis",
+    "gain_scheduled_stabilization": "synthesis",
+    "gain_scheduled_hinf": "synthesis",
+    "check_stabilizability": "stabilizability",
+    "ModeResidual": "stabilizability",
+    "StateFeedbackDesign": "synthesis",
+    "Certificate": "synthesis",
+    "SynthesisCache": "problem_cache",
+    "synthesis_cache": "problem_cache",
+    "SynthesisError": "exceptions",
+    "InfeasibleError": "exceptions",
+    "CertificationError": "exceptions",
+    "ProblemSizeWarning": "exceptions",
+    "LMIRegion": "regions",
+    "halfplane": "regions",
+    "disk": "regions",
+    "sector": "regions",
+    "state_feedback": "controllers",
+    "integral_augmentation": "controllers",
+    "quadratic_stability": "analysis",
+    "l2_gain_bound": "analysis",
+    "frozen_sweep": "analysis",
+    "interconnect": "interconnection",
+    "simulate": "simulation",
+    "sweep": "batch",
+    "scenario_grid": "batch",
+}
+
+__all__ = list(_EXPORTS)
+
+__getattr__, __dir__ = install(__name__, _EXPORTS)
+del install

@@ -1,8 +1,13 @@
 """The ``ctrl-lpv`` command: reproduce the paper, design, simulate.
 
 Exit codes: 0 success, 1 failure while running (e.g. an integrator
-failure), 2 bad command-line options, 3 no certified design exists
-(`ctrl_lpv.InfeasibleError`).
+failure), 2 bad command-line options, 3 the design problem is proven
+infeasible (`ctrl_lpv.InfeasibleError`), 4 no certified design was found
+(`ctrl_lpv.CertificationError`), 130 interrupted (Ctrl-C).
+
+Parsing the options imports neither python-control, cvxpy nor matplotlib
+(``--help`` and ``--version`` answer at once); each command imports what it
+needs when it runs.
 """
 
 from __future__ import annotations
@@ -15,13 +20,13 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
-EXIT_FAILURE, EXIT_USAGE, EXIT_INFEASIBLE = 1, 2, 3
+EXIT_FAILURE, EXIT_USAGE, EXIT_INFEASIBLE, EXIT_UNCERTIFIED = 1, 2, 3, 4
+EXIT_INTERRUPTED = 130
 
 _EPILOG = """\
 exit codes: 0 success, 1 failure while running, 2 bad options,
-3 no certified design exists (InfeasibleError).
+3 proven infeasible (InfeasibleError), 4 no certified design found
+(CertificationError), 130 interrupted.
 
 examples:
   ctrl-lpv reproduce --out results
@@ -45,6 +50,13 @@ def _positive(text: str) -> float:
     value = _number(text)
     if value <= 0:
         raise argparse.ArgumentTypeError(f"must be positive: {text!r}")
+    return value
+
+
+def _nonnegative(text: str) -> float:
+    value = _number(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0: {text!r}")
     return value
 
 
@@ -109,16 +121,23 @@ def build_parser() -> argparse.ArgumentParser:
         "LPV vs backstepping table, written to a folder",
         description="Reproduce the paper: errata findings, the certified "
         "designs, every figure and the LPV vs backstepping comparison "
-        "(Markdown and JSON). A few minutes on 2 cores.",
+        "(Markdown and JSON). The folder is written atomically: the files "
+        "go to a temporary folder beside DIR, moved into place at the end "
+        "(a previous reproduction in DIR is replaced; on Ctrl-C or an error "
+        "nothing is left behind).",
     )
     rep.add_argument(
-        "--out", required=True, type=Path, metavar="DIR", help="output folder (created)"
+        "--out",
+        required=True,
+        type=Path,
+        metavar="DIR",
+        help="output folder (created; replaced if it holds a previous reproduction)",
     )
     rep.add_argument(
         "--robustness",
         action="store_true",
         help="add the 24 robustness scenarios to the comparison "
-        "(alpha, Td and load inertia mismatch; about 4x longer)",
+        "(alpha, Td and load inertia mismatch)",
     )
     rep.add_argument(
         "--formats",
@@ -128,7 +147,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="figure formats, comma-separated (default png,svg)",
     )
     _engine_option(rep)
-    rep.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
+    rep.add_argument(
+        "-q",
+        "--quiet",
+        action="store_true",
+        help="print nothing (no progress, no table); errors still go to stderr",
+    )
 
     des = commands.add_parser(
         "design",
@@ -241,9 +265,10 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument(
         "--alpha-estimate",
         metavar="RAD",
-        type=_number,
+        type=_nonnegative,
         default=None,
-        help="backlash estimate for vertex gains (default: --alpha)",
+        help="backlash estimate, rad, of vertex gains (scheduled or a "
+        "gain file with vertex gains; refused for a common gain; default: --alpha)",
     )
     sim.add_argument(
         "--Td",
@@ -305,8 +330,12 @@ def _progress(start: float, quiet: bool):
 
 
 def _run_reproduce(args) -> int:
-    from .twomass.reproduce import reproduce
+    from .twomass.reproduce import _check_target, reproduce
 
+    try:
+        _check_target(args.out)
+    except ValueError as exc:
+        return _usage(f"--{exc}")
     result = reproduce(
         args.out,
         robustness=args.robustness,
@@ -314,11 +343,12 @@ def _run_reproduce(args) -> int:
         progress=_progress(time.perf_counter(), args.quiet),
         engine=args.engine,
     )
-    print((args.out / "comparison.md").read_text(), end="")
-    print(
-        f"\nwrote {len(result['files'])} files to {args.out} "
-        f"(report: {args.out / 'report.md'})"
-    )
+    if not args.quiet:
+        print((args.out / "comparison.md").read_text(), end="")
+        print(
+            f"\nwrote {len(result['files'])} files to {args.out} "
+            f"(report: {args.out / 'report.md'})"
+        )
     return 0
 
 
@@ -366,6 +396,20 @@ def _controller(args):
     name = args.controller
     estimate = args.alpha if args.alpha_estimate is None else args.alpha_estimate
     limit = {"torque_limit": args.torque_limit}
+
+    def common(what: str) -> None:
+        if args.alpha_estimate is not None:
+            raise ValueError(
+                f"--alpha-estimate: {what} is a common gain, not scheduled by "
+                "the backlash; drop the option or use vertex gains"
+            )
+
+    if name in ("paper", "robust", "backstepping"):
+        common(
+            {"paper": "the published gain", "robust": "the robust design"}.get(
+                name, "backstepping"
+            )
+        )
     if name == "paper":
         return lpv_controller(**limit)
     if name == "backstepping":
@@ -380,9 +424,17 @@ def _controller(args):
             f"--controller: {name!r} is neither paper, robust, scheduled, "
             "backstepping nor an existing gain file"
         )
-    gains = designs.load_gains(path)
+    try:
+        gains = designs.load_gains(path)
+    except ValueError as exc:
+        raise ValueError(f"--controller: {exc}") from None
+    if not gains.scheduled:
+        common(f"the gain file {path}")
     extra = {"alpha_estimate": estimate} if gains.scheduled else {}
-    return gains.controller(**extra, **limit)
+    try:
+        return gains.controller(**extra, **limit)
+    except ValueError as exc:
+        raise ValueError(f"--controller: {path}: {exc}") from None
 
 
 def _run_simulate(args) -> int:
@@ -391,6 +443,11 @@ def _run_simulate(args) -> int:
 
     if args.alpha < 0 or (args.alpha_step and args.alpha_step[0] < 0):
         return _usage("--alpha/--alpha-step: the backlash must be >= 0")
+    if args.alpha_step is not None and args.alpha_step[1] >= args.T:
+        return _usage(
+            f"--alpha-step: the step time {args.alpha_step[1]:g} s is not "
+            f"before the end of the run, --T {args.T:g} s"
+        )
     try:
         controller = _controller(args)
     except ValueError as exc:
@@ -409,6 +466,8 @@ def _run_simulate(args) -> int:
         npoints=int(round(1000 * args.T)) + 1,
         engine=args.engine,
     )
+    import numpy as np
+
     m = metrics(response, args.theta_r)
     print(
         f"controller {args.controller}: "
@@ -460,25 +519,32 @@ def main(argv: list[str] | None = None) -> int:
     Returns
     -------
     int
-        0 success, 1 failure, 2 bad options, 3 infeasible design.
+        0 success, 1 failure, 2 bad options, 3 proven infeasible, 4 no
+        certified design found, 130 interrupted (Ctrl-C: one line on
+        stderr, no traceback).
     """
-    import matplotlib
+    from .exceptions import CertificationError, InfeasibleError
 
-    matplotlib.use("Agg")  # files only, also on machines without a display
-
-    from .exceptions import InfeasibleError
-
-    args = build_parser().parse_args(argv)
-    runners = {
-        "reproduce": _run_reproduce,
-        "design": _run_design,
-        "simulate": _run_simulate,
-    }
     try:
+        args = build_parser().parse_args(argv)
+        runners = {
+            "reproduce": _run_reproduce,
+            "design": _run_design,
+            "simulate": _run_simulate,
+        }
+        import matplotlib
+
+        matplotlib.use("Agg")  # files only, also on machines without a display
         return runners[args.command](args)
+    except KeyboardInterrupt:
+        print("ctrl-lpv: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
     except InfeasibleError as exc:
-        print(f"ctrl-lpv: no certified design: {exc}", file=sys.stderr)
+        print(f"ctrl-lpv: infeasible: {exc}", file=sys.stderr)
         return EXIT_INFEASIBLE
+    except CertificationError as exc:
+        print(f"ctrl-lpv: no certified design found: {exc}", file=sys.stderr)
+        return EXIT_UNCERTIFIED
     except (RuntimeError, OSError) as exc:
         print(f"ctrl-lpv: failed: {exc}", file=sys.stderr)
         return EXIT_FAILURE

@@ -9,48 +9,47 @@
   common interface (measured states and ``theta_r`` in, ``Tm`` out);
 * `closed_loop`, `simulate`, `alpha_step`: the paper's scenarios;
 * `design`, `save_gains`, `load_gains`: certified designs in one call and
-  their gain files;
+  their gain files (validated and re-checked on load);
 * `compare`, `reproduce`: the LPV vs backstepping comparison and the whole
   reproduction of the paper (``ctrl-lpv reproduce``).
+
+The names are imported lazily, as in `ctrl_lpv`.
 """
 
-from .backstepping import backstepping_controller
-from .batch import backstepping_spec, comparison_specs, lpv_spec, run_scenario, sweep
-from .comparison import compare, comparison_designs, comparison_scenarios
-from .designs import GainFile, design, load_gains, save_gains
-from .feedback import backlash_parameter, lpv_controller
-from .model import PAPER_GAIN, PAPER_GAMMA, lpv_model, paper_gain
-from .parameters import Parameters
-from .plant import plant
-from .reproduce import errata_findings, reproduce
-from .scenarios import alpha_step, closed_loop, metrics, simulate
+from .._lazy import install
 
-__all__ = [
-    "Parameters",
-    "plant",
-    "lpv_model",
-    "paper_gain",
-    "PAPER_GAIN",
-    "PAPER_GAMMA",
-    "lpv_controller",
-    "backlash_parameter",
-    "backstepping_controller",
-    "closed_loop",
-    "simulate",
-    "metrics",
-    "alpha_step",
-    "design",
-    "save_gains",
-    "load_gains",
-    "GainFile",
-    "compare",
-    "comparison_designs",
-    "comparison_scenarios",
-    "reproduce",
-    "errata_findings",
-    "sweep",
-    "run_scenario",
-    "lpv_spec",
-    "backstepping_spec",
-    "comparison_specs",
-]
+#: Public name -> submodule that defines it. To export a name, add it here.
+_EXPORTS = {
+    "Parameters": "parameters",
+    "plant": "plant",
+    "lpv_model": "model",
+    "paper_gain": "model",
+    "PAPER_GAIN": "model",
+    "PAPER_GAMMA": "model",
+    "lpv_controller": "feedback",
+    "backlash_parameter": "feedback",
+    "backstepping_controller": "backstepping",
+    "closed_loop": "scenarios",
+    "simulate": "scenarios",
+    "metrics": "scenarios",
+    "alpha_step": "scenarios",
+    "design": "designs",
+    "save_gains": "designs",
+    "load_gains": "designs",
+    "GainFile": "designs",
+    "compare": "comparison",
+    "comparison_designs": "comparison",
+    "comparison_scenarios": "comparison",
+    "reproduce": "reproduce",
+    "errata_findings": "reproduce",
+    "sweep": "batch",
+    "run_scenario": "batch",
+    "lpv_spec": "batch",
+    "backstepping_spec": "batch",
+    "comparison_specs": "batch",
+}
+
+__all__ = list(_EXPORTS)
+
+__getattr__, __dir__ = install(__name__, _EXPORTS)
+del install

@@ -15,12 +15,18 @@ one folder:
   certified gains, Fig. 8), ``alpha_step`` (Figs. 6-7), ``backstepping``
   and ``torque_limit`` (LPV vs backstepping, without and with a torque
   limit).
+
+The folder is written atomically: everything goes to a temporary folder
+beside it, moved into place when the run is complete, so that an interrupted
+or failed run leaves no half-written folder.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import shutil
+import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -75,7 +81,9 @@ def errata_findings(engine: str = "control") -> tuple[dict, dict]:
     Parameters
     ----------
     engine : {"control", "fast"}, optional
-        Simulation engine of the two coordinate runs, as in `compare`.
+        Simulation engine of the two coordinate runs: python-control's
+        `control.input_output_response` (the reference) or ctrl_lpv's fused
+        right-hand side (same results to the solver tolerance, faster).
 
     Returns
     -------
@@ -156,10 +164,16 @@ def reproduce(
 ) -> dict:
     """Run the whole reproduction of the paper and write it to `out`.
 
+    The files are written to a temporary folder beside `out` (same file
+    system), which replaces `out` when everything is written; on any error
+    or interruption (`KeyboardInterrupt`) it is removed and `out` is left as
+    it was.
+
     Parameters
     ----------
     out : str or path
-        Output folder (created).
+        Output folder: created, or replaced if it is empty or holds a
+        previous reproduction (a ``report.md`` or ``errata.json``).
     robustness : bool, optional
         Also run the 24 robustness scenarios of the comparison (about 4
         times longer).
@@ -168,18 +182,75 @@ def reproduce(
     progress : callable, optional
         Called with a one-line message at each step and simulation.
     engine : {"control", "fast"}, optional
-        Simulation engine, as in `compare`.
+        Simulation engine of every run: python-control's
+        `control.input_output_response` (the reference) or ctrl_lpv's fused
+        right-hand side (same results to the solver tolerance, faster).
 
     Returns
     -------
     dict
-        ``files`` (paths written), ``errata``, ``designs`` (summaries),
-        ``rows`` (the comparison table) and ``seconds``.
+        ``files`` (paths written, in `out`), ``errata``, ``designs``
+        (summaries), ``rows`` (the comparison table) and ``seconds``.
+
+    Raises
+    ------
+    ValueError
+        If `out` exists and is neither a folder that is empty or holds a
+        previous reproduction.
     """
+    out = Path(out)
+    _check_target(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    work = Path(tempfile.mkdtemp(prefix=f".{out.name}.partial-", dir=out.parent))
+    try:
+        result = _reproduce_into(work, robustness, formats, progress, engine)
+        _replace(work, out)
+    except BaseException:
+        shutil.rmtree(work, ignore_errors=True)
+        raise
+    result["files"] = [out / path.relative_to(work) for path in result["files"]]
+    (progress or (lambda message: None))(
+        f"done in {result['seconds']:.0f} s: {len(result['files'])} files in {out}"
+    )
+    return result
+
+
+#: Files whose presence marks a folder as a previous reproduction.
+_MARKERS = ("report.md", "errata.json")
+
+
+def _check_target(out: Path) -> None:
+    if not out.exists():
+        return
+    if not out.is_dir():
+        raise ValueError(f"out: {out} exists and is not a folder")
+    if any(out.iterdir()) and not any((out / m).is_file() for m in _MARKERS):
+        raise ValueError(
+            f"out: {out} is not empty and holds no previous reproduction "
+            f"({' or '.join(_MARKERS)}); choose a new or empty folder"
+        )
+
+
+def _replace(work: Path, out: Path) -> None:
+    """Move the finished folder `work` to `out`, replacing an old one."""
+    if not out.exists():
+        work.rename(out)
+        return
+    old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-", dir=out.parent))
+    old.rmdir()
+    out.rename(old)
+    try:
+        work.rename(out)
+    except BaseException:
+        old.rename(out)
+        raise
+    shutil.rmtree(old, ignore_errors=True)
+
+
+def _reproduce_into(out: Path, robustness, formats, progress, engine) -> dict:
+    """The steps of `reproduce`, writing into the (temporary) folder `out`."""
     start = time.perf_counter()
     say = progress or (lambda message: None)
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     files: list[Path] = []
 
     def figure(stem, responses, title, signals=("theta_l", "Tm"), **kwargs):
@@ -298,7 +369,6 @@ def reproduce(
     report_path = out / "report.md"
     report_path.write_text(_report(result, formats))
     files.append(report_path)
-    say(f"done in {seconds:.0f} s: {len(files)} files in {out}")
     return result
 
 
