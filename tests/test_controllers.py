@@ -1,3 +1,4 @@
+import math
 import warnings
 
 import control as ct
@@ -6,6 +7,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import ctrl_lpv as lpv
+from ctrl_lpv import twomass
 
 
 def stiffness(t):
@@ -254,3 +256,46 @@ def test_scheduling_callable_may_return_a_mapping(mass_spring):
     ctrl = design.controller(lambda t, x: {"k": 3.0})
     x = np.array([0.3, -0.7])
     np.testing.assert_allclose(ctrl.output(0, [], x), -design.gain(3.0) @ x)
+
+
+# ------------------------------------------------ two-mass backlash estimate
+
+
+VERTEX_GAINS = np.array([[1e4, 150.0, 3e4, 1800.0], [1.2e4, 180.0, 2.9e4, 1800.0]])
+
+
+@pytest.mark.parametrize("bad", [-1.0, -1e-9, math.nan, math.inf])
+def test_negative_or_nonfinite_alpha_estimate_is_refused(bad):
+    with pytest.raises(ValueError, match="alpha_estimate"):
+        twomass.lpv_controller(VERTEX_GAINS, p_bounds=(-1.0, 0.0), alpha_estimate=bad)
+
+
+@pytest.mark.parametrize("bad", ["0.03", True, [0.03]])
+def test_alpha_estimate_of_the_wrong_type(bad):
+    with pytest.raises(TypeError, match="alpha_estimate"):
+        twomass.lpv_controller(VERTEX_GAINS, p_bounds=(-1.0, 0.0), alpha_estimate=bad)
+
+
+def test_alpha_estimate_with_a_common_gain_is_refused():
+    with pytest.raises(ValueError, match="alpha_estimate: a common gain"):
+        twomass.lpv_controller(twomass.paper_gain(), alpha_estimate=0.03)
+    with pytest.raises(ValueError, match="alpha_estimate: a common gain"):
+        twomass.lpv_controller(alpha_estimate=0.0)  # the paper's gain
+
+
+def test_alpha_estimate_values_and_callables():
+    # alpha = 0: p = 0 outside a zero gap, the gain at p = 0.
+    ctrl = twomass.lpv_controller(VERTEX_GAINS, p_bounds=(-1.0, 0.0), alpha_estimate=0)
+    e = np.array([0.1, 0.0, 0.05, 0.0])  # theta_r = 0: errors are the angles
+    np.testing.assert_allclose(ctrl.output(0, [], [*e, 0.0]), [-VERTEX_GAINS[1] @ e])
+    # A callable returning a negative estimate stops the evaluation.
+    bad = twomass.lpv_controller(
+        VERTEX_GAINS, p_bounds=(-1.0, 0.0), alpha_estimate=lambda t: 0.03 - t
+    )
+    bad.output(0.0, [], [*e, 0.0])
+    with pytest.raises(
+        ValueError, match=r"alpha_estimate: the callable returned -0\.97"
+    ):
+        bad.output(1.0, [], [*e, 0.0])
+    with pytest.raises(ValueError, match="alpha_estimate"):
+        twomass.simulate(bad, T=0.2, npoints=21, engine="fast")
