@@ -9,6 +9,12 @@ vectorized over the time points afterwards.  LSODA runs through
 `scipy.integrate.odeint`, the same solver as ``solve_ivp(method="LSODA")``
 without solve_ivp's Python loop around every step, which costs more than
 the right-hand side itself.
+
+Both engines watch the integration: a state beyond ``state_bound``, a NaN
+or infinite state, derivative or input raises `DivergenceError` (naming the
+signal and the time) instead of letting the solver grind on or
+python-control report an "algebraic loop", and ``timeout=`` bounds the
+wall time (`SimulationTimeout`).
 """
 
 from __future__ import annotations
@@ -106,9 +112,9 @@ class SimulationTimeout(SimulationError, TimeoutError):
 class _Guard:
     """Divergence, non-finite and wall-time checks around a right-hand side.
 
-    One check costs a few list operations per call: sums propagate NaN and
-    infinity, and ``max``/``min`` of the states find a bound violation; the
-    labels are looked up only on failure.
+    A check costs a few list operations: sums propagate NaN and infinity,
+    and ``max``/``min`` of the states find a bound violation; the labels
+    are looked up only on failure (`check`).
     """
 
     def __init__(self, sys, state_bound, timeout, start, T):
@@ -143,7 +149,8 @@ class _Guard:
                 check(t, x.tolist(), dx)
             if not next(calls) & every:
                 xs = x.tolist()
-                if max(xs) > bound or min(xs) < -bound or sum(xs) - sum(xs) != 0.0:
+                s = sum(xs)
+                if s - s != 0.0 or max(xs) > bound or min(xs) < -bound:
                     check(t, xs, dx)
                 if clock() > deadline:
                     self.expired(t)
