@@ -1,6 +1,7 @@
 """`ctrl_lpv.simulate`: the fused fast path against independent references."""
 
 import math
+import re
 
 import control as ct
 import numpy as np
@@ -11,7 +12,12 @@ from scipy.integrate import solve_ivp
 import ctrl_lpv as lpv
 from ctrl_lpv import twomass
 from ctrl_lpv.interconnection import interconnect
-from ctrl_lpv.simulation import simulate
+from ctrl_lpv.simulation import (
+    DivergenceError,
+    SimulationError,
+    SimulationTimeout,
+    simulate,
+)
 
 P = twomass.Parameters()
 K = twomass.paper_gain()[0]
@@ -189,22 +195,122 @@ def test_algebraic_loop_and_static_systems():
     np.testing.assert_allclose(resp.outputs, T**2)
 
 
-@pytest.mark.parametrize("method, solver", [("RK45", "solve_ivp"), ("LSODA", "odeint")])
-def test_solver_failure(method, solver):
+@pytest.mark.parametrize(
+    "method, reason",
+    [
+        ("RK45", "solve_ivp failed"),
+        # LSODA steps onto an infinite derivative: reported as such.
+        ("LSODA", r"derivative of state 'x\[0\]' is inf"),
+    ],
+)
+def test_solver_failure(method, reason):
     # x' = x^2, x(0) = 1: x = 1 / (1 - t) escapes at t = 1.
     blowup = ct.nlsys(lambda t, x, u, p: x**2, None, inputs=0, outputs=1, states=1)
     T = np.linspace(0.0, 2.0, 21)
-    with np.errstate(over="ignore"), pytest.raises(RuntimeError, match=solver):
-        simulate(blowup, T, X0=1.0, method=method)
+    kw = dict(X0=1.0, method=method, state_bound=None)
+    with np.errstate(over="ignore"), pytest.raises(RuntimeError, match=reason):
+        simulate(blowup, T, **kw)
     with np.errstate(over="ignore"):
-        resp = simulate(blowup, T, X0=1.0, method=method, ignore_errors=True)
-    assert not resp.success and solver in resp.message
+        resp = simulate(blowup, T, ignore_errors=True, **kw)
+    assert not resp.success and re.search(reason, resp.message)
     assert resp.time.size < T.size and resp.outputs.shape == (1, resp.time.size)
     # What is returned before the escape time is the solution.
     before = resp.time < 0.95
     assert before.sum() == 10
     np.testing.assert_allclose(resp.outputs[0, before], 1 / (1 - resp.time[before]),
                                rtol=1e-4)  # fmt: skip
+
+
+@pytest.mark.parametrize("engine", ["fast", "control"])
+@pytest.mark.parametrize("method", ["RK45", "LSODA"])
+def test_escape_is_a_divergence(engine, method):
+    # x' = x^2, x(0) = 1: x = 1 / (1 - t) reaches 1e6 at t = 1 - 1e-6.
+    blowup = ct.nlsys(lambda t, x, u, p: x**2, None, inputs=0, outputs=1, states=1)
+    T = np.linspace(0.0, 2.0, 21)
+    kw = dict(X0=1.0, method=method, engine=engine, state_bound=1e6)
+    with pytest.raises(DivergenceError, match=r"state 'x\[0\]'.*state_bound") as info:
+        simulate(blowup, T, **kw)
+    assert info.value.signal == "x[0]" and abs(info.value.value) > 1e6
+    assert 1 - 1e-3 < info.value.time < 1.0
+    # ignore_errors: the solution before the escape, and the reason.
+    resp = simulate(blowup, T, ignore_errors=True, **kw)
+    assert not resp.success and "state_bound" in resp.message
+    assert resp.time.size == 10  # t = 0, ..., 0.9
+    np.testing.assert_allclose(np.ravel(resp.outputs), 1 / (1 - resp.time), rtol=1e-4)
+
+
+def unstable_loop(k):
+    """x' = x + u + w under u = -k x: x(t) = exp((1 - k) t) x(0) for w = 0."""
+    plant = ct.ss([[1.0]], [[1.0, 1.0]], [[1.0]], 0, inputs=["u", "w"], outputs="x",
+                  states="x", name="plant")  # fmt: skip
+    ctrl = ct.ss(
+        np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), [[-k]],
+        inputs="x", outputs="u", name="ctrl",
+    )  # fmt: skip
+    return interconnect(
+        [plant, ctrl], inplist=["plant.w"], inputs=["w"], outlist=["x"], outputs=["x"]
+    )
+
+
+@pytest.mark.parametrize("engine", ["fast", "control"])
+@pytest.mark.parametrize("method", ["RK45", "LSODA"])
+def test_destabilizing_gain_stops_at_the_bound(engine, method):
+    loop = unstable_loop(-4.0)  # a destabilizing gain: x' = 5 x
+    T = np.linspace(0.0, 100.0, 1001)
+    with pytest.raises(DivergenceError, match="plant_x") as info:
+        simulate(loop, T, 0.0, 1.0, engine=engine, method=method, state_bound=1e6)
+    # Stopped where exp(5 t) crosses 1e6, within a few solver steps (the
+    # fast engine checks the bound every few calls; a stage point may run
+    # slightly ahead); the value reported is the state then, exp(5 t).
+    err = info.value
+    assert math.log(1e6) / 5.0 - 0.05 < err.time < math.log(1e6) / 5.0 + 0.5
+    assert abs(err.value) > 1e6
+    assert math.log(abs(err.value)) / 5.0 == pytest.approx(err.time, abs=0.02)
+    # The default bound 1e12 stops it too, long before t = 100.
+    with pytest.raises(DivergenceError) as info:
+        simulate(loop, T, 0.0, 1.0, engine=engine, method=method)
+    assert math.log(1e12) / 5.0 - 0.05 < info.value.time < math.log(1e12) / 5.0 + 0.5
+
+
+@pytest.mark.parametrize("engine", ["fast", "control"])
+def test_nan_signal_is_named_not_an_algebraic_loop(engine, mass_spring):
+    """A controller output turning NaN at t = 1 (as from a NaN parameter)."""
+    ctrl = ct.nlsys(
+        None, lambda t, x, u, p: [-u[0] - u[1] if t < 1 else math.nan],
+        inputs=["x", "v"], outputs=["u"], name="ctrl",
+    )  # fmt: skip
+    full = lpv.pss(
+        [(v.A, v.B, np.eye(2), np.zeros((2, 2))) for v in mass_spring.vertices],
+        mass_spring.domain, scheduling=lambda t, x, u: 2.0, inputs=["w", "u"],
+        outputs=["x", "v"], states=["x", "v"], name="plant",
+    )  # fmt: skip
+    loop = ct.interconnect([full, ctrl], inputs=["w"], outputs=["x", "v"])
+    T = np.linspace(0.0, 3.0, 31)
+    with pytest.raises(DivergenceError, match="derivative of state 'plant_.*nan"):
+        simulate(loop, T, 0.0, [1.0, 0.0], engine=engine)
+    # python-control alone reports the NaN as an algebraic loop.
+    with pytest.raises(RuntimeError, match="algebraic loop"):
+        ct.input_output_response(loop, T, 0.0, [1.0, 0.0])
+
+
+@pytest.mark.parametrize("engine", ["fast", "control"])
+def test_timeout(engine):
+    loop = twomass.closed_loop(twomass.lpv_controller())
+    T = np.linspace(0.0, 5.0, 501)
+    with pytest.raises(SimulationTimeout, match="timeout = 1e-09 s") as info:
+        simulate(loop, T, [0.5, 8.0], 0.0, engine=engine, timeout=1e-9)
+    assert isinstance(info.value, TimeoutError) and isinstance(
+        info.value, SimulationError
+    )
+    assert info.value.timeout == 1e-9 and 0.0 <= info.value.time <= 5.0
+
+
+@pytest.mark.parametrize("key", ["timeout", "state_bound"])
+@pytest.mark.parametrize("value", [0, -1.0, True, "1", math.nan])
+def test_bad_guard_arguments(key, value):
+    loop = unstable_loop(2.0)
+    with pytest.raises(ValueError, match=key):
+        simulate(loop, np.linspace(0, 1, 11), 0.0, 1.0, **{key: value})
 
 
 def test_lsoda_max_step_reaches_the_solver():

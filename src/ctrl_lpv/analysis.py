@@ -252,8 +252,15 @@ def frozen_sweep(
     u : str, int or list
         Control inputs.
     points : array_like or int, optional
-        Parameter values, shape ``(M, k)``; an integer ``M`` samples the
-        diagonal of the domain's bounding box uniformly (default 51 points).
+        Parameter values, shape ``(M, k)``; or an integer ``M >= 2``
+        (default 51) for a sample of the domain: for one parameter, ``M``
+        equally spaced values from the lower to the upper bound; for
+        several, every vertex of the domain plus interior points: on a box,
+        the grid of ``max(2, floor(M ** (1/k)))`` equally spaced values per
+        parameter (the vertices among them; the center added when that is
+        2), on another domain ``max(1, M - N)`` random convex combinations
+        of the ``N`` vertices (Dirichlet, seed 0: the same points on every
+        call).
     w, z : str, int or list, optional
         If given, the H-infinity norm from `w` to `z` is computed with
         `control.linfnorm`.
@@ -262,11 +269,39 @@ def frozen_sweep(
     -------
     `FrozenSweep`
     """
+
+    def sample(domain, count: int) -> np.ndarray:
+        """Default points of `frozen_sweep`: the vertices and interior points."""
+        vertices = np.asarray(domain.points, dtype=float)
+        k = vertices.shape[1]
+        lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+        if k == 1:
+            return lo + np.linspace(0.0, 1.0, count)[:, None] * (hi - lo)
+        if hasattr(domain, "lower"):  # a ParameterBox
+            per_axis = max(2, int(np.floor(count ** (1.0 / k) + 1e-9)))
+            axes = [np.linspace(a, b, per_axis) for a, b in zip(lo, hi)]
+            grid = np.array(list(itertools.product(*axes)), dtype=float)
+            if per_axis == 2:
+                grid = np.vstack([grid, (lo + hi) / 2])
+            return grid
+        rng = np.random.default_rng(0)
+        weights = rng.dirichlet(
+            np.ones(len(vertices)), size=max(1, count - len(vertices))
+        )
+        return np.vstack([vertices, weights @ vertices])
+
     gains, iu = _as_closed_loop_data(sys, gains, u)
     if points is None or np.isscalar(points):
-        count = 51 if points is None else int(points)
-        lo, hi = sys.domain.points.min(axis=0), sys.domain.points.max(axis=0)
-        points = lo + np.linspace(0, 1, count)[:, None] * (hi - lo)
+        count = 51 if points is None else points
+        if (
+            isinstance(count, bool)
+            or not isinstance(count, (int, np.integer))
+            or count < 2
+        ):
+            raise ValueError(
+                f"points: expected an integer >= 2 or an (M, k) array, got {count!r}"
+            )
+        points = sample(sys.domain, int(count))
     points = np.atleast_2d(np.asarray(points, float))
     if points.shape[1] != sys.nparams:
         points = points.T

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 
 import control as ct
 import numpy as np
@@ -19,7 +20,8 @@ def state_feedback(
     scheduling: str | Callable | None = None,
     *,
     reference: bool = False,
-    states: Sequence[str] | None = None,
+    states: Sequence[str] | Mapping[str, str] | None = None,
+    integrals: Mapping[str, str] | None = None,
     name: str | None = None,
 ) -> ct.NonlinearIOSystem:
     """Controller ``u = -K(delta) x`` (or ``u = ud - K (x - xd)``).
@@ -27,7 +29,20 @@ def state_feedback(
     In the spirit of `control.create_statefbk_iosystem`: the controller reads
     the measured states and outputs the control inputs of the design, named
     after the design model's signals, so that `control.interconnect` can
-    connect it by name.
+    connect it by name. The measured-state inputs are named after the
+    design model's *state* labels: the plant to connect must have outputs
+    with these names (give it outputs that measure its states, e.g.
+    ``C = I`` with ``outputs`` equal to ``states``), or rename the
+    controller's inputs with `states`.
+
+    Integral states added by `integral_augmentation` are integrated by the
+    controller itself, as with the ``integral_action`` of
+    `control.create_statefbk_iosystem`: the controller has one state per
+    integral (same label), reads the integrated signal (a state input, or an
+    input named after the integrated output), and needs nothing from the
+    augmented plant. So the loop is ``interconnect([plant, controller])``
+    with the plant *without* augmentation (or with it: its own integral
+    states are then unobservable and harmless).
 
     Parameters
     ----------
@@ -37,23 +52,43 @@ def state_feedback(
         For vertex gains only: where the parameter comes from. ``"inputs"``
         (the default for vertex gains) adds one input per parameter, named
         after the parameters; a callable ``p = f(t, x)`` computes it from
-        time and the measured states (the controller's state inputs). The
-        parameter is projected onto the domain (a saturated scheduling
-        signal). Must be None for a common gain.
+        time and the design model's state vector (measured states and the
+        controller's integral states, in the design's state order). It may
+        return a mapping ``{name: value}``. The parameter is projected onto
+        the domain (a saturated scheduling signal). Must be None for a
+        common gain.
     reference : bool, optional
-        If True, add inputs ``xd`` (desired states, named ``<state>_d``) and
-        ``ud`` (feedforward, named ``<input>_d``): ``u = ud - K (x - xd)``.
-    states : sequence of str, optional
-        Names of the measured-state inputs; default the design model's state
-        labels.
+        If True, add inputs ``xd`` (desired states, named ``<state>_d``;
+        ``<output>_d`` for an integrated output) and ``ud`` (feedforward,
+        named ``<input>_d``): ``u = ud - K (x - xd)``, the integrators
+        integrating ``s - s_d``.
+    states : sequence of str or mapping, optional
+        Names of the measured-state inputs: a sequence (one name per
+        measured state, i.e. per design state that is not a controller
+        integral) or a mapping ``{state label: input name}`` renaming some
+        of them. Default: the design model's state labels.
+    integrals : mapping of str to str, optional
+        ``{integral state label: integrated signal}``: the design states
+        that the controller integrates itself, each from a state or output
+        label of the design model. Default: those recorded by
+        `integral_augmentation` on the design's system (``{}`` if none);
+        ``{}`` reads every state as an input.
     name : str, optional
         System name.
 
     Returns
     -------
     `control.NonlinearIOSystem`
-        Static system: inputs ``states [+ xd + ud] [+ parameters]``,
-        outputs the control inputs ``design.u``.
+        Inputs ``measured states [+ integrated outputs] [+ xd + ud]
+        [+ parameters]``, outputs the control inputs ``design.u``, states
+        the integral states (none without integrals).
+
+    Raises
+    ------
+    ValueError
+        For a `scheduling` that does not fit the design, `states` of the
+        wrong length or with unknown labels, or `integrals` naming unknown
+        states or signals.
 
     Examples
     --------
@@ -61,10 +96,28 @@ def state_feedback(
     >>> loop = ct.interconnect([plant, ctrl], ...)      # doctest: +SKIP
     """
     sys = design.system
-    states = list(design.states if states is None else states)
-    n = len(design.states)
-    if len(states) != n:
-        raise ValueError(f"states: expected {n} names, got {len(states)}")
+    labels = list(design.states)
+    n = len(labels)
+    if integrals is None:
+        integrals = getattr(sys, "integral_signals", None) or {}
+    if not isinstance(integrals, Mapping):
+        raise TypeError(
+            f"integrals: expected a mapping {{state: signal}}, got {integrals!r}"
+        )
+    for state, signal in integrals.items():
+        if state not in labels:
+            raise ValueError(
+                f"integrals: {state!r} is not a state of the design ({labels})"
+            )
+        if signal not in labels and signal not in sys.output_labels:
+            raise ValueError(
+                f"integrals: the signal {signal!r} of {state!r} is neither a "
+                "state nor an output of the design model"
+            )
+        if signal in integrals:
+            raise ValueError(f"integrals: {signal!r} is itself a controller integral")
+    measured = [i for i, s in enumerate(labels) if s not in integrals]
+    names = _measured_names(states, [labels[i] for i in measured])
     if design.scheduled:
         scheduling = "inputs" if scheduling is None else scheduling
         if not (scheduling == "inputs" or callable(scheduling)):
@@ -75,30 +128,105 @@ def state_feedback(
     elif scheduling is not None:
         raise ValueError("scheduling: a common-gain design is not scheduled")
 
-    inputs = list(states)
+    # Input layout: measured states, integrated outputs, references, params.
+    inputs = list(names)
+    source = {labels[i]: k for k, i in enumerate(measured)}  # state -> input
+    extra = []  # integrated outputs that are not measured states
+    for signal in integrals.values():
+        if signal not in source and signal not in extra:
+            extra.append(signal)
+    inputs += extra
+    for k, signal in enumerate(extra):
+        source[signal] = len(measured) + k
     outputs = list(design.u)
+    ref = None
     if reference:
-        inputs += [f"{s}_d" for s in states] + [f"{u}_d" for u in outputs]
+        ref = len(inputs)
+        inputs += [f"{s}_d" for s in names] + [f"{s}_d" for s in extra]
+        inputs += [f"{u}_d" for u in outputs]
     nref = len(inputs)
     if design.scheduled and scheduling == "inputs":
         inputs += list(sys.param_names)
+    if len(set(inputs)) != len(inputs):
+        raise ValueError(f"states: the controller's input names repeat: {inputs}")
 
-    gains = np.stack(design.gains)  # (N, m, n)
-    kernel = _feedback_kernel(
-        gains,
-        sys.domain,
-        scheduling if design.scheduled else None,
-        reference=reference,
+    layout = _Layout(
+        n=n,
+        measured=tuple(measured),
+        integral=tuple(labels.index(s) for s in integrals),
+        integrated=tuple(source[sig] for sig in integrals.values()),
+        nsignals=len(measured) + len(extra),
+        ref=ref,
         nref=nref,
     )
-    return kernel_nlsys(kernel, inputs=inputs, outputs=outputs, name=name)
+    gains = np.stack(design.gains)  # (N, m, n)
+    kernel = _feedback_kernel(
+        gains, sys.domain, scheduling if design.scheduled else None, layout
+    )
+    # u depends on the measured states, references and parameters, not on
+    # the integrated outputs (they enter through the integrators).
+    through = np.ones((len(outputs), len(inputs)), dtype=bool)
+    through[:, len(measured) : len(measured) + len(extra)] = False
+    if ref is not None:
+        start = ref + len(measured)
+        through[:, start : start + len(extra)] = False
+    return kernel_nlsys(
+        kernel,
+        inputs=inputs,
+        outputs=outputs,
+        states=list(integrals) or None,
+        feedthrough=through,
+        name=name,
+    )
 
 
-def _feedback_kernel(gains, domain, scheduling, *, reference, nref) -> BlockKernel:
+def _measured_names(states, default: list[str]) -> list[str]:
+    """Input names of the measured states (`state_feedback`'s `states`)."""
+    if states is None:
+        return list(default)
+    if isinstance(states, Mapping):
+        unknown = sorted(set(states) - set(default))
+        if unknown:
+            raise ValueError(
+                f"states: {unknown} are not measured states of the design ({default})"
+            )
+        return [str(states.get(s, s)) for s in default]
+    if isinstance(states, str):
+        states = [states]
+    states = list(states)
+    if len(states) != len(default):
+        raise ValueError(
+            f"states: expected {len(default)} names (for {default}), got {len(states)}"
+        )
+    return [str(s) for s in states]
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """Where `state_feedback`'s kernel finds its signals.
+
+    Design state ``i`` is measured (input ``measured.index(i)``) or a
+    controller integral (state ``integral.index(i)``, integrating input
+    ``integrated[j]``). References start at input `ref` (None without):
+    one per signal input, then the feedforward ``ud``; parameters start at
+    `nref`.
+    """
+
+    n: int
+    measured: tuple[int, ...]
+    integral: tuple[int, ...]
+    integrated: tuple[int, ...]
+    nsignals: int
+    ref: int | None
+    nref: int
+
+
+def _feedback_kernel(gains, domain, scheduling, layout: _Layout) -> BlockKernel:
     """Scalar and vectorized functions of `state_feedback`.
 
-    ``u = ud - K(delta) (x - xd)`` on Python floats (the gains are small);
-    the scheduled gain ``sum_j delta_j K_j`` comes from the domain's convex
+    ``u = ud - K(delta) (x - xd)`` on Python floats (the gains are small),
+    ``x`` the design state (measured states and integral states); the
+    scheduled gain ``sum_j delta_j K_j`` comes from the domain's convex
     coordinates of the projected parameter.
     """
     N, m, n = gains.shape
@@ -106,43 +234,82 @@ def _feedback_kernel(gains, domain, scheduling, *, reference, nref) -> BlockKern
     weights = domain._weights
     common = tuple(tuple(row) for row in gains[0].tolist())
     asarray = np.asarray
+    measured, integral, integrated = layout.measured, layout.integral, layout.integrated
+    ref, nref, nsig = layout.ref, layout.nref, layout.nsignals
+    plain = not integral and ref is None  # inputs are the state vector
 
-    def error(u):
-        if reference:
-            return [u[i] - u[n + i] for i in range(n)], u[2 * n : 2 * n + m]
-        return u[:n], (0.0,) * m
+    def design_state(x, u):
+        if plain:
+            return u[:n]
+        z = [0.0] * n
+        for k, i in enumerate(measured):
+            z[i] = u[k]
+        for k, i in enumerate(integral):
+            z[i] = x[k]
+        return z
 
-    def gain(t, u):
+    def error(x, u):
+        z = design_state(x, u)
+        if ref is None:
+            return z, (0.0,) * m
+        e = list(z)
+        for k, i in enumerate(measured):
+            e[i] = z[i] - u[ref + k]
+        return e, u[ref + nsig : ref + nsig + m]
+
+    def parameter(p):
+        if isinstance(p, Mapping):
+            return domain._as_point(p)
+        return asarray(p, dtype=float).reshape(-1)
+
+    def gain(t, x, u):
         if scheduling is None:
             return common
         if scheduling == "inputs":
             p = asarray(u[nref:], dtype=float)
         else:
-            p = asarray(scheduling(t, asarray(u[:n], dtype=float)), float).reshape(-1)
+            p = parameter(scheduling(t, asarray(design_state(x, u), dtype=float)))
         flat = (weights(p) @ flat_gains).tolist()
         return [flat[i * n : (i + 1) * n] for i in range(m)]
 
     def out(t, x, u):
-        e, ud = error(u)
+        e, ud = error(x, u)
         return [
             d - sum(k * v for k, v in zip(row, e))
-            for d, row in zip(ud, gain(t, u))
+            for d, row in zip(ud, gain(t, x, u))
         ]  # fmt: skip
 
-    def out_many(t, x, u):
-        shape = np.broadcast(t, *u).shape
-        U = np.array([np.broadcast_to(v, shape) for v in u]).reshape(len(u), -1)
-        E = U[:n] - U[n : 2 * n] if reference else U[:n]
-        ud = U[2 * n : 2 * n + m] if reference else 0.0
-        if scheduling is None:
-            return (ud - gains[0] @ E).reshape((m,) + shape)
-        times = np.broadcast_to(t, shape).ravel()
-        Y = np.empty((m, U.shape[1]))
-        for i in range(U.shape[1]):
-            Y[:, i] = out(times[i], (), U[:, i].tolist())
-        return Y.reshape((m,) + shape)
+    def rhs(t, x, u):
+        if ref is None:
+            return [u[k] for k in integrated]
+        return [u[k] - u[ref + k] for k in integrated]
 
-    return BlockKernel(out=out, out_many=out_many)
+    def out_many(t, x, u):
+        shape = np.broadcast(t, *x, *u).shape
+        U = np.array([np.broadcast_to(v, shape) for v in u]).reshape(len(u), -1)
+        X = (
+            np.array([np.broadcast_to(v, shape) for v in x]).reshape(len(x), -1)
+            if integral
+            else None
+        )
+        if scheduling is not None:
+            times = np.broadcast_to(t, shape).ravel()
+            Y = np.empty((m, U.shape[1]))
+            for i in range(U.shape[1]):
+                xi = X[:, i].tolist() if integral else ()
+                Y[:, i] = out(times[i], xi, U[:, i].tolist())
+            return Y.reshape((m,) + shape)
+        E = np.zeros((n, U.shape[1]))
+        E[list(measured)] = U[: len(measured)]
+        if integral:
+            E[list(integral)] = X
+        ud = 0.0
+        if ref is not None:
+            E[list(measured)] -= U[ref : ref + len(measured)]
+            ud = U[ref + nsig : ref + nsig + m]
+        return (ud - gains[0] @ E).reshape((m,) + shape)
+
+    return BlockKernel(out=out, rhs=rhs if integral else None, out_many=out_many)
 
 
 def integral_augmentation(
@@ -158,6 +325,17 @@ def integral_augmentation(
     ``d xi_i / dt = s_i`` where each ``s_i`` is a state or an output of
     `sys` (outputs may depend on the inputs through ``D``). The outputs are
     unchanged; integral states are appended after the original states.
+
+    The result is the *design model*. The result records which signal each
+    integral state integrates (attribute ``integral_signals``, a dict
+    ``{integral state: signal}``), so that the controller of a design on it
+    (`state_feedback`, ``design.controller()``) integrates these signals
+    itself, like `control.create_statefbk_iosystem` with
+    ``integral_action``: connect it by name to the plant `sys` (whose
+    outputs carry the measured states and the integrated signals). The
+    record is not kept by operations that build a new system from the
+    result (e.g. `PolytopicStateSpace.scheduled`); pass
+    ``integrals=aug.integral_signals`` to `state_feedback` then.
 
     Parameters
     ----------
@@ -178,7 +356,8 @@ def integral_augmentation(
     Raises
     ------
     ValueError
-        If a signal is neither a state nor an output label.
+        If a signal is neither a state nor an output label, or `names`
+        repeat or reuse a state label.
     """
     if not isinstance(sys, PolytopicStateSpace):
         raise TypeError(f"sys: expected a PolytopicStateSpace, got {type(sys)!r}")
@@ -217,7 +396,12 @@ def integral_augmentation(
                 D,
             )
         )
-    return PolytopicStateSpace(
+    clash = sorted(set(names) & set(sys.state_labels))
+    if clash or len(set(names)) != len(names):
+        raise ValueError(
+            f"names: integral state labels must be new and distinct, got {names}"
+        )
+    result = PolytopicStateSpace(
         vertices,
         sys.domain,
         scheduling=sys.scheduling,
@@ -227,3 +411,5 @@ def integral_augmentation(
         states=list(sys.state_labels) + names,
         name=name or sys.name,
     )
+    result.integral_signals = dict(zip(names, signals))
+    return result

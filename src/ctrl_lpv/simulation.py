@@ -9,13 +9,21 @@ vectorized over the time points afterwards.  LSODA runs through
 `scipy.integrate.odeint`, the same solver as ``solve_ivp(method="LSODA")``
 without solve_ivp's Python loop around every step, which costs more than
 the right-hand side itself.
+
+Both engines watch the integration: a state beyond ``state_bound``, a NaN
+or infinite state, derivative or input raises `DivergenceError` (naming the
+signal and the time) instead of letting the solver grind on or
+python-control report an "algebraic loop", and ``timeout=`` bounds the
+wall time (`SimulationTimeout`).
 """
 
 from __future__ import annotations
 
 import contextlib
+import itertools
 import math
 import threading
+import time
 import warnings
 from bisect import bisect_left
 from collections.abc import Callable, Mapping
@@ -27,9 +35,12 @@ from scipy.integrate import ODEintWarning, odeint, solve_ivp
 
 from .interconnection import _FastMixin, plan
 
-__all__ = ["simulate"]
+__all__ = ["simulate", "SimulationError", "DivergenceError", "SimulationTimeout"]
 
 _ENGINES = ("fast", "control")
+# The fast engine checks the state bound and the wall time at every
+# _EVERY-th right-hand-side call (a power of two).
+_EVERY = 8
 
 # solve_ivp keywords of LSODA under their odeint names; with any other
 # keyword (events, dense_output, ...) the fast engine calls solve_ivp.
@@ -44,6 +55,196 @@ _LSODA_GUARD = (
     if tuple(int(v) for v in scipy.__version__.split(".")[:2]) >= (1, 17)
     else threading.Lock()
 )
+
+
+class SimulationError(RuntimeError):
+    """A simulation stopped by one of `simulate`'s checks.
+
+    Attributes
+    ----------
+    time : float
+        Simulation time at which the check failed.
+    """
+
+    def __init__(self, message: str, time: float):
+        super().__init__(message)
+        self.time = float(time)
+
+
+class DivergenceError(SimulationError):
+    """A state left ``state_bound`` or a signal became NaN or infinite.
+
+    Raised by `simulate` with both engines; the message names the state (or
+    input) and the simulation time.
+
+    Attributes
+    ----------
+    time : float
+        Simulation time of the detection.
+    signal : str
+        Label of the state, state derivative (``d<label>/dt``) or input.
+    value : float
+        Its value there.
+    """
+
+    def __init__(self, message: str, time: float, signal: str, value: float):
+        super().__init__(message, time)
+        self.signal = signal
+        self.value = float(value)
+
+
+class SimulationTimeout(SimulationError, TimeoutError):
+    """A simulation ran longer than its ``timeout`` (seconds of wall time).
+
+    Attributes
+    ----------
+    time : float
+        Simulation time reached.
+    timeout : float
+        The limit, s.
+    """
+
+    def __init__(self, message: str, time: float, timeout: float):
+        super().__init__(message, time)
+        self.timeout = float(timeout)
+
+
+class _Guard:
+    """Divergence, non-finite and wall-time checks around a right-hand side.
+
+    A check costs a few list operations: sums propagate NaN and infinity,
+    and ``max``/``min`` of the states find a bound violation; the labels
+    are looked up only on failure (`check`).
+    """
+
+    def __init__(self, sys, state_bound, timeout, start, T):
+        self.states = list(sys.state_labels)
+        self.inputs = list(sys.input_labels)
+        self.bound = math.inf if state_bound is None else float(state_bound)
+        self.timeout, self.start = timeout, start
+        self.deadline = math.inf if timeout is None else start + timeout
+        self.span = (float(T[0]), float(T[-1]))
+        self.clock = time.perf_counter
+
+    def fast(self, rhs):
+        """``f(t, x)`` with the checks, for solve_ivp and odeint.
+
+        The derivative is checked at every call (a NaN or infinity makes
+        the sum of its entries NaN), the state bound and the wall time at
+        every `_EVERY`-th call: the right-hand side of a fused diagram
+        costs about a microsecond, and the checks should not double it.
+        """
+        bound, clock, deadline = self.bound, self.clock, self.deadline
+        check, every = self.check, _EVERY - 1
+        calls = itertools.count()
+
+        def guarded(t, x):
+            try:
+                dx = rhs(t, x)
+            except RuntimeError as exc:
+                self.algebraic_loop(exc, t, x, None)
+                raise
+            s = sum(dx)
+            if s - s != 0.0:
+                check(t, x.tolist(), dx)
+            if not next(calls) & every:
+                xs = x.tolist()
+                s = sum(xs)
+                if s - s != 0.0 or max(xs) > bound or min(xs) < -bound:
+                    check(t, xs, dx)
+                if clock() > deadline:
+                    self.expired(t)
+            return dx
+
+        return guarded
+
+    def control(self, sys):
+        """``updfcn(t, x, u, params)`` for a wrapper of `sys`."""
+        sys_rhs, bound, clock, deadline = (
+            sys._rhs,
+            self.bound,
+            self.clock,
+            self.deadline,
+        )
+
+        def updfcn(t, x, u, params=None):
+            xs = np.asarray(x, dtype=float).reshape(-1).tolist()
+            if xs:
+                s = sum(xs)
+                if s - s != 0.0 or max(xs) > bound or min(xs) < -bound:
+                    self.check(t, xs, ())
+            try:
+                dx = sys_rhs(t, x, u)
+            except RuntimeError as exc:
+                self.algebraic_loop(exc, t, x, u, sys)
+                raise
+            dx = np.asarray(dx, dtype=float).reshape(-1)
+            s = float(np.sum(dx))
+            if s - s != 0.0:
+                self.check(t, xs, dx.tolist())
+            if clock() > deadline:
+                self.expired(t)
+            return dx
+
+        return updfcn
+
+    def check(self, t, xs, dx):
+        """Raise `DivergenceError` for the first failing state, if any."""
+        for label, v in zip(self.states, xs):
+            if not math.isfinite(v):
+                self.diverged(t, label, v, f"state {label!r} is {v} at t = {t:.6g}")
+        for label, v in zip(self.states, dx):
+            if not math.isfinite(v):
+                self.diverged(
+                    t, f"d{label}/dt", v,
+                    f"the derivative of state {label!r} is {v} at t = {t:.6g} "
+                    "(a NaN or infinite signal in the system, e.g. a scheduling "
+                    "parameter or a controller output)",
+                )  # fmt: skip
+        for label, v in zip(self.states, xs):
+            if abs(v) > self.bound:
+                self.diverged(
+                    t, label, v,
+                    f"state {label!r} = {v:.4g} exceeds state_bound = "
+                    f"{self.bound:g} at t = {t:.6g}: the simulation diverges "
+                    "(an unstable closed loop?); pass state_bound=None to "
+                    "integrate on",
+                )  # fmt: skip
+
+    def diverged(self, t, label, value, message):
+        raise DivergenceError(message, t, label, value)
+
+    def expired(self, t):
+        raise SimulationTimeout(
+            f"simulation exceeded timeout = {self.timeout:g} s of wall time "
+            f"at t = {t:.6g} of [{self.span[0]:g}, {self.span[1]:g}]",
+            t,
+            self.timeout,
+        )
+
+    def algebraic_loop(self, exc, t, x, u, sys=None):
+        """Explain python-control's "algebraic loop" from a NaN signal.
+
+        python-control finds the signals of a diagram by fixed-point
+        iteration, which never converges on a NaN; the one-pass plan (when
+        the diagram has no structural algebraic loop) shows which state
+        derivative is not finite.
+        """
+        if "algebraic loop" not in str(exc).lower():
+            return
+        xs = np.asarray(x, dtype=float).reshape(-1).tolist()
+        self.check(t, xs, ())
+        if u is not None:
+            for label, v in zip(self.inputs, np.asarray(u, float).reshape(-1)):
+                if not math.isfinite(v):
+                    self.diverged(t, label, v, f"input {label!r} is {v} at t = {t:.6g}")
+            evaluation = None
+            if sys is not None:
+                evaluation = sys._plan() if isinstance(sys, _FastMixin) else plan(sys)
+            if evaluation is not None:
+                with np.errstate(all="ignore"):
+                    dx = np.asarray(evaluation.rhs(t, x, u), float).reshape(-1)
+                self.check(t, xs, dx.tolist())
 
 
 def simulate(
@@ -62,6 +263,8 @@ def simulate(
     transpose: bool = False,
     ignore_errors: bool = False,
     solve_ivp_kwargs: Mapping | None = None,
+    state_bound: float | None = 1e12,
+    timeout: float | None = None,
 ) -> ct.TimeResponseData:
     """Simulate an I/O system, faster than input_output_response.
 
@@ -102,11 +305,23 @@ def simulate(
     return_states, squeeze, transpose : bool, optional
         As in `control.input_output_response`.
     ignore_errors : bool, optional
-        If False (default) a solver failure raises `RuntimeError`;
-        otherwise the response has ``success = False`` and a message.
+        If False (default) a solver failure or a divergence raises;
+        otherwise the response has ``success = False``, a message, and the
+        solution up to the failure (a `SimulationTimeout` always raises).
     solve_ivp_kwargs : dict, optional
         Other `scipy.integrate.solve_ivp` keywords (``max_step``,
         ``first_step``, ...).
+    state_bound : float or None, optional
+        Divergence threshold: a state with ``|x_i| > state_bound`` stops the
+        simulation with `DivergenceError` (default 1e12, in the states' own
+        units; None disables it). A NaN or infinite state, state derivative
+        or input always stops it with `DivergenceError`, with both engines
+        (python-control itself reports a NaN signal in a diagram as an
+        "algebraic loop").
+    timeout : float or None, optional
+        Wall-time limit in seconds (default None: none); beyond it the
+        simulation stops with `SimulationTimeout`. Checked at every
+        right-hand-side evaluation, with both engines.
 
     Returns
     -------
@@ -122,6 +337,11 @@ def simulate(
         For an unknown `engine`, a discrete-time `sys` with the fast engine,
         a time vector that is not increasing and finite, inputs or initial
         state of the wrong size or not finite, or nonpositive tolerances.
+    DivergenceError
+        If a state exceeds `state_bound` or a signal is not finite (and
+        `ignore_errors` is False); the message names the state and time.
+    SimulationTimeout
+        If the simulation takes longer than `timeout`.
     RuntimeError
         If the solver fails and `ignore_errors` is False.
 
@@ -151,6 +371,17 @@ def simulate(
             raise ValueError(f"{label}: must be a positive number, got {value!r}")
     if not isinstance(method, str):
         raise TypeError(f"method: expected a solve_ivp method name, got {method!r}")
+    start = time.perf_counter()
+    for label, value in (("state_bound", state_bound), ("timeout", timeout)):
+        if value is not None and not (
+            isinstance(value, (int, float, np.floating, np.integer))
+            and not isinstance(value, bool)
+            and value > 0
+            and (label == "state_bound" or value < math.inf)
+        ):
+            raise ValueError(
+                f"{label}: expected None or a positive number, got {value!r}"
+            )
     T = _time_points(T)
     U = _inputs(U, sys.ninputs, T.size)
     X0 = _initial_state(X0, sys.nstates)
@@ -162,11 +393,12 @@ def simulate(
             )
     kwargs.update(method=method, rtol=rtol, atol=atol)
 
+    guard = _Guard(sys, state_bound, timeout, start, T)
     if engine == "control":
-        return ct.input_output_response(
-            sys, T, U, X0, params=params, return_states=return_states,
-            squeeze=squeeze, transpose=transpose, ignore_errors=ignore_errors,
-            solve_ivp_kwargs=kwargs,
+        return _control_engine(
+            sys, guard, T, U, X0, kwargs, params=params,
+            return_states=return_states, squeeze=squeeze, transpose=transpose,
+            ignore_errors=ignore_errors,
         )  # fmt: skip
     if sys.isdtime(strict=True):
         raise ValueError(
@@ -185,7 +417,16 @@ def simulate(
     if sys.nstates == 0:
         t, X = T, np.zeros((0, T.size))
     else:
-        t, X, success, message = _integrate(rhs, T, X0, kwargs)
+        try:
+            t, X, success, message = _integrate(guard.fast(rhs), T, X0, kwargs)
+        except DivergenceError as exc:
+            if not ignore_errors:
+                raise
+            unbounded = _Guard(sys, None, timeout, start, T).fast(rhs)
+            t, X, _, _ = _before(
+                exc, T, lambda keep: _integrate(unbounded, T[keep], X0, kwargs)
+            )
+            success, message = False, str(exc)
         if not success and not ignore_errors:
             raise RuntimeError(message)
     Ut = U[:, : t.size]
@@ -202,6 +443,64 @@ def simulate(
         return_x=return_states, squeeze=squeeze, success=success,
         message=message,
     )  # fmt: skip
+
+
+def _before(exc, T, integrate):
+    """The response before a divergence, by integrating again.
+
+    The solvers lose their solution when the right-hand side raises, so the
+    output times before the detection time ``exc.time`` are integrated
+    again without the bound; a NaN found again (the solver evaluates a step
+    ahead of its last accepted time) moves the end earlier. Raises `exc`
+    when fewer than two output times remain.
+    """
+    stop = exc.time
+    for _ in range(8):
+        keep = T < stop
+        if keep.sum() < 2:
+            break
+        try:
+            with np.errstate(all="ignore"):
+                return integrate(keep)
+        except DivergenceError as again:
+            stop = min(again.time, T[keep][-1])
+    raise exc
+
+
+def _control_engine(sys, guard, T, U, X0, kwargs, *, params, ignore_errors,
+                    **options):  # fmt: skip
+    """`control.input_output_response` on `sys` with the checks.
+
+    python-control evaluates a wrapper system whose update function calls
+    ``sys._rhs`` after the checks and whose output function is
+    ``sys._out``; the parameters go to `sys` as python-control would pass
+    them.
+    """
+    sys._update_params(params)
+    sys_out = sys._out
+
+    def run(guard, T_, U_, **extra):
+        wrapper = ct.nlsys(
+            guard.control(sys), lambda t, x, u, params=None: sys_out(t, x, u),
+            inputs=sys.input_labels, outputs=sys.output_labels,
+            states=sys.state_labels, name=sys.name, dt=sys.dt,
+        )  # fmt: skip
+        return ct.input_output_response(
+            wrapper, T_, U_, X0, params=params, solve_ivp_kwargs=kwargs,
+            **extra, **options,
+        )  # fmt: skip
+
+    try:
+        return run(guard, T, U, ignore_errors=ignore_errors)
+    except DivergenceError as exc:
+        if not ignore_errors:
+            raise
+        unbounded = _Guard(sys, None, guard.timeout, guard.start, T)
+        resp = _before(
+            exc, T, lambda keep: run(unbounded, T[keep], U[:, keep], ignore_errors=True)
+        )
+        resp.success, resp.message = False, str(exc)
+        return resp
 
 
 def _integrate(rhs, T, X0, kwargs) -> tuple[np.ndarray, np.ndarray, bool, str | None]:

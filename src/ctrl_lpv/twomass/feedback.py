@@ -72,11 +72,14 @@ def lpv_controller(
         file by `load_gains`). Default: the paper's published gain
         (`paper_gain`).
     alpha_estimate : float or callable, optional
-        For vertex gains: the backlash estimate used to compute the
-        scheduling parameter ``p`` from the measured ``theta_m - theta_l``
-        (`backlash_parameter`), projected onto the design's parameter box. A
-        callable is evaluated as ``alpha_estimate(t)``. Required for vertex
-        gains, ignored (must be None) for a common gain.
+        For vertex gains: the backlash estimate (rad, finite and ``>= 0``)
+        used to compute the scheduling parameter ``p`` from the measured
+        ``theta_m - theta_l`` (`backlash_parameter`), projected onto the
+        design's parameter box. A callable is evaluated as
+        ``alpha_estimate(t)``; a negative or non-finite value it returns
+        stops the simulation with a `ValueError`. Required for vertex
+        gains; a common gain is not scheduled, and an estimate given with
+        one is refused (`ValueError`), never silently ignored.
     torque_limit : float, optional
         Saturate ``|Tm| <= torque_limit``; the integral state then stops
         integrating while the torque is saturated in the direction of the
@@ -91,6 +94,16 @@ def lpv_controller(
     `control.NonlinearIOSystem`
         Inputs ``["theta_m", "omega_m", "theta_l", "omega_l", "theta_r"]``,
         output ``["Tm"]``, state ``["int_e_l"]`` for integral designs.
+
+    Raises
+    ------
+    ValueError
+        For a `design` of the wrong shape, a missing `alpha_estimate` with
+        vertex gains or one given with a common gain, a negative or
+        non-finite `alpha_estimate`, or a `torque_limit` that is not a
+        positive number.
+    TypeError
+        For an `alpha_estimate` that is neither a number nor a callable.
     """
     if design is None:
         design = paper_gain()
@@ -123,11 +136,28 @@ def lpv_controller(
     if scheduled and alpha_estimate is None:
         raise ValueError("alpha_estimate: vertex gains need a backlash estimate")
     if not scheduled and alpha_estimate is not None:
-        raise ValueError("alpha_estimate: a common gain is not scheduled")
+        raise ValueError(
+            "alpha_estimate: a common gain is not scheduled; an estimate "
+            f"({alpha_estimate!r}) is only used with vertex gains"
+        )
+    if alpha_estimate is not None and not callable(alpha_estimate):
+        if not _is_number(alpha_estimate):
+            raise TypeError(
+                "alpha_estimate: expected a number or a callable alpha(t), "
+                f"got {alpha_estimate!r}"
+            )
+        if not (math.isfinite(alpha_estimate) and alpha_estimate >= 0):
+            raise ValueError(
+                "alpha_estimate: the backlash estimate must be a finite number "
+                f">= 0 rad, got {alpha_estimate!r}"
+            )
+        alpha_estimate = float(alpha_estimate)
     if torque_limit is not None and not (
-        np.isfinite(torque_limit) and torque_limit > 0
+        _is_number(torque_limit) and math.isfinite(torque_limit) and torque_limit > 0
     ):
-        raise ValueError(f"torque_limit: must be a positive number, got {torque_limit}")
+        raise ValueError(
+            f"torque_limit: must be a positive number, got {torque_limit!r}"
+        )
     kernel = _lpv_kernel(
         gains, domain, alpha_estimate, np.inf if torque_limit is None else torque_limit
     )
@@ -170,7 +200,7 @@ def _lpv_kernel(gains: np.ndarray, domain, alpha_estimate, limit) -> BlockKernel
     def gain(t, e_m, e_l):
         if not scheduled:
             return k_common
-        a = alpha_const if alpha_of_t is None else alpha_of_t(t)
+        a = alpha_const if alpha_of_t is None else _estimate(alpha_of_t, t)
         theta_d = abs(e_m - e_l)
         p = -a / (theta_d if theta_d > 1e-300 else 1e-300) if theta_d > a else -1.0
         if not interval:
@@ -223,7 +253,9 @@ def _lpv_kernel(gains: np.ndarray, domain, alpha_estimate, limit) -> BlockKernel
             if alpha_of_t is None:
                 a = alpha_const
             else:
-                a = np.reshape([alpha_of_t(ti) for ti in np.ravel(t)], np.shape(t))
+                a = np.reshape(
+                    [_estimate(alpha_of_t, ti) for ti in np.ravel(t)], np.shape(t)
+                )
             p = np.broadcast_to(backlash_parameter(e_m - e_l, a), shape)
             if interval:
                 lam = np.clip((p - lo) / width, 0.0, 1.0)[..., None]
@@ -240,6 +272,29 @@ def _lpv_kernel(gains: np.ndarray, domain, alpha_estimate, limit) -> BlockKernel
         return (np.clip(-raw, -limit, limit),)
 
     return BlockKernel(out=out, rhs=rhs if integral else None, out_many=out_many)
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
+        value, (bool, np.bool_)
+    )
+
+
+def _estimate(alpha_of_t, t) -> float:
+    """``alpha_estimate(t)``, refused unless finite and ``>= 0``."""
+    a = alpha_of_t(t)
+    try:
+        a = float(a)
+    except (TypeError, ValueError):
+        raise TypeError(
+            f"alpha_estimate: the callable returned {a!r} at t = {t}, not a number"
+        ) from None
+    if not (a >= 0.0 and a < math.inf):
+        raise ValueError(
+            f"alpha_estimate: the callable returned {a} at t = {float(t):.6g}; "
+            "the backlash estimate must be finite and >= 0"
+        )
+    return a
 
 
 def _sign(v: float) -> int:
