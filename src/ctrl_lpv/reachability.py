@@ -54,7 +54,7 @@ from control import StateSpace
 
 from ._checks import as_matrix, signal_indices
 from .exceptions import CertificationError, InfeasibleError
-from .lmi import LMIProblem, SolveAttempt
+from .lmi import LMIProblem, SolveAttempt, default_solvers
 
 __all__ = [
     "Ellipsoid",
@@ -586,20 +586,25 @@ def ultimate_bound(
         def objective(v):
             return cp.trace(v.W)
 
-    def solve_at(lam):
+    chain = default_solvers() if solvers is None else list(solvers)
+
+    def solve_at(lam, use=chain[:1]):
         lmi.set_parameter("lam", lam)
         try:
-            sol = lmi.solve(objective, solvers=solvers)
-        except InfeasibleError:
+            sol = lmi.solve(objective, solvers=use)
+        except InfeasibleError:  # includes CertificationError
             return np.inf, None
         return float(sol.objective), sol
 
     if decay is not None:
-        lam, value, sol = decay / a, *solve_at(decay / a)
+        lam, value, sol = decay / a, *solve_at(decay / a, chain)
         search = [(decay, value)]
     else:
         grid = np.geomspace(2e-3 * sigma, 1.96 * sigma, _GRID)
         lam, value, sol, search = _line_search(solve_at, grid)
+        if sol is None and len(chain) > 1:
+            # The search used the first solver only: try the whole chain.
+            lam, value, sol, search = _line_search(lambda x: solve_at(x, chain), grid)
         search = [(x * a, f) for x, f in search]
     if sol is None:
         raise CertificationError(
