@@ -69,7 +69,7 @@ __all__ = [
 _STRICT_TOL = 1e-10
 # Line search: coarse grid points, then golden-section iterations.
 _GRID = 9
-_GOLDEN_ITERS = 12
+_GOLDEN_ITERS = 8
 
 
 # ----------------------------------------------------------------------
@@ -344,10 +344,7 @@ def _resolve_data(sys, w, output):
     if w is not None:
         raise ValueError("w: only for a system with named inputs")
     A_in, E_in = sys
-    if isinstance(A_in, np.ndarray) and A_in.ndim == 2:
-        A_in = [A_in]
-    if isinstance(E_in, np.ndarray) and E_in.ndim == 2:
-        E_in = [E_in]
+    A_in, E_in = _as_list(A_in), _as_list(E_in)
     As = [as_matrix(A, f"sys[0][{j}]") for j, A in enumerate(A_in)]
     if not As:
         raise ValueError("sys: the vertex list is empty")
@@ -427,6 +424,16 @@ def _line_search(f, grid):
         if fy < best[0]:
             best = (fy, sy, float(np.exp(y)))
     return best[2], best[0], best[1], search
+
+
+def _as_list(M):
+    """A single matrix (nested lists or array) as a one-element list."""
+    try:
+        if np.ndim(M) <= 2:
+            return [M]
+    except ValueError:  # ragged: a list of matrices of different shapes
+        pass
+    return list(M)
 
 
 def _gramian_scaling(As, Es) -> np.ndarray:
