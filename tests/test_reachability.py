@@ -192,3 +192,10 @@ def test_ellipsoid_helpers():
     axes, _ = ell.semi_axes()
     np.testing.assert_allclose(axes, [0.5, 1.0])
     np.testing.assert_allclose(ell.scaled(2.0).support(np.eye(2)), [1.0, 2.0])
+
+
+def test_ellipsoid_inclusion():
+    small = Ellipsoid(np.diag([4.0, 4.0]))
+    big = Ellipsoid(np.diag([1.0, 2.0]))
+    assert small.inside(big) and not big.inside(small)
+    assert not small.scaled(3.0).inside(big)

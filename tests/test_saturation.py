@@ -233,3 +233,27 @@ def test_bad_arguments(plant, kwargs, exc, match):
 def test_not_a_polytopic_system():
     with pytest.raises(TypeError, match="sys"):
         saturated_state_feedback(ct.ss([[1.0]], [[1.0]], [[1.0]], 0), "u", 1.0)
+
+
+def test_output_objective_gives_a_small_invariant_set(plant):
+    # Smallest invariant ellipsoid along x1 for |w| <= 0.05, still holding
+    # 0.4 times the unit ball: checked with the worst-case-ish input.
+    C = np.array([[1.0, 0.0]])
+    d = saturated_state_feedback(
+        plant, "u", 1.0, w="w", w_max=0.05, output=C, beta_min=0.4
+    )
+    assert d.beta >= 0.4 * (1 - 1e-6) and d.beta_opt is None
+    region = saturated_state_feedback(plant, "u", 1.0, w="w", w_max=0.05)
+    assert d.support(C)[0] < region.support(C)[0]
+    K = d.gains[0]
+    Pw = d.P @ np.array([0.0, 1.0])
+    rhs = closed_loop_rhs(
+        plant, lambda _: K, 1.0, lambda t: np.eye(4)[1],
+        lambda t, x: 0.05 * np.sign(x @ Pw),
+    )  # fmt: skip
+    for x0 in boundary_points(d.P, 3) + [np.zeros(2)]:
+        _, V, x = V_along(rhs, x0, d.P, 15.0)
+        assert np.all(V <= 1.0 + 1e-6)
+        assert np.max(np.abs(x[0])) <= d.support(C)[0] * (1 + 1e-6)
+    with pytest.raises(ValueError, match="output"):
+        saturated_state_feedback(plant, "u", 1.0, output=C)

@@ -115,6 +115,16 @@ class Ellipsoid:
         lam, vec = np.linalg.eigh(self.P / self.level)
         return 1.0 / np.sqrt(lam[::-1]), vec[:, ::-1]
 
+    def inside(self, other: Ellipsoid, rtol: float = 0.0) -> bool:
+        """Whether this set lies in `other` (``P_o / l_o <= P / l``).
+
+        Chains certificates: a trajectory that reaches a set inside the
+        invariant set of another certificate is covered from then on by it.
+        """
+        M = self.P / self.level - other.P / other.level
+        scale = np.linalg.norm(self.P / self.level, 2)
+        return bool(np.linalg.eigvalsh(0.5 * (M + M.T))[0] >= -rtol * scale)
+
     def scaled(self, factor: float) -> Ellipsoid:
         """The set ``factor * E`` (level times ``factor**2``)."""
         return Ellipsoid(self.P, self.level * float(factor) ** 2)

@@ -61,6 +61,7 @@ is not stabilizable (PBH) or when every solver reports infeasibility.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 from dataclasses import dataclass, field
 
@@ -77,6 +78,7 @@ from .reachability import (
     _jacobi_max_eig,
     _line_search,
     _pow2,
+    _quad_rows,
     _xp_diag,
     _xp_sum,
 )
@@ -122,7 +124,8 @@ class SaturatedDesign:
         Largest factor with ``beta * shape`` inside `ellipsoid` (for
         `points`: every ``beta * v_k`` inside).
     beta_opt : float or None
-        The solver's optimum before back-off (an estimate).
+        The solver's optimum before back-off (an estimate; None when the
+        objective was an output size).
     decay : float
         Certified rate ``sigma``: ``V(t) <= V(0) exp(-2 sigma t)`` for ``w =
         0`` inside `ellipsoid`.
@@ -264,6 +267,8 @@ class _Scaled:
     E: list
     R: np.ndarray | None
     V: np.ndarray | None
+    C: np.ndarray | None = None  # output rows (scaled) for objective "output"
+    beta_min: float | None = None  # region kept with the output objective
 
 
 def _prescale(As, Bs, Es, u_max, w_max, R, V):
@@ -279,6 +284,22 @@ def _prescale(As, Bs, Es, u_max, w_max, R, V):
     Rt = None if R is None else T[:, None] * R * T
     Vt = None if V is None else V / T
     return _Scaled(T, u_max, a, [A / a for A in At], [B / a for B in Bt], Et, Rt, Vt)
+
+
+def _output_rows(sys, output):
+    """Rows ``C`` of the outputs to keep small: names/indices or a matrix."""
+    labels = tuple(sys.output_labels)
+    names = isinstance(output, (str, int, np.integer)) or (
+        isinstance(output, (list, tuple))
+        and all(isinstance(o, (str, int, np.integer)) for o in output)
+    )
+    if names:
+        iy = signal_indices(output, labels, "output")
+        Cs = [d[2][iy] for d in sys.vertex_data()]
+        if any(not np.allclose(C, Cs[0]) for C in Cs[1:]):
+            raise ValueError("output: the rows differ between vertices; pass a matrix")
+        return Cs[0]
+    return as_matrix(output, "output")
 
 
 def _pairs(N, scheduled):
@@ -360,21 +381,49 @@ def _build(s: _Scaled, nK, K_fixed, has_w, margin):
             lmi.add(f"inclusion gain {k} input {i}", incl)
     if has_w:
         lmi.add("sum(mu) < lambda", lambda v: [[_xp_sum(v.mu) - v.lam * np.eye(1)]])
-    # Region: beta^2 = 1 / g.
-    if s.R is not None:
-        Rt = s.R
+    # Objective g: the region (beta^2 = 1 / g) or the size along outputs.
+    if s.C is not None:
+        rows = s.C[np.einsum("ij,ij->i", s.C, s.C) > 0]
+        weight = 1.0 / np.einsum("ij,ij->i", rows, rows)
         lmi.add(
-            "g * shape contains",
-            lambda v: [[-v.g[0, 0] * Rt], [-np.eye(n), -v.W]],
+            "output size <= g",
+            lambda v: [
+                [
+                    _xp_diag(weight) @ _quad_rows(rows, v.W)
+                    - v.g[0, 0] * np.eye(len(weight))
+                ]
+            ],
             strict=False,
         )
-    else:
-        for q, vq in enumerate(s.V):
+    if s.C is None or s.beta_min is not None:
+        # beta^2 = 1 / g, or the fixed requirement 1 / beta_min^2.
+        if s.C is None:
+
+            def gval(v):
+                return v.g[0, 0]
+        else:
+            gfix = 1.0 / s.beta_min**2
+
+            def gval(v):
+                return gfix
+
+        if s.R is not None:
+            Rt = s.R
             lmi.add(
-                f"point {q} inside",
-                lambda v, vq=vq: [[-v.g], [-vq.reshape(n, 1), -v.W]],
+                "g * shape contains",
+                lambda v: [[-gval(v) * Rt], [-np.eye(n), -v.W]],
                 strict=False,
             )
+        else:
+            for q, vq in enumerate(s.V):
+                lmi.add(
+                    f"point {q} inside",
+                    lambda v, vq=vq: [
+                        [-gval(v) * np.eye(1)],
+                        [-vq.reshape(n, 1), -v.W],
+                    ],
+                    strict=False,
+                )
     lmi.add(
         "g <= gmax",
         lambda v: [[v.g - v.gmax * np.eye(1)]],
@@ -406,6 +455,8 @@ def saturated_state_feedback(
     *,
     shape=None,
     points=None,
+    output=None,
+    beta_min: float | None = None,
     decay: float = 0.0,
     w=None,
     w_max=None,
@@ -435,6 +486,15 @@ def saturated_state_feedback(
         1}`` (default the identity: a ball in the model's units).
     points : array_like, optional
         Instead of `shape`: rows ``v_k`` (directions) that must be inside.
+    output : str, int, list or array_like, optional
+        Instead of the largest region: the smallest invariant ellipsoid
+        along these outputs (names or indices of ``sys``'s outputs, or rows
+        ``C`` on the state), minimising ``max_i c_i' P^-1 c_i / ||c_i||^2``.
+        Needs `w`: it is the ultimate bound under saturation, certified for
+        trajectories that start inside it. `beta` is still reported.
+    beta_min : float, optional
+        With `output`: keep ``beta_min * shape`` (or the points) inside the
+        ellipsoid, so that it is also a region for the initial states.
     decay : float, optional
         Required rate ``sigma >= 0``: ``V`` decays at least as ``exp(-2
         sigma t)`` inside the region (``w = 0``).
@@ -447,8 +507,9 @@ def saturated_state_feedback(
         One gain for the whole polytope (implementable without knowing the
         parameter), or vertex gains ``K(delta) = sum_j delta_j K_j``.
     backoff : float or None, optional
-        Re-solve with ``beta >= beta* / (1 + backoff)`` minimising the gain
-        (``||Y_k|| = ||K_k W||``); None for the raw optimum.
+        Re-solve with ``beta >= beta* / (1 + backoff)`` (with `output`: the
+        size at most ``(1 + backoff)`` times the optimum) minimising the
+        gain (``||Y_k|| = ||K_k W||``); None for the raw optimum.
     margin : float, optional
         Margin of the strict LMIs in scaled units.
     solvers : sequence of (name, options), optional
@@ -484,7 +545,9 @@ def saturated_state_feedback(
         )
     from .synthesis import check_stabilizability
 
-    prob = _setup(sys, u, u_max, shape, points, decay, w, w_max, margin)
+    prob = _setup(
+        sys, u, u_max, shape, points, output, beta_min, decay, w, w_max, margin
+    )
     check_stabilizability(sys, prob["iu"])
     nK = sys.nvertices if gains == "scheduled" and sys.nvertices > 1 else 1
     return _run(prob, nK, None, backoff, solvers)
@@ -498,6 +561,8 @@ def saturation_region(
     *,
     shape=None,
     points=None,
+    output=None,
+    beta_min: float | None = None,
     decay: float = 0.0,
     w=None,
     w_max=None,
@@ -516,7 +581,7 @@ def saturation_region(
         Plant.
     gain : array_like or sequence of array_like
         ``m x n`` gain of ``u = -K x``, or one per vertex (scheduled).
-    u, u_max, shape, points, decay, w, w_max, margin, solvers
+    u, u_max, shape, points, output, beta_min, decay, w, w_max, margin, solvers
         As in `saturated_state_feedback`.
 
     Returns
@@ -534,7 +599,9 @@ def saturation_region(
     ValueError, TypeError
         For bad arguments.
     """
-    prob = _setup(sys, u, u_max, shape, points, decay, w, w_max, margin)
+    prob = _setup(
+        sys, u, u_max, shape, points, output, beta_min, decay, w, w_max, margin
+    )
     n, m = sys.nstates, len(prob["iu"])
     Ks = [gain] if np.ndim(gain) == 2 or np.ndim(gain) < 2 else list(gain)
     Ks = [as_matrix(K, f"gain[{k}]", (m, n)) for k, K in enumerate(Ks)]
@@ -547,7 +614,7 @@ def saturation_region(
     return _run(prob, len(Ks), K_scaled, None, solvers)
 
 
-def _setup(sys, u, u_max, shape, points, decay, w, w_max, margin):
+def _setup(sys, u, u_max, shape, points, output, beta_min, decay, w, w_max, margin):
     if not isinstance(sys, PolytopicStateSpace):
         raise TypeError(
             f"sys: expected a PolytopicStateSpace, got {type(sys).__name__}; wrap an "
@@ -582,9 +649,25 @@ def _setup(sys, u, u_max, shape, points, decay, w, w_max, margin):
     Bs = [d[1][:, iu] for d in data]
     Es = [d[1][:, iw] for d in data] if iw else []
     scaled = _prescale(As, Bs, Es, umax, wmax, R, V)
+    C = None
+    if beta_min is not None:
+        if output is None:
+            raise ValueError("beta_min: only with output (the region is maximised)")
+        if not (np.isfinite(beta_min) and beta_min > 0):
+            raise ValueError(f"beta_min: must be a positive number, got {beta_min}")
+    if output is not None and not iw:
+        raise ValueError(
+            "output: minimising the size needs a disturbance w (without one the "
+            "invariant ellipsoid shrinks to the origin)"
+        )
+    if output is not None:
+        C = _output_rows(sys, output)
+        if C.shape[1] != n or not np.any(C != 0):
+            raise ValueError(f"output: expected nonzero rows of {n} entries")
+        scaled = dataclasses.replace(scaled, C=C * scaled.T, beta_min=beta_min)
     return dict(
         sys=sys, iu=iu, iw=iw, umax=umax, wmax=wmax, decay=float(decay), R=R, V=V,
-        As=As, Bs=Bs, Es=Es, scaled=scaled, margin=margin,
+        As=As, Bs=Bs, Es=Es, scaled=scaled, margin=margin, C=C,
     )  # fmt: skip
 
 
@@ -626,7 +709,10 @@ def _run(prob, nK, K_fixed, backoff, solvers):
             "no certified region for any disturbance rate lambda tried "
             f"({_LAMBDA_GRID[0] * s.a:.3g} .. {_LAMBDA_GRID[-1] * s.a:.3g} 1/s)"
         )
-    beta_opt = 1.0 / np.sqrt(g_opt) if g_opt > 0 else np.inf
+    if s.C is not None:
+        beta_opt = None
+    else:
+        beta_opt = 1.0 / np.sqrt(g_opt) if g_opt > 0 else np.inf
     # The line search leaves the parameters at its last point: set the best.
     lmi.set_parameter("c", 2 * sigma_t + lam)
     if has_w:
