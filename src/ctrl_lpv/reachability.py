@@ -64,9 +64,6 @@ __all__ = [
     "ultimate_bound",
 ]
 
-# Bound that the Jacobi-normalised largest eigenvalue of a strict LMI must
-# stay below in the float64 re-verification (rounding is ~1e-15 there).
-_STRICT_TOL = 1e-10
 # Line search: coarse grid points, then golden-section iterations.
 _GRID = 9
 _GOLDEN_ITERS = 8
@@ -269,17 +266,32 @@ def _pow2(x: float) -> float:
     return float(2.0 ** np.round(np.log2(x))) if x > 0 and np.isfinite(x) else 1.0
 
 
-def _jacobi_max_eig(M: np.ndarray) -> float:
-    """Largest eigenvalue of ``D^-1/2 M D^-1/2``, ``D = |diag(M)|``.
+def _strict_check(name: str, M: np.ndarray, M_abs: np.ndarray) -> EllipsoidCheck:
+    """Float64 check of ``M < 0`` after Jacobi normalisation, rounding-aware.
 
-    Scale-free (congruence by a positive diagonal keeps the inertia), so a
-    clearly negative value certifies ``M < 0`` whatever the units.
+    ``D^-1/2 M D^-1/2`` with ``D = |diag(M)|`` (a congruence by a positive
+    diagonal keeps the inertia, so the test does not depend on units). Its
+    largest eigenvalue must lie below ``-(3 k + 10) eps ||D^-1/2 M_abs
+    D^-1/2||``, a bound on the rounding error of forming ``M`` (``M_abs``
+    is the same expression in absolute values, ``k`` its size) and of the
+    eigenvalue solver.
     """
     M = 0.5 * (M + M.T)
     d = np.abs(np.diag(M))
     d = np.where(d > 0, d, 1.0)
     s = 1.0 / np.sqrt(d)
-    return float(np.linalg.eigvalsh(s[:, None] * M * s)[-1])
+    value = float(np.linalg.eigvalsh(s[:, None] * M * s)[-1])
+    k = M.shape[0]
+    err = (3 * k + 10) * np.finfo(float).eps
+    err *= max(1.0, float(np.linalg.norm(s[:, None] * M_abs * s, 2)))
+    return EllipsoidCheck(name, value, -err)
+
+
+def _positive_check(name: str, P: np.ndarray) -> EllipsoidCheck:
+    """``P > 0``: smallest eigenvalue relative to ``||P||`` above rounding."""
+    lam = np.linalg.eigvalsh(0.5 * (P + P.T))
+    err = (3 * P.shape[0] + 10) * np.finfo(float).eps
+    return EllipsoidCheck(name, -float(lam[0] / lam[-1]), -err)
 
 
 def _xp_diag(v):
@@ -640,18 +652,15 @@ def ultimate_bound(
     lam_o = lam * a
     mu = np.asarray(sol.mu, float).reshape(-1) * a
     mu = np.maximum(mu, 0.0)
-    checks = [
-        EllipsoidCheck(
-            "P > 0",
-            -float(np.linalg.eigvalsh(P)[0]) / np.linalg.norm(P, 2),
-            -_STRICT_TOL,
-        )
-    ]
+    checks = [_positive_check("P > 0", P)]
+    aP = np.abs(P)
     for j, (A, E) in enumerate(zip(As, Ed)):
         M = np.block([[A.T @ P + P @ A + lam_o * P, P @ E], [E.T @ P, -np.diag(mu)]])
-        checks.append(
-            EllipsoidCheck(f"decay vertex {j}", _jacobi_max_eig(M), -_STRICT_TOL)
+        aA, aPE = np.abs(A), aP @ np.abs(E)
+        M_abs = np.block(
+            [[aA.T @ aP + aP @ aA + lam_o * aP, aPE], [aPE.T, np.diag(mu)]]
         )
+        checks.append(_strict_check(f"decay vertex {j}", M, M_abs))
     rho = float(mu.sum() / lam_o)
     checks.append(EllipsoidCheck("rho = sum(mu)/lambda", rho, 1.0 + 1e-6))
     certificate = EllipsoidCertificate(

@@ -61,7 +61,6 @@ is not stabilizable (PBH) or when every solver reports infeasibility.
 
 from __future__ import annotations
 
-import dataclasses
 import itertools
 from dataclasses import dataclass, field
 
@@ -75,10 +74,11 @@ from .reachability import (
     Ellipsoid,
     EllipsoidCertificate,
     EllipsoidCheck,
-    _jacobi_max_eig,
     _line_search,
+    _positive_check,
     _pow2,
     _quad_rows,
+    _strict_check,
     _xp_diag,
     _xp_sum,
 )
@@ -86,12 +86,13 @@ from .systems import PolytopicStateSpace
 
 __all__ = ["SaturatedDesign", "saturated_state_feedback", "saturation_region"]
 
-_STRICT_TOL = 1e-10
 # Bound W~ <= _W_CAP I in scaled units: keeps a region that could be
 # unbounded (a stable plant) finite; `SaturatedDesign.capped` reports it.
-_W_CAP = 1e6
+_W_CAP = 1e3
 # Line search grid of lambda (scaled units) when w is given.
 _LAMBDA_GRID = np.geomspace(1e-3, 4.0, 9)
+# State rescalings tried after a point misses its certificate.
+_RESCALES = 2
 
 
 @dataclass(frozen=True)
@@ -271,9 +272,11 @@ class _Scaled:
     beta_min: float | None = None  # region kept with the output objective
 
 
-def _prescale(As, Bs, Es, u_max, w_max, R, V):
+def _prescale(As, Bs, Es, u_max, w_max, R, V, T=None, C=None, beta_min=None):
     n = As[0].shape[0]
-    if R is not None:
+    if T is not None:
+        T = np.asarray(T, float)
+    elif R is not None:
         T = np.array([_pow2(1.0 / np.sqrt(R[i, i])) for i in range(n)])
     else:
         T = np.array([_pow2(np.abs(V[:, i]).max()) for i in range(n)])
@@ -283,7 +286,10 @@ def _prescale(As, Bs, Es, u_max, w_max, R, V):
     Et = [E * w_max / T[:, None] / a for E in Es] if Es else []
     Rt = None if R is None else T[:, None] * R * T
     Vt = None if V is None else V / T
-    return _Scaled(T, u_max, a, [A / a for A in At], [B / a for B in Bt], Et, Rt, Vt)
+    Ct = None if C is None else C * T
+    return _Scaled(
+        T, u_max, a, [A / a for A in At], [B / a for B in Bt], Et, Rt, Vt, Ct, beta_min
+    )
 
 
 def _output_rows(sys, output):
@@ -609,9 +615,7 @@ def saturation_region(
         raise ValueError(
             f"gain: expected one gain or {sys.nvertices} vertex gains, got {len(Ks)}"
         )
-    s = prob["scaled"]
-    K_scaled = [(K / s.U[:, None]) * s.T for K in Ks]
-    return _run(prob, len(Ks), K_scaled, None, solvers)
+    return _run(prob, len(Ks), Ks, None, solvers)
 
 
 def _setup(sys, u, u_max, shape, points, output, beta_min, decay, w, w_max, margin):
@@ -648,7 +652,6 @@ def _setup(sys, u, u_max, shape, points, output, beta_min, decay, w, w_max, marg
     As = [d[0] for d in data]
     Bs = [d[1][:, iu] for d in data]
     Es = [d[1][:, iw] for d in data] if iw else []
-    scaled = _prescale(As, Bs, Es, umax, wmax, R, V)
     C = None
     if beta_min is not None:
         if output is None:
@@ -664,31 +667,86 @@ def _setup(sys, u, u_max, shape, points, output, beta_min, decay, w, w_max, marg
         C = _output_rows(sys, output)
         if C.shape[1] != n or not np.any(C != 0):
             raise ValueError(f"output: expected nonzero rows of {n} entries")
-        scaled = dataclasses.replace(scaled, C=C * scaled.T, beta_min=beta_min)
+    scaled = _prescale(As, Bs, Es, umax, wmax, R, V, C=C, beta_min=beta_min)
     return dict(
         sys=sys, iu=iu, iw=iw, umax=umax, wmax=wmax, decay=float(decay), R=R, V=V,
         As=As, Bs=Bs, Es=Es, scaled=scaled, margin=margin, C=C,
     )  # fmt: skip
 
 
-def _run(prob, nK, K_fixed, backoff, solvers):
+class _Rescale(Exception):
+    """A scaled problem gave no certified point; carries the estimate's W~."""
+
+    def __init__(self, message, W, attempts, infeasible=False):
+        super().__init__(message)
+        self.W = W
+        self.attempts = attempts
+        self.infeasible = infeasible
+
+
+def _run(prob, nK, Ks, backoff, solvers):
+    """Solve, re-scaling the states from the last estimate when it fails.
+
+    A point that misses its certificate usually has a badly conditioned
+    ``W~`` (a region much longer along some states than the prescaling
+    guessed); the next try scales the states by ``sqrt(diag(W~))`` (powers
+    of two), so that the margin is relative to the region's own size.
+    """
     s = prob["scaled"]
+    messages, attempts, infeasible = [], [], []
+    for _ in range(_RESCALES + 1):
+        K_fixed = None if Ks is None else [(K / s.U[:, None]) * s.T for K in Ks]
+        try:
+            return _solve_scaled(prob, s, nK, K_fixed, backoff, solvers)
+        except _Rescale as exc:
+            messages.append(str(exc))
+            attempts.extend(exc.attempts)
+            infeasible.append(exc.infeasible)
+            if exc.W is None:
+                break
+            d = np.sqrt(np.clip(np.diag(exc.W), 1e-12, None))
+            if np.all((d > 0.5) & (d < 2.0)):
+                break  # already scaled to the estimate: rescaling won't help
+            T = s.T * np.array([_pow2(x) for x in d])
+            s = _prescale(
+                prob["As"], prob["Bs"], prob["Es"], s.U, prob["wmax"],
+                prob["R"], prob["V"], T=T, C=prob["C"], beta_min=s.beta_min,
+            )  # fmt: skip
+    tried = "; then with states rescaled: ".join(messages)
+    if all(infeasible):
+        raise InfeasibleError(
+            f"saturation: the LMIs are infeasible [{tried}]", attempts
+        )
+    raise CertificationError(f"saturation: no certified solution [{tried}]", attempts)
+
+
+def _solve_scaled(prob, s, nK, K_fixed, backoff, solvers):
     has_w = bool(prob["iw"])
     lmi = _build(s, nK, K_fixed, has_w, prob["margin"])
     sigma_t = prob["decay"] / s.a
+    chain = default_solvers() if solvers is None else list(solvers)
+    estimate = {}
 
     def objective(v):
         return v.g[0, 0]
-
-    chain = default_solvers() if solvers is None else list(solvers)
 
     def solve_at(lam, use=chain[:1]):
         lmi.set_parameter("c", 2 * sigma_t + (lam if has_w else 0.0))
         if has_w:
             lmi.set_parameter("lam", lam)
         try:
-            sol = lmi.solve(objective, solvers=use)
-        except InfeasibleError:  # includes CertificationError
+            sol = lmi.solve(objective, solvers=use, certify=False)
+        except InfeasibleError as exc:  # includes CertificationError
+            estimate.setdefault("message", str(exc))
+            estimate.setdefault("attempts", list(exc.attempts))
+            certain = not isinstance(exc, CertificationError)
+            estimate["infeasible"] = estimate.get("infeasible", True) and certain
+            return np.inf, None
+        if not sol.certified:
+            estimate["infeasible"] = False
+            estimate["W"] = sol.W
+            estimate["message"] = _summary(sol.attempts)
+            estimate["attempts"] = list(sol.attempts)
             return np.inf, None
         return float(sol.g[0, 0]), sol
 
@@ -701,13 +759,13 @@ def _run(prob, nK, K_fixed, backoff, solvers):
             )
     else:
         lam = 0.0
-        lmi.set_parameter("c", 2 * sigma_t)
-        sol = lmi.solve(objective, solvers=solvers)  # raises with the reason
-        g_opt = float(sol.g[0, 0])
+        g_opt, sol = solve_at(0.0, chain)
     if sol is None:
-        raise CertificationError(
-            "no certified region for any disturbance rate lambda tried "
-            f"({_LAMBDA_GRID[0] * s.a:.3g} .. {_LAMBDA_GRID[-1] * s.a:.3g} 1/s)"
+        raise _Rescale(
+            estimate.get("message", "no point returned"),
+            estimate.get("W"),
+            estimate.get("attempts", []),
+            estimate.get("infeasible", False),
         )
     if s.C is not None:
         beta_opt = None
@@ -717,18 +775,33 @@ def _run(prob, nK, K_fixed, backoff, solvers):
     lmi.set_parameter("c", 2 * sigma_t + lam)
     if has_w:
         lmi.set_parameter("lam", lam)
+    best = sol
     if backoff is not None and K_fixed is None:
         lmi.set_parameter("gmax", g_opt * (1.0 + backoff) ** 2)
         try:
             sol = lmi.solve(lambda v: v.kappa[0, 0], stage="backoff", solvers=solvers)
         except InfeasibleError:
-            pass  # keep the certified optimum
-    return _finish(prob, sol, lam, nK, K_fixed, beta_opt)
+            sol = best  # keep the certified optimum
+    try:
+        return _finish(prob, s, sol, lam, nK, K_fixed, beta_opt)
+    except CertificationError as exc:
+        if sol is best:
+            raise _Rescale(str(exc), sol.W, list(sol.attempts)) from None
+    try:
+        return _finish(prob, s, best, lam, nK, K_fixed, beta_opt)
+    except CertificationError as exc:
+        raise _Rescale(str(exc), best.W, list(best.attempts)) from None
 
 
-def _finish(prob, sol, lam_t, nK, K_fixed, beta_opt):
+def _summary(attempts):
+    return "; ".join(
+        f"{a.solver}: {a.status}" + (f" ({a.message})" if a.message else "")
+        for a in attempts
+    )
+
+
+def _finish(prob, s, sol, lam_t, nK, K_fixed, beta_opt):
     """Unscale and verify in float64, original units."""
-    s = prob["scaled"]
     T, U, a = s.T, s.U, s.a
     Wt = sol.W
     Wti = np.linalg.inv(Wt)
@@ -752,27 +825,28 @@ def _finish(prob, sol, lam_t, nK, K_fixed, beta_opt):
     mu = np.asarray(sol.mu, float).reshape(-1) * a if has_w else np.zeros(0)
     m = len(U)
     checks = [
-        EllipsoidCheck(
-            "P > 0",
-            -float(np.linalg.eigvalsh(P)[0] / np.linalg.norm(P, 2)),
-            -_STRICT_TOL,
-        ),
+        _positive_check("P > 0", P),
         EllipsoidCheck("T > 0", -float(np.min(np.diag(Tm))), 0.0),
     ]
+    nw = len(wmax)
 
-    def M(j, k):
-        Acl = As[j] - Bs[j] @ Ks[k]
-        top = [Acl.T @ P + P @ Acl + c * P, -P @ Bs[j] - Gs[k].T @ Tm]
-        mid = [(-P @ Bs[j] - Gs[k].T @ Tm).T, -2 * Tm]
+    def M(j, k, ab=False):
+        # ab=True: the same expression in absolute values (rounding bound).
+        f = np.abs if ab else (lambda X: X)
+        sg = 1.0 if ab else -1.0
+        Pj, Bj, Kk, Gk = f(P), f(Bs[j]), f(Ks[k]), f(Gs[k])
+        Acl = (f(As[j]) + Bj @ Kk) if ab else (As[j] - Bs[j] @ Ks[k])
+        off = sg * (Pj @ Bj) + sg * (Gk.T @ Tm)
+        top = [Acl.T @ Pj + Pj @ Acl + c * Pj, off]
+        mid = [off.T, 2 * sg * Tm]
         if not has_w:
             return np.block([top, mid])
-        PE = P @ (Es[j] * wmax)
-        nw = len(wmax)
+        PE = Pj @ f(Es[j] * wmax)
         return np.block(
             [
                 top + [PE],
                 mid + [np.zeros((m, nw))],
-                [PE.T, np.zeros((nw, m)), -np.diag(mu)],
+                [PE.T, np.zeros((nw, m)), sg * np.diag(mu)],
             ]
         )
 
@@ -780,23 +854,15 @@ def _finish(prob, sol, lam_t, nK, K_fixed, beta_opt):
     scheduled = nK > 1
     for j, k in _pairs(N, scheduled):
         if not scheduled:
-            checks.append(
-                EllipsoidCheck(
-                    f"sector vertex {j}", _jacobi_max_eig(M(j, 0)), -_STRICT_TOL
-                )
-            )
+            checks.append(_strict_check(f"sector vertex {j}", M(j, 0), M(j, 0, True)))
         elif j == k:
-            checks.append(
-                EllipsoidCheck(
-                    f"sector pair {j},{j}", _jacobi_max_eig(M(j, j)), -_STRICT_TOL
-                )
-            )
+            checks.append(_strict_check(f"sector pair {j},{j}", M(j, j), M(j, j, True)))
         else:
             checks.append(
-                EllipsoidCheck(
+                _strict_check(
                     f"sector pair {j},{k}",
-                    _jacobi_max_eig(M(j, k) + M(k, j)),
-                    -_STRICT_TOL,
+                    M(j, k) + M(k, j),
+                    M(j, k, True) + M(k, j, True),
                 )
             )
     for k in range(nK):
