@@ -257,3 +257,32 @@ def test_output_objective_gives_a_small_invariant_set(plant):
         assert np.max(np.abs(x[0])) <= d.support(C)[0] * (1 + 1e-6)
     with pytest.raises(ValueError, match="output"):
         saturated_state_feedback(plant, "u", 1.0, output=C)
+
+
+def test_two_mass_tracking_model_under_a_torque_limit():
+    # A stiff, badly scaled plant (shaft resonance ~94 rad/s, integral state,
+    # near-uncontrollable vertex): the design must still certify, and the
+    # saturated LPV model must stay in the ellipsoid from its boundary.
+    from ctrl_lpv import twomass
+
+    m = twomass.lpv_model(p_bounds=(-0.95, 0.0), formulation="tracking", integral=True)
+    shape = np.diag(1 / np.array([0.5, 20.0, 0.5, 20.0, 0.2]) ** 2)
+    d = saturated_state_feedback(m, "Tm", 500.0, shape=shape, decay=0.2, backoff=None)
+    assert d.certificate.verified and d.beta > 0
+    K, P = d.gains[0], d.P
+    rng = np.random.default_rng(0)
+    saturated = False
+    for A, B, _, _ in m.vertex_data():
+        b = B[:, m.physical_inputs.index("Tm")]
+        for _ in range(2):
+            x0 = rng.standard_normal(5)
+            x0 /= np.sqrt(x0 @ P @ x0)
+            sol = solve_ivp(
+                lambda t, x, A=A, b=b: A @ x + b * sat(-K @ x, 500.0)[0],
+                (0.0, 3.0), x0, rtol=1e-8, atol=1e-10, method="LSODA",
+            )  # fmt: skip
+            V = np.einsum("it,ij,jt->t", sol.y, P, sol.y)
+            assert np.all(V <= 1.0 + 1e-6)
+            assert np.all(V[sol.t > 2.0] <= np.exp(-2 * 0.2 * 2.0))
+            saturated |= bool(np.any(np.abs(K @ sol.y) > 500.0))
+    assert saturated
