@@ -196,6 +196,19 @@ class SaturatedDesign:
 
         return state_feedback(self, *args, **kwargs)
 
+    def closed_loop_vertices(self) -> tuple[np.ndarray, ...]:
+        """Linear closed loops ``A_j - B_j K_j`` (or the common ``K``).
+
+        For vertex gains the closed loop is quadratic in ``delta``; the
+        matrices ``A_j - B_j K_j`` are its values at the vertices only.
+        """
+        iu = signal_indices(list(self.u), self.system.physical_inputs, "u")
+        out = []
+        for j, (A, B, _, _) in enumerate(self.system.vertex_data()):
+            K = self.gains[j] if self.scheduled else self.gains[0]
+            out.append(A - B[:, iu] @ K)
+        return tuple(out)
+
     def support(self, c) -> np.ndarray:
         """``max |c' x|`` over `ellipsoid`, per row of `c`."""
         return self.ellipsoid.support(c)
