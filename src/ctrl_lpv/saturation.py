@@ -37,7 +37,7 @@ Public names
 ``SaturatedDesign``, ``saturated_state_feedback``, ``saturation_region``::
 
     saturated_state_feedback(sys, u, u_max, *, shape=None, points=None,
-        decay=0.0, w=None, w_max=None, gains="common", backoff=0.2,
+        decay=0.0, w=None, w_max=None, gains="common", backoff=0.1,
         margin=1e-6, solvers=None) -> SaturatedDesign
     saturation_region(sys, gain, u, u_max, *, shape=None, points=None,
         decay=0.0, w=None, w_max=None, margin=1e-6, solvers=None)
@@ -91,6 +91,10 @@ __all__ = ["SaturatedDesign", "saturated_state_feedback", "saturation_region"]
 _W_CAP = 1e3
 # Line search grid of lambda (scaled units) when w is given.
 _LAMBDA_GRID = np.geomspace(1e-3, 4.0, 9)
+# Back-off decay search (scaled units): first trial, limit, bisections.
+_DECAY_START = 1e-3
+_DECAY_MAX = 4.0
+_DECAY_BISECTIONS = 6
 # State rescalings tried after a point misses its certificate.
 _RESCALES = 2
 
@@ -129,7 +133,8 @@ class SaturatedDesign:
         objective was an output size).
     decay : float
         Certified rate ``sigma``: ``V(t) <= V(0) exp(-2 sigma t)`` for ``w =
-        0`` inside `ellipsoid`.
+        0`` inside `ellipsoid` (at least the requested one; the back-off
+        raises it).
     lam : float
         S-procedure rate ``lambda`` of the disturbance (0 without ``w``).
     w : tuple of str
@@ -526,9 +531,12 @@ def saturated_state_feedback(
         One gain for the whole polytope (implementable without knowing the
         parameter), or vertex gains ``K(delta) = sum_j delta_j K_j``.
     backoff : float or None, optional
-        Re-solve with ``beta >= beta* / (1 + backoff)`` (with `output`: the
-        size at most ``(1 + backoff)`` times the optimum) minimising the
-        gain (``||Y_k|| = ||K_k W||``); None for the raw optimum.
+        Keep ``beta >= beta* / (1 + backoff)`` (with `output`: the size at
+        most ``1 + backoff`` times the optimum) and spend the slack: find
+        the largest feasible decay ``sigma_max``, then minimise the gain
+        (``||Y_k|| = ||K_k W||``) at the decay halfway between the requested
+        one and ``sigma_max`` (`SaturatedDesign.decay` is that certified
+        rate). None for the raw optimum at the requested decay.
     margin : float, optional
         Margin of the strict LMIs in scaled units.
     solvers : sequence of (name, options), optional
@@ -788,22 +796,61 @@ def _solve_scaled(prob, s, nK, K_fixed, backoff, solvers):
     lmi.set_parameter("c", 2 * sigma_t + lam)
     if has_w:
         lmi.set_parameter("lam", lam)
-    best = sol
+    best, sigma_use = sol, sigma_t
     if backoff is not None and K_fixed is None:
         lmi.set_parameter("gmax", g_opt * (1.0 + backoff) ** 2)
-        try:
-            sol = lmi.solve(lambda v: v.kappa[0, 0], stage="backoff", solvers=solvers)
-        except InfeasibleError:
-            sol = best  # keep the certified optimum
+        sol, sigma_use = _backoff(lmi, sigma_t, lam, chain)
+        if sol is None:
+            sol, sigma_use = best, sigma_t  # keep the certified optimum
     try:
-        return _finish(prob, s, sol, lam, nK, K_fixed, beta_opt)
+        return _finish(prob, s, sol, lam, nK, K_fixed, beta_opt, sigma_use * s.a)
     except CertificationError as exc:
         if sol is best:
             raise _Rescale(str(exc), sol.W, list(sol.attempts)) from None
     try:
-        return _finish(prob, s, best, lam, nK, K_fixed, beta_opt)
+        return _finish(prob, s, best, lam, nK, K_fixed, beta_opt, sigma_t * s.a)
     except CertificationError as exc:
         raise _Rescale(str(exc), best.W, list(best.attempts)) from None
+
+
+def _backoff(lmi, sigma_t, lam, chain):
+    """Back-off stage: spend the slack on decay, then on the gain.
+
+    With the objective held within the back-off (``g <= gmax``), find the
+    largest decay ``sigma_max`` that stays feasible (doubling, then
+    bisection), and minimise the gain at ``sigma_t + (sigma_max -
+    sigma_t) / 2``: halfway, so that the gain does not blow up at the edge
+    of feasibility, and never below the requested decay (a gain minimised
+    at the requested decay alone drifts to the edge of linear stability
+    when that decay is 0). Returns ``(solution, sigma)`` in scaled units,
+    or ``(None, sigma_t)`` when nothing certified.
+    """
+
+    def at(sigma):
+        lmi.set_parameter("c", 2 * sigma + lam)
+        try:
+            return lmi.solve(
+                lambda v: v.kappa[0, 0], stage="backoff", solvers=chain[:1]
+            )
+        except InfeasibleError:
+            return None
+
+    lo, hi = sigma_t, max(2 * sigma_t, _DECAY_START)
+    if at(lo) is None:
+        return None, sigma_t
+    while hi < _DECAY_MAX and at(hi) is not None:
+        lo, hi = hi, 2 * hi
+    for _ in range(_DECAY_BISECTIONS):
+        mid = 0.5 * (lo + hi)
+        if at(mid) is not None:
+            lo = mid
+        else:
+            hi = mid
+    sigma_use = sigma_t + 0.5 * (lo - sigma_t)
+    sol = at(sigma_use)
+    if sol is None:
+        sigma_use, sol = sigma_t, at(sigma_t)
+    return sol, sigma_use
 
 
 def _summary(attempts):
@@ -813,7 +860,7 @@ def _summary(attempts):
     )
 
 
-def _finish(prob, s, sol, lam_t, nK, K_fixed, beta_opt):
+def _finish(prob, s, sol, lam_t, nK, K_fixed, beta_opt, sigma):
     """Unscale and verify in float64, original units."""
     T, U, a = s.T, s.U, s.a
     Wt = sol.W
@@ -831,7 +878,7 @@ def _finish(prob, s, sol, lam_t, nK, K_fixed, beta_opt):
     Gs = tuple(U[:, None] * G / T for G in Gt)
     Tm = a * np.diag(1.0 / (np.asarray(sol.s, float).reshape(-1) * U**2))
     has_w = bool(prob["iw"])
-    sigma, lam = prob["decay"], lam_t * a
+    lam = lam_t * a
     c = 2 * sigma + lam
     As, Bs, Es = prob["As"], prob["Bs"], prob["Es"]
     wmax = prob["wmax"]
