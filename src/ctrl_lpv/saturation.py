@@ -9,8 +9,8 @@ Plant (polytopic, ``delta(t)`` anywhere in the simplex, possibly varying):
 
 with ``sat_u0(u)_i = sign(u_i) min(|u_i|, u0_i)`` and the dead zone
 ``psi(u) = u - sat(u)``. The generalized sector condition (Tarbouriech,
-Garcia, Gomes da Silva and Queinnec, 2011, Lemma 1.6; Gomes da Silva and
-Tarbouriech, IEEE TAC 50(1), 2005): if ``|((K - G) x)_i| <= u0_i`` then
+Garcia, Gomes da Silva and Queinnec, 2011, chapters 1 and 3; Gomes da
+Silva and Tarbouriech, IEEE TAC 50(1), 2005): if ``|((K - G) x)_i| <= u0_i`` then
 ``psi' T (psi + G x) <= 0`` for every diagonal ``T > 0`` (our sign
 convention ``u = -K x``; the book writes ``u = K x`` and ``-G``). With
 ``W = P^-1``, ``Y = K W``, ``Z = G W`` and ``S = T^-1`` diagonal, the LMIs
@@ -37,26 +37,30 @@ Public names
 ``SaturatedDesign``, ``saturated_state_feedback``, ``saturation_region``::
 
     saturated_state_feedback(sys, u, u_max, *, shape=None, points=None,
-        decay=0.0, w=None, w_max=None, gains="common", backoff=0.1,
-        margin=1e-6, solvers=None) -> SaturatedDesign
+        output=None, beta_min=None, decay=0.0, w=None, w_max=None,
+        gains="common", backoff=0.1, margin=1e-6, solvers=None)
+        -> SaturatedDesign
     saturation_region(sys, gain, u, u_max, *, shape=None, points=None,
-        decay=0.0, w=None, w_max=None, margin=1e-6, solvers=None)
+        output=None, beta_min=None, decay=0.0, w=None, w_max=None,
+        margin=1e-6, solvers=None)
         -> SaturatedDesign            # analysis of a given u = -K x
 
 `SaturatedDesign` has ``.gains`` (``u = -K x``), ``.P``, ``.ellipsoid``
 (``{x'Px <= 1}``), ``.ultimate`` (``{x'Px <= rho}``), ``.beta`` (``beta *
 shape`` lies in the ellipsoid), ``.G``, ``.certificate`` and
 ``.controller()`` (a `ctrl_lpv.state_feedback` I/O system; the saturation
-itself belongs to the plant).
+itself belongs to the plant) and ``.closed_loop_vertices()``.
 
-Numerical policy: the data are prescaled (states by the shape or by
-balancing, inputs by ``u_max``, disturbances by ``w_max``, time by the data
+Numerical policy: the data are prescaled (states by the shape or the
+points, inputs by ``u_max``, disturbances by ``w_max``, time by the data
 norm; powers of two except the input levels), strict LMIs get a margin in
 those units, and the returned point is re-verified in float64 in the
 original units from the final ``K, G, P, T`` (every vertex or vertex pair
-after Jacobi normalisation, every inclusion ratio). A failing point is never
-returned: `CertificationError`; `InfeasibleError` only for a vertex that
-is not stabilizable (PBH) or when every solver reports infeasibility.
+after Jacobi normalisation against a rounding bound, every inclusion
+ratio). A point that misses is retried with the states rescaled from its
+``W``; a failing point is never returned: `CertificationError`;
+`InfeasibleError` only for a vertex that is not stabilizable (PBH) or when
+every solver reports infeasibility.
 """
 
 from __future__ import annotations
