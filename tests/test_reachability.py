@@ -199,3 +199,13 @@ def test_ellipsoid_inclusion():
     big = Ellipsoid(np.diag([1.0, 2.0]))
     assert small.inside(big) and not big.inside(small)
     assert not small.scaled(3.0).inside(big)
+
+
+def test_bound_is_invariant_under_a_change_of_units():
+    A, E = resonator()
+    C = np.array([[1.0, 0.0]])
+    ref = ultimate_bound((A, E), output=C)
+    S = np.diag([1e4, 1e-2])  # other units for both states
+    Si = np.linalg.inv(S)
+    new = ultimate_bound((S @ A @ Si, S @ E), output=C @ Si)
+    assert new.bounds[0] == pytest.approx(ref.bounds[0], rel=1e-3)

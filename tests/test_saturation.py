@@ -292,3 +292,19 @@ def test_two_mass_tracking_model_under_a_torque_limit():
             assert np.all(V[sol.t > 2.0] <= np.exp(-2 * 0.2 * 2.0))
             saturated |= bool(np.any(np.abs(K @ sol.y) > 500.0))
     assert saturated
+
+
+@pytest.mark.parametrize("scale", [1e-3, 1e4])
+def test_region_is_invariant_under_a_change_of_units(plant, scale):
+    # x1 in other units (x1' = scale x1) with the shape transformed alike:
+    # the same physical problem, so the same beta (the prescaling must not
+    # change the answer).
+    S = np.diag([scale, 1.0])
+    Si = np.linalg.inv(S)
+    verts = [
+        (S @ A @ Si, S @ B, C @ Si, D) for A, B, C, D in plant.vertex_data()
+    ]  # fmt: skip
+    other = lpv.PolytopicStateSpace(verts, domain=plant.domain, inputs=["u", "w"])
+    ref = saturated_state_feedback(plant, "u", 1.0, backoff=None)
+    new = saturated_state_feedback(other, "u", 1.0, shape=Si.T @ Si, backoff=None)
+    assert new.beta == pytest.approx(ref.beta, rel=1e-4)

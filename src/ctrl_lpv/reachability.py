@@ -44,6 +44,7 @@ Hurwitz (then no ``P`` exists); otherwise `CertificationError`.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -463,8 +464,13 @@ def _gramian_scaling(As, Es) -> np.ndarray:
     diag = np.zeros(As[0].shape[0])
     for A, E in zip(As, Es):
         try:
-            X = sla.solve_continuous_lyapunov(A, -E @ E.T)
+            with warnings.catch_warnings():
+                # Only a scaling heuristic: an inaccurate Gramian is harmless.
+                warnings.simplefilter("ignore", RuntimeWarning)
+                X = sla.solve_continuous_lyapunov(A, -E @ E.T)
         except (np.linalg.LinAlgError, ValueError):
+            continue
+        if not np.all(np.isfinite(X)):
             continue
         diag = np.maximum(diag, np.abs(np.diag(X)))
     s = np.sqrt(diag)
