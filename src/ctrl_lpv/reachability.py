@@ -502,7 +502,9 @@ def ultimate_bound(
         ``delta(t)`` may vary arbitrarily in time (a common ``P``).
     w : str, int or list, optional
         The peak-bounded inputs (default all inputs). Other inputs are
-        taken as zero.
+        taken as zero. The bound holds pointwise in time, so ``w`` may be
+        any signal within it, also a function of the state (a bounded
+        nonlinearity).
     w_max : float or array_like, optional
         Peak bounds ``|w_i(t)| <= w_max_i`` (one per input, or a scalar).
     output : str, int, list or array_like, optional
