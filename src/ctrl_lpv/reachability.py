@@ -193,7 +193,7 @@ class EllipsoidCertificate:
 
 @dataclass(frozen=True)
 class UltimateBound:
-    """Certified invariant, attractive ellipsoid for peak-bounded inputs.
+    """Certified invariant ellipsoid for peak-bounded inputs.
 
     Attributes
     ----------
@@ -492,7 +492,7 @@ def ultimate_bound(
     margin: float = 1e-6,
     solvers=None,
 ) -> UltimateBound:
-    """Invariant attractive ellipsoid and output bounds for ``|w_i| <= w_max_i``.
+    """Ultimate bound for inputs with ``|w_i(t)| <= w_max_i``.
 
     Parameters
     ----------

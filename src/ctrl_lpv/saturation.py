@@ -493,7 +493,7 @@ def saturated_state_feedback(
     margin: float = 1e-6,
     solvers=None,
 ) -> SaturatedDesign:
-    """State feedback with the largest certified region under saturation.
+    """State feedback with a certified region under saturation.
 
     Maximises ``beta`` such that ``beta * shape`` (the ellipsoid ``{x :
     x' R x <= 1}`` of ``R = shape``, or the points ``beta * v_k``) lies in
@@ -600,7 +600,7 @@ def saturation_region(
     margin: float = 1e-6,
     solvers=None,
 ) -> SaturatedDesign:
-    """Certified region of attraction of ``u = -K x`` under saturation.
+    """Certified region of ``u = -K x`` under input saturation.
 
     The analysis counterpart of `saturated_state_feedback`: the gain is
     given, and the largest ``beta`` with ``beta * shape`` inside a
