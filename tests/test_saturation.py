@@ -308,3 +308,29 @@ def test_region_is_invariant_under_a_change_of_units(plant, scale):
     ref = saturated_state_feedback(plant, "u", 1.0, backoff=None)
     new = saturated_state_feedback(other, "u", 1.0, shape=Si.T @ Si, backoff=None)
     assert new.beta == pytest.approx(ref.beta, rel=1e-4)
+
+
+def test_two_inputs_with_different_levels():
+    A1 = np.array([[0.5, 1.0, 0.0], [0.0, 0.2, 1.0], [0.0, 0.0, -1.0]])
+    A2 = A1 + np.diag([0.3, 0.0, 0.0])
+    B = np.array([[1.0, 0.0], [0.0, 0.5], [0.3, 1.0]])
+    sys = lpv.pss(
+        [ct.ss(A, B, np.eye(3), 0) for A in (A1, A2)], {"p": (0, 1)},
+        inputs=["u1", "u2"],
+    )  # fmt: skip
+    u0 = np.array([1.0, 2.0])
+    d = saturated_state_feedback(sys, ["u1", "u2"], u0)
+    assert d.u == ("u1", "u2") and d.gains[0].shape == (2, 3)
+    K, P = d.gains[0], d.P
+    rng = np.random.default_rng(1)
+    for A in (A1, A2):
+        for _ in range(3):
+            x0 = rng.standard_normal(3)
+            x0 /= np.sqrt(x0 @ P @ x0)
+            sol = solve_ivp(
+                lambda t, x, A=A: A @ x + B @ sat(-K @ x, u0), (0.0, 15.0), x0,
+                rtol=1e-8, atol=1e-11,
+            )  # fmt: skip
+            V = np.einsum("it,ij,jt->t", sol.y, P, sol.y)
+            assert np.all(V <= 1.0 + 1e-6)
+            assert np.all(V <= np.exp(-2 * d.decay * sol.t) * (1 + 1e-6))
