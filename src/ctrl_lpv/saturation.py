@@ -1,0 +1,984 @@
+"""State feedback under actuator saturation with a certified region.
+
+Plant (polytopic, ``delta(t)`` anywhere in the simplex, possibly varying):
+
+.. math::
+
+    \\dot x = A(\\delta) x + B(\\delta) \\operatorname{sat}_{u_0}(u)
+    + E(\\delta) w, \\qquad u = -K x, \\qquad |w_i| \\le w_{max,i},
+
+with ``sat_u0(u)_i = sign(u_i) min(|u_i|, u0_i)`` and the dead zone
+``psi(u) = u - sat(u)``. The generalized sector condition (Tarbouriech,
+Garcia, Gomes da Silva and Queinnec, 2011, chapters 1 and 3; Gomes da
+Silva and Tarbouriech, IEEE TAC 50(1), 2005): if ``|((K - G) x)_i| <= u0_i`` then
+``psi' T (psi + G x) <= 0`` for every diagonal ``T > 0`` (our sign
+convention ``u = -K x``; the book writes ``u = K x`` and ``-G``). With
+``W = P^-1``, ``Y = K W``, ``Z = G W`` and ``S = T^-1`` diagonal, the LMIs
+
+.. math::
+
+    \\begin{bmatrix}
+    A_j W - B_j Y + (\\cdot)' + (2\\sigma + \\lambda) W & -B_j S - Z' & E_j D \\\\
+    \\cdot & -2 S & 0 \\\\ \\cdot & \\cdot & -\\operatorname{diag}(\\mu)
+    \\end{bmatrix} \\prec 0, \\quad
+    \\begin{bmatrix} W & (Y_i - Z_i)' \\\\ \\cdot & u_{0,i}^2 \\end{bmatrix}
+    \\succ 0, \\quad \\textstyle\\sum_i \\mu_i < \\lambda
+
+(``D = diag(w_max)``; without ``w`` the last row and column, ``lambda`` and
+``mu`` are dropped) prove that on ``E = {x : x' P x <= 1}`` every trajectory
+obeys ``dV/dt <= -(2 sigma + lambda) (V - rho)``, ``rho = sum(mu) / (2 sigma
++ lambda) < 1``: ``E`` is invariant for every admissible ``w`` and
+``delta(t)``, trajectories end in ``{V <= rho}``, and with ``w = 0`` ``E``
+lies in the region of attraction with ``V`` decaying at least as
+``exp(-2 sigma t)``.
+
+Public names
+------------
+``SaturatedDesign``, ``saturated_state_feedback``, ``saturation_region``::
+
+    saturated_state_feedback(sys, u, u_max, *, shape=None, points=None,
+        output=None, beta_min=None, decay=0.0, w=None, w_max=None,
+        gains="common", backoff=0.1, margin=1e-6, solvers=None)
+        -> SaturatedDesign
+    saturation_region(sys, gain, u, u_max, *, shape=None, points=None,
+        output=None, beta_min=None, decay=0.0, w=None, w_max=None,
+        margin=1e-6, solvers=None)
+        -> SaturatedDesign            # analysis of a given u = -K x
+
+`SaturatedDesign` has ``.gains`` (``u = -K x``), ``.P``, ``.ellipsoid``
+(``{x'Px <= 1}``), ``.ultimate`` (``{x'Px <= rho}``), ``.beta`` (``beta *
+shape`` lies in the ellipsoid), ``.G``, ``.certificate`` and
+``.controller()`` (a `ctrl_lpv.state_feedback` I/O system; the saturation
+itself belongs to the plant) and ``.closed_loop_vertices()``.
+
+Numerical policy: the data are prescaled (states by the shape or the
+points, inputs by ``u_max``, disturbances by ``w_max``, time by the data
+norm; powers of two except the input levels), strict LMIs get a margin in
+those units, and the returned point is re-verified in float64 in the
+original units from the final ``K, G, P, T`` (every vertex or vertex pair
+after Jacobi normalisation against a rounding bound, every inclusion
+ratio). A point that misses is retried with the states rescaled from its
+``W``; a failing point is never returned: `CertificationError`;
+`InfeasibleError` only for a vertex that is not stabilizable (PBH) or when
+every solver reports infeasibility.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.linalg import eigh
+
+from ._checks import as_matrix, signal_indices
+from .exceptions import CertificationError, InfeasibleError
+from .lmi import LMIProblem, SolveAttempt, default_solvers
+from .reachability import (
+    Ellipsoid,
+    EllipsoidCertificate,
+    EllipsoidCheck,
+    _line_search,
+    _positive_check,
+    _pow2,
+    _quad_rows,
+    _strict_check,
+    _xp_diag,
+    _xp_sum,
+)
+from .systems import PolytopicStateSpace
+
+__all__ = ["SaturatedDesign", "saturated_state_feedback", "saturation_region"]
+
+# Bound W~ <= _W_CAP I in scaled units: keeps a region that could be
+# unbounded (a stable plant) finite; `SaturatedDesign.capped` reports it.
+_W_CAP = 1e3
+# Line search grid of lambda (scaled units) when w is given.
+_LAMBDA_GRID = np.geomspace(1e-3, 4.0, 9)
+# Back-off decay search (scaled units): first trial, limit, bisections.
+_DECAY_START = 1e-3
+_DECAY_MAX = 4.0
+_DECAY_BISECTIONS = 6
+# State rescalings tried after a point misses its certificate.
+_RESCALES = 2
+
+
+@dataclass(frozen=True)
+class SaturatedDesign:
+    """Certified state feedback (or analysis) under input saturation.
+
+    Attributes
+    ----------
+    system : `PolytopicStateSpace`
+        The plant model.
+    u : tuple of str
+        Saturated control inputs.
+    u_max : ndarray
+        Saturation levels ``|sat(u)_i| <= u_max_i``.
+    gains : tuple of ndarray
+        ``m x n`` gains of ``u = -K x``: one common gain or one per vertex.
+    G : tuple of ndarray
+        Gains of the generalized sector condition (one per gain).
+    P : ndarray
+        Lyapunov matrix (original units).
+    ellipsoid : `Ellipsoid`
+        ``{x : x' P x <= 1}``: invariant for every admissible ``w`` and
+        ``delta(t)``, inside the region of attraction for ``w = 0``.
+    ultimate : `Ellipsoid` or None
+        ``{x : x' P x <= rho}``, where trajectories end up (None without
+        ``w``).
+    rho : float
+        Level of `ultimate` (0 without ``w``).
+    beta : float
+        Largest factor with ``beta * shape`` inside `ellipsoid` (for
+        `points`: every ``beta * v_k`` inside).
+    beta_opt : float or None
+        The solver's optimum before back-off (an estimate; None when the
+        objective was an output size).
+    decay : float
+        Certified rate ``sigma``: ``V(t) <= V(0) exp(-2 sigma t)`` for ``w =
+        0`` inside `ellipsoid` (at least the requested one; the back-off
+        raises it).
+    lam : float
+        S-procedure rate ``lambda`` of the disturbance (0 without ``w``).
+    w : tuple of str
+        Peak-bounded disturbance inputs.
+    w_max : ndarray
+        Their bounds.
+    certificate : `ctrl_lpv.reachability.EllipsoidCertificate`
+        Float64 checks in original units.
+    capped : bool
+        Whether the ellipsoid touched the internal size cap (the true
+        certified region may then be larger than stated).
+    designed : bool
+        False for an analysis (`saturation_region`) of a given gain.
+    attempts : tuple of `ctrl_lpv.lmi.SolveAttempt`
+        Solver attempts of the final solve.
+    """
+
+    system: PolytopicStateSpace
+    u: tuple[str, ...]
+    u_max: np.ndarray
+    gains: tuple[np.ndarray, ...]
+    G: tuple[np.ndarray, ...]
+    P: np.ndarray
+    ellipsoid: Ellipsoid
+    ultimate: Ellipsoid | None
+    rho: float
+    beta: float
+    beta_opt: float | None
+    decay: float
+    lam: float
+    w: tuple[str, ...]
+    w_max: np.ndarray
+    certificate: EllipsoidCertificate
+    capped: bool = False
+    designed: bool = True
+    attempts: tuple[SolveAttempt, ...] = field(default_factory=tuple)
+
+    @property
+    def scheduled(self) -> bool:
+        """Whether the design has one gain per vertex."""
+        return len(self.gains) > 1
+
+    @property
+    def states(self) -> tuple[str, ...]:
+        """State labels (the measured signals of the controller)."""
+        return tuple(self.system.state_labels)
+
+    def gain(self, p=None) -> np.ndarray:
+        """Gain ``K(delta(p))`` (``p`` ignored for a common gain)."""
+        if not self.scheduled:
+            return self.gains[0].copy()
+        if p is None:
+            raise ValueError("p: a scheduled design needs the parameter value")
+        return np.tensordot(self.system.weights(p), np.stack(self.gains), axes=1)
+
+    def controller(self, *args, **kwargs):
+        """Controller ``u = -K x`` as a python-control I/O system.
+
+        See `ctrl_lpv.controllers.state_feedback` for the arguments. Its
+        output is not clipped: the saturation ``sat_u0`` is the plant's (or a
+        saturation block placed before the plant input).
+        """
+        from .controllers import state_feedback
+
+        return state_feedback(self, *args, **kwargs)
+
+    def closed_loop_vertices(self) -> tuple[np.ndarray, ...]:
+        """Linear closed loops ``A_j - B_j K_j`` (or the common ``K``).
+
+        For vertex gains the closed loop is quadratic in ``delta``; the
+        matrices ``A_j - B_j K_j`` are its values at the vertices only.
+        """
+        iu = signal_indices(list(self.u), self.system.physical_inputs, "u")
+        out = []
+        for j, (A, B, _, _) in enumerate(self.system.vertex_data()):
+            K = self.gains[j] if self.scheduled else self.gains[0]
+            out.append(A - B[:, iu] @ K)
+        return tuple(out)
+
+    def support(self, c) -> np.ndarray:
+        """``max |c' x|`` over `ellipsoid`, per row of `c`."""
+        return self.ellipsoid.support(c)
+
+    def __str__(self) -> str:
+        kind = "design" if self.designed else "analysis"
+        lines = [
+            f"SaturatedDesign ({kind}, "
+            f"{'vertex gains' if self.scheduled else 'common gain'}, u = -K x, "
+            f"|u| <= {np.array2string(self.u_max, precision=4)})",
+            f"  region: x'Px <= 1 contains beta * shape, beta = {self.beta:.5g}"
+            + (" (size cap reached)" if self.capped else ""),
+            f"  decay sigma = {self.decay:.4g} 1/s",
+        ]
+        if self.w:
+            lines.append(
+                f"  w = {list(self.w)} with |w| <= {self.w_max}: invariant, "
+                f"ultimate level rho = {self.rho:.4g} (lambda = {self.lam:.4g})"
+            )
+        with np.printoptions(precision=5, linewidth=100):
+            for j, K in enumerate(self.gains):
+                label = f"K[{j}]" if self.scheduled else "K"
+                lines.append(f"  {label} = {np.array2string(K, prefix='  K = ')}")
+        lines.append(f"  certificate: {self.certificate}")
+        return "\n".join(lines)
+
+
+# ----------------------------------------------------------------------
+# Argument handling and prescaling
+# ----------------------------------------------------------------------
+def _positive_vector(value, size, name):
+    arr = np.asarray(value, float)
+    if arr.ndim == 0:
+        arr = np.full(size, float(arr))
+    arr = arr.reshape(-1)
+    if arr.shape != (size,) or not np.all(np.isfinite(arr)) or np.any(arr <= 0):
+        raise ValueError(
+            f"{name}: expected {size} positive finite values, got {value!r}"
+        )
+    return arr
+
+
+def _region_target(shape, points, n):
+    if shape is not None and points is not None:
+        raise ValueError("shape, points: give one of them, not both")
+    if points is not None:
+        V = as_matrix(points, "points")
+        if V.shape[1] != n:
+            if V.shape[0] == n:
+                V = V.T
+            else:
+                raise ValueError(f"points: expected rows of {n} entries, got {V.shape}")
+        if np.any(np.all(V == 0, axis=1)):
+            raise ValueError("points: a point is zero")
+        return None, V
+    R = np.eye(n) if shape is None else as_matrix(shape, "shape", (n, n))
+    R = 0.5 * (R + R.T)
+    if np.linalg.eigvalsh(R)[0] <= 0:
+        raise ValueError("shape: must be a symmetric positive definite matrix")
+    return R, None
+
+
+@dataclass(frozen=True)
+class _Scaled:
+    T: np.ndarray  # x = T x~
+    U: np.ndarray  # u = U u~ (U = u_max)
+    a: float  # tau = a t
+    A: list
+    B: list
+    E: list
+    R: np.ndarray | None
+    V: np.ndarray | None
+    C: np.ndarray | None = None  # output rows (scaled) for objective "output"
+    beta_min: float | None = None  # region kept with the output objective
+
+
+def _prescale(As, Bs, Es, u_max, w_max, R, V, T=None, C=None, beta_min=None):
+    n = As[0].shape[0]
+    if T is not None:
+        T = np.asarray(T, float)
+    elif R is not None:
+        T = np.array([_pow2(1.0 / np.sqrt(R[i, i])) for i in range(n)])
+    else:
+        T = np.array([_pow2(np.abs(V[:, i]).max()) for i in range(n)])
+    At = [A * T / T[:, None] for A in As]
+    Bt = [B * u_max / T[:, None] for B in Bs]
+    a = _pow2(max(np.linalg.norm(np.hstack([A, B]), 2) for A, B in zip(At, Bt)))
+    Et = [E * w_max / T[:, None] / a for E in Es] if Es else []
+    Rt = None if R is None else T[:, None] * R * T
+    Vt = None if V is None else V / T
+    Ct = None if C is None else C * T
+    return _Scaled(
+        T, u_max, a, [A / a for A in At], [B / a for B in Bt], Et, Rt, Vt, Ct, beta_min
+    )
+
+
+def _output_rows(sys, output):
+    """Rows ``C`` of the outputs to keep small: names/indices or a matrix."""
+    labels = tuple(sys.output_labels)
+    names = isinstance(output, (str, int, np.integer)) or (
+        isinstance(output, (list, tuple))
+        and all(isinstance(o, (str, int, np.integer)) for o in output)
+    )
+    if names:
+        iy = signal_indices(output, labels, "output")
+        Cs = [d[2][iy] for d in sys.vertex_data()]
+        if any(not np.allclose(C, Cs[0]) for C in Cs[1:]):
+            raise ValueError("output: the rows differ between vertices; pass a matrix")
+        return Cs[0]
+    return as_matrix(output, "output")
+
+
+def _pairs(N, scheduled):
+    if not scheduled:
+        return [(j, 0) for j in range(N)]
+    return [(j, j) for j in range(N)] + list(itertools.combinations(range(N), 2))
+
+
+# ----------------------------------------------------------------------
+# LMI problem
+# ----------------------------------------------------------------------
+def _build(s: _Scaled, nK, K_fixed, has_w, margin):
+    """The LMI problem in scaled units; ``K_fixed`` scaled gains or None."""
+    n, m = s.A[0].shape[0], s.B[0].shape[1]
+    nw = s.E[0].shape[1] if has_w else 0
+    N = len(s.A)
+    scheduled = nK > 1
+    lmi = LMIProblem(margin=margin)
+    lmi.variable("W", (n, n), symmetric=True)
+    lmi.variable("s", (m,))
+    for k in range(nK):
+        if K_fixed is None:
+            lmi.variable(f"Y{k}", (m, n))
+        lmi.variable(f"Z{k}", (m, n))
+    lmi.variable("g", (1, 1))
+    lmi.parameter("c", (), value=0.0, nonneg=True)  # 2 sigma + lambda (scaled)
+    if has_w:
+        lmi.variable("mu", (nw,))
+        lmi.parameter("lam", (), value=0.1, nonneg=True)
+    lmi.parameter("gmax", (), value=1.0, nonneg=True)  # back-off stage bound
+    lmi.variable("kappa", (1, 1))
+
+    def Y(v, k):
+        return (K_fixed[k] @ v.W) if K_fixed is not None else getattr(v, f"Y{k}")
+
+    def Z(v, k):
+        return getattr(v, f"Z{k}")
+
+    def sector(v, j, k):
+        A, B = s.A[j], s.B[j]
+        S = _xp_diag(v.s)
+        d = A @ v.W - B @ Y(v, k)
+        rows = [[d + d.T + v.c * v.W], [-(S @ B.T) - Z(v, k), -2 * S]]
+        if has_w:
+            rows.append([s.E[j].T, np.zeros((nw, m)), -_xp_diag(v.mu)])
+        return rows
+
+    lmi.add("W > 0", lambda v: [[-v.W]])
+    lmi.add("S > 0", lambda v: [[-_xp_diag(v.s)]])
+    lmi.add("W <= cap", lambda v: [[v.W - _W_CAP * np.eye(n)]], strict=False)
+    for j, k in _pairs(N, scheduled):
+        if j == k or not scheduled:
+
+            def blocks(v, j=j, k=k):
+                return sector(v, j, k)
+
+            name = f"sector vertex {j}" if not scheduled else f"sector pair {j},{j}"
+        else:
+
+            def blocks(v, j=j, k=k):
+                M1, M2 = sector(v, j, k), sector(v, k, j)
+                return [
+                    [
+                        M1[r][c] + M2[r][c] if not _is_zero(M1[r][c]) else 0
+                        for c in range(r + 1)
+                    ]
+                    for r in range(len(M1))
+                ]
+
+            name = f"sector pair {j},{k}"
+        lmi.add(name, blocks)
+    for k in range(nK):
+        for i in range(m):
+
+            def incl(v, k=k, i=i):
+                r = Y(v, k)[i : i + 1, :] - Z(v, k)[i : i + 1, :]
+                return [[-v.W], [-r, -np.eye(1)]]
+
+            lmi.add(f"inclusion gain {k} input {i}", incl)
+    if has_w:
+        lmi.add("sum(mu) < lambda", lambda v: [[_xp_sum(v.mu) - v.lam * np.eye(1)]])
+    # Objective g: the region (beta^2 = 1 / g) or the size along outputs.
+    if s.C is not None:
+        rows = s.C[np.einsum("ij,ij->i", s.C, s.C) > 0]
+        weight = 1.0 / np.einsum("ij,ij->i", rows, rows)
+        lmi.add(
+            "output size <= g",
+            lambda v: [
+                [
+                    _xp_diag(weight) @ _quad_rows(rows, v.W)
+                    - v.g[0, 0] * np.eye(len(weight))
+                ]
+            ],
+            strict=False,
+        )
+    if s.C is None or s.beta_min is not None:
+        # beta^2 = 1 / g, or the fixed requirement 1 / beta_min^2.
+        if s.C is None:
+
+            def gval(v):
+                return v.g[0, 0]
+        else:
+            gfix = 1.0 / s.beta_min**2
+
+            def gval(v):
+                return gfix
+
+        if s.R is not None:
+            Rt = s.R
+            lmi.add(
+                "g * shape contains",
+                lambda v: [[-gval(v) * Rt], [-np.eye(n), -v.W]],
+                strict=False,
+            )
+        else:
+            for q, vq in enumerate(s.V):
+                lmi.add(
+                    f"point {q} inside",
+                    lambda v, vq=vq: [
+                        [-gval(v) * np.eye(1)],
+                        [-vq.reshape(n, 1), -v.W],
+                    ],
+                    strict=False,
+                )
+    lmi.add(
+        "g <= gmax",
+        lambda v: [[v.g - v.gmax * np.eye(1)]],
+        strict=False,
+        stages=["backoff"],
+    )
+    if K_fixed is None:
+        for k in range(nK):
+            lmi.add(
+                f"|Y{k}| <= kappa",
+                lambda v, k=k: [[-v.kappa[0, 0] * np.eye(n)], [Y(v, k), -np.eye(m)]],
+                strict=False,
+                stages=["backoff"],
+            )
+    return lmi
+
+
+def _is_zero(x):
+    return isinstance(x, (int, float)) and x == 0
+
+
+# ----------------------------------------------------------------------
+# Public functions
+# ----------------------------------------------------------------------
+def saturated_state_feedback(
+    sys: PolytopicStateSpace,
+    u,
+    u_max,
+    *,
+    shape=None,
+    points=None,
+    output=None,
+    beta_min: float | None = None,
+    decay: float = 0.0,
+    w=None,
+    w_max=None,
+    gains: str = "common",
+    backoff: float | None = 0.1,
+    margin: float = 1e-6,
+    solvers=None,
+) -> SaturatedDesign:
+    """State feedback with a certified region under saturation.
+
+    Maximises ``beta`` such that ``beta * shape`` (the ellipsoid ``{x :
+    x' R x <= 1}`` of ``R = shape``, or the points ``beta * v_k``) lies in
+    an ellipsoid ``{x' P x <= 1}`` that is contractive for the saturated
+    closed loop at every vertex (generalized sector condition; see the
+    module docstring), then backs off.
+
+    Parameters
+    ----------
+    sys : `PolytopicStateSpace`
+        Plant; all states are measured.
+    u : str, int or list
+        Saturated control inputs.
+    u_max : float or array_like
+        Saturation levels, one per control input.
+    shape : array_like, optional
+        ``n x n`` positive definite ``R`` of the reference set ``{x' R x <=
+        1}`` (default the identity: a ball in the model's units).
+    points : array_like, optional
+        Instead of `shape`: rows ``v_k`` (directions) that must be inside.
+    output : str, int, list or array_like, optional
+        Instead of the largest region: the smallest invariant ellipsoid
+        along these outputs (names or indices of ``sys``'s outputs, or rows
+        ``C`` on the state), minimising ``max_i c_i' P^-1 c_i / ||c_i||^2``.
+        Needs `w`: it is the ultimate bound under saturation, certified for
+        trajectories that start inside it. `beta` is still reported.
+    beta_min : float, optional
+        With `output`: keep ``beta_min * shape`` (or the points) inside the
+        ellipsoid, so that it is also a region for the initial states.
+    decay : float, optional
+        Required rate ``sigma >= 0``: ``V`` decays at least as ``exp(-2
+        sigma t)`` inside the region (``w = 0``).
+    w : str, int or list, optional
+        Peak-bounded disturbance inputs (the region is then also invariant
+        for every ``|w_i(t)| <= w_max_i``).
+    w_max : float or array_like, optional
+        Their bounds (required with `w`).
+    gains : {"common", "scheduled"}, optional
+        One gain for the whole polytope (implementable without knowing the
+        parameter), or vertex gains ``K(delta) = sum_j delta_j K_j``.
+    backoff : float or None, optional
+        Keep ``beta >= beta* / (1 + backoff)`` (with `output`: the size at
+        most ``1 + backoff`` times the optimum) and spend the slack: find
+        the largest feasible decay ``sigma_max``, then minimise the gain
+        (``||Y_k|| = ||K_k W||``) at the decay halfway between the requested
+        one and ``sigma_max`` (`SaturatedDesign.decay` is that certified
+        rate). None for the raw optimum at the requested decay.
+    margin : float, optional
+        Margin of the strict LMIs in scaled units.
+    solvers : sequence of (name, options), optional
+        As in `ctrl_lpv.lmi.LMIProblem.solve`.
+
+    Returns
+    -------
+    `SaturatedDesign`
+
+    Raises
+    ------
+    InfeasibleError
+        A vertex is not stabilizable from `u`, or the solvers report the
+        LMIs infeasible.
+    CertificationError
+        No returned point passed the float64 checks.
+    ValueError, TypeError
+        For bad arguments.
+
+    Examples
+    --------
+    >>> import control as ct
+    >>> plant = PolytopicStateSpace([ct.ss([[1.0]], [[1.0]], [[1.0]], 0)])
+    >>> d = saturated_state_feedback(plant, u=0, u_max=1.0)
+    >>> 0.9 < d.beta < 1.0    # true region of attraction: |x| < 1
+    True
+    """
+    if gains not in ("common", "scheduled"):
+        raise ValueError(f"gains: expected 'common' or 'scheduled', got {gains!r}")
+    if backoff is not None and not (np.isfinite(backoff) and backoff >= 0):
+        raise ValueError(
+            f"backoff: must be None or a nonnegative number, got {backoff}"
+        )
+    from .synthesis import check_stabilizability
+
+    prob = _setup(
+        sys, u, u_max, shape, points, output, beta_min, decay, w, w_max, margin
+    )
+    check_stabilizability(sys, prob["iu"])
+    nK = sys.nvertices if gains == "scheduled" and sys.nvertices > 1 else 1
+    return _run(prob, nK, None, backoff, solvers)
+
+
+def saturation_region(
+    sys: PolytopicStateSpace,
+    gain,
+    u,
+    u_max,
+    *,
+    shape=None,
+    points=None,
+    output=None,
+    beta_min: float | None = None,
+    decay: float = 0.0,
+    w=None,
+    w_max=None,
+    margin: float = 1e-6,
+    solvers=None,
+) -> SaturatedDesign:
+    """Certified region of ``u = -K x`` under input saturation.
+
+    The analysis counterpart of `saturated_state_feedback`: the gain is
+    given, and the largest ``beta`` with ``beta * shape`` inside a
+    contractive ellipsoid of the saturated polytopic closed loop is found.
+
+    Parameters
+    ----------
+    sys : `PolytopicStateSpace`
+        Plant.
+    gain : array_like or sequence of array_like
+        ``m x n`` gain of ``u = -K x``, or one per vertex (scheduled).
+    u, u_max, shape, points, output, beta_min, decay, w, w_max, margin, solvers
+        As in `saturated_state_feedback`.
+
+    Returns
+    -------
+    `SaturatedDesign`
+        With ``designed=False``.
+
+    Raises
+    ------
+    InfeasibleError
+        If the solvers report the LMIs infeasible (e.g. a vertex of the
+        linear closed loop is not stable).
+    CertificationError
+        No returned point passed the float64 checks.
+    ValueError, TypeError
+        For bad arguments.
+    """
+    prob = _setup(
+        sys, u, u_max, shape, points, output, beta_min, decay, w, w_max, margin
+    )
+    n, m = sys.nstates, len(prob["iu"])
+    Ks = [gain] if np.ndim(gain) == 2 or np.ndim(gain) < 2 else list(gain)
+    Ks = [as_matrix(K, f"gain[{k}]", (m, n)) for k, K in enumerate(Ks)]
+    if len(Ks) not in (1, sys.nvertices):
+        raise ValueError(
+            f"gain: expected one gain or {sys.nvertices} vertex gains, got {len(Ks)}"
+        )
+    return _run(prob, len(Ks), Ks, None, solvers)
+
+
+def _setup(sys, u, u_max, shape, points, output, beta_min, decay, w, w_max, margin):
+    if not isinstance(sys, PolytopicStateSpace):
+        raise TypeError(
+            f"sys: expected a PolytopicStateSpace, got {type(sys).__name__}; wrap an "
+            "LTI system as PolytopicStateSpace([sys])"
+        )
+    inputs = sys.physical_inputs
+    if u is None:
+        raise ValueError("u: name the saturated control input(s)")
+    iu = signal_indices(u, inputs, "u")
+    if not iu:
+        raise ValueError("u: at least one control input is required")
+    iw = signal_indices(w, inputs, "w") if w is not None else []
+    if set(iw) & set(iu):
+        raise ValueError("w, u: an input cannot be both a disturbance and a control")
+    umax = _positive_vector(u_max, len(iu), "u_max")
+    if iw:
+        if w_max is None:
+            raise ValueError("w_max: required with w")
+        wmax = _positive_vector(w_max, len(iw), "w_max")
+    else:
+        if w_max is not None:
+            raise ValueError("w_max: given without w")
+        wmax = np.zeros(0)
+    if not (np.isfinite(decay) and decay >= 0):
+        raise ValueError(f"decay: must be a nonnegative number, got {decay}")
+    if not (np.isfinite(margin) and 0 < margin < 1):
+        raise ValueError(f"margin: must be in (0, 1), got {margin}")
+    n = sys.nstates
+    R, V = _region_target(shape, points, n)
+    data = sys.vertex_data()
+    As = [d[0] for d in data]
+    Bs = [d[1][:, iu] for d in data]
+    Es = [d[1][:, iw] for d in data] if iw else []
+    C = None
+    if beta_min is not None:
+        if output is None:
+            raise ValueError("beta_min: only with output (the region is maximised)")
+        if not (np.isfinite(beta_min) and beta_min > 0):
+            raise ValueError(f"beta_min: must be a positive number, got {beta_min}")
+    if output is not None and not iw:
+        raise ValueError(
+            "output: minimising the size needs a disturbance w (without one the "
+            "invariant ellipsoid shrinks to the origin)"
+        )
+    if output is not None:
+        C = _output_rows(sys, output)
+        if C.shape[1] != n or not np.any(C != 0):
+            raise ValueError(f"output: expected nonzero rows of {n} entries")
+    scaled = _prescale(As, Bs, Es, umax, wmax, R, V, C=C, beta_min=beta_min)
+    return dict(
+        sys=sys, iu=iu, iw=iw, umax=umax, wmax=wmax, decay=float(decay), R=R, V=V,
+        As=As, Bs=Bs, Es=Es, scaled=scaled, margin=margin, C=C,
+    )  # fmt: skip
+
+
+class _Rescale(Exception):
+    """A scaled problem gave no certified point; carries the estimate's W~."""
+
+    def __init__(self, message, W, attempts, infeasible=False):
+        super().__init__(message)
+        self.W = W
+        self.attempts = attempts
+        self.infeasible = infeasible
+
+
+def _run(prob, nK, Ks, backoff, solvers):
+    """Solve, re-scaling the states from the last estimate when it fails.
+
+    A point that misses its certificate usually has a badly conditioned
+    ``W~`` (a region much longer along some states than the prescaling
+    guessed); the next try scales the states by ``sqrt(diag(W~))`` (powers
+    of two), so that the margin is relative to the region's own size.
+    """
+    s = prob["scaled"]
+    messages, attempts, infeasible = [], [], []
+    for _ in range(_RESCALES + 1):
+        K_fixed = None if Ks is None else [(K / s.U[:, None]) * s.T for K in Ks]
+        try:
+            return _solve_scaled(prob, s, nK, K_fixed, backoff, solvers)
+        except _Rescale as exc:
+            messages.append(str(exc))
+            attempts.extend(exc.attempts)
+            infeasible.append(exc.infeasible)
+            if exc.W is None:
+                break
+            d = np.sqrt(np.clip(np.diag(exc.W), 1e-12, None))
+            if np.all((d > 0.5) & (d < 2.0)):
+                break  # already scaled to the estimate: rescaling won't help
+            T = s.T * np.array([_pow2(x) for x in d])
+            s = _prescale(
+                prob["As"], prob["Bs"], prob["Es"], s.U, prob["wmax"],
+                prob["R"], prob["V"], T=T, C=prob["C"], beta_min=s.beta_min,
+            )  # fmt: skip
+    tried = "; then with states rescaled: ".join(messages)
+    if all(infeasible):
+        raise InfeasibleError(
+            f"saturation: the LMIs are infeasible [{tried}]", attempts
+        )
+    raise CertificationError(f"saturation: no certified solution [{tried}]", attempts)
+
+
+def _solve_scaled(prob, s, nK, K_fixed, backoff, solvers):
+    has_w = bool(prob["iw"])
+    lmi = _build(s, nK, K_fixed, has_w, prob["margin"])
+    sigma_t = prob["decay"] / s.a
+    chain = default_solvers() if solvers is None else list(solvers)
+    estimate = {}
+
+    def objective(v):
+        return v.g[0, 0]
+
+    def solve_at(lam, use=chain[:1]):
+        lmi.set_parameter("c", 2 * sigma_t + (lam if has_w else 0.0))
+        if has_w:
+            lmi.set_parameter("lam", lam)
+        try:
+            sol = lmi.solve(objective, solvers=use, certify=False)
+        except InfeasibleError as exc:  # includes CertificationError
+            estimate.setdefault("message", str(exc))
+            estimate.setdefault("attempts", list(exc.attempts))
+            certain = not isinstance(exc, CertificationError)
+            estimate["infeasible"] = estimate.get("infeasible", True) and certain
+            return np.inf, None
+        if not sol.certified:
+            estimate["infeasible"] = False
+            estimate["W"] = sol.W
+            estimate["message"] = _summary(sol.attempts)
+            estimate["attempts"] = list(sol.attempts)
+            return np.inf, None
+        return float(sol.g[0, 0]), sol
+
+    if has_w:
+        # The search uses the first solver only; the whole chain if it fails.
+        lam, g_opt, sol, _ = _line_search(solve_at, _LAMBDA_GRID)
+        if sol is None and len(chain) > 1:
+            lam, g_opt, sol, _ = _line_search(
+                lambda x: solve_at(x, chain), _LAMBDA_GRID
+            )
+    else:
+        lam = 0.0
+        g_opt, sol = solve_at(0.0, chain)
+    if sol is None:
+        raise _Rescale(
+            estimate.get("message", "no point returned"),
+            estimate.get("W"),
+            estimate.get("attempts", []),
+            estimate.get("infeasible", False),
+        )
+    if s.C is not None:
+        beta_opt = None
+    else:
+        beta_opt = 1.0 / np.sqrt(g_opt) if g_opt > 0 else np.inf
+    # The line search leaves the parameters at its last point: set the best.
+    lmi.set_parameter("c", 2 * sigma_t + lam)
+    if has_w:
+        lmi.set_parameter("lam", lam)
+    best, sigma_use = sol, sigma_t
+    if backoff is not None and K_fixed is None:
+        lmi.set_parameter("gmax", g_opt * (1.0 + backoff) ** 2)
+        sol, sigma_use = _backoff(lmi, sigma_t, lam, chain)
+        if sol is None:
+            sol, sigma_use = best, sigma_t  # keep the certified optimum
+    try:
+        return _finish(prob, s, sol, lam, nK, K_fixed, beta_opt, sigma_use * s.a)
+    except CertificationError as exc:
+        if sol is best:
+            raise _Rescale(str(exc), sol.W, list(sol.attempts)) from None
+    try:
+        return _finish(prob, s, best, lam, nK, K_fixed, beta_opt, sigma_t * s.a)
+    except CertificationError as exc:
+        raise _Rescale(str(exc), best.W, list(best.attempts)) from None
+
+
+def _backoff(lmi, sigma_t, lam, chain):
+    """Back-off stage: spend the slack on decay, then on the gain.
+
+    With the objective held within the back-off (``g <= gmax``), find the
+    largest decay ``sigma_max`` that stays feasible (doubling, then
+    bisection), and minimise the gain at ``sigma_t + (sigma_max -
+    sigma_t) / 2``: halfway, so that the gain does not blow up at the edge
+    of feasibility, and never below the requested decay (a gain minimised
+    at the requested decay alone drifts to the edge of linear stability
+    when that decay is 0). Returns ``(solution, sigma)`` in scaled units,
+    or ``(None, sigma_t)`` when nothing certified.
+    """
+
+    def at(sigma):
+        lmi.set_parameter("c", 2 * sigma + lam)
+        try:
+            return lmi.solve(
+                lambda v: v.kappa[0, 0], stage="backoff", solvers=chain[:1]
+            )
+        except InfeasibleError:
+            return None
+
+    lo, hi = sigma_t, max(2 * sigma_t, _DECAY_START)
+    if at(lo) is None:
+        return None, sigma_t
+    while hi < _DECAY_MAX and at(hi) is not None:
+        lo, hi = hi, 2 * hi
+    for _ in range(_DECAY_BISECTIONS):
+        mid = 0.5 * (lo + hi)
+        if at(mid) is not None:
+            lo = mid
+        else:
+            hi = mid
+    sigma_use = sigma_t + 0.5 * (lo - sigma_t)
+    sol = at(sigma_use)
+    if sol is None:
+        sigma_use, sol = sigma_t, at(sigma_t)
+    return sol, sigma_use
+
+
+def _summary(attempts):
+    return "; ".join(
+        f"{a.solver}: {a.status}" + (f" ({a.message})" if a.message else "")
+        for a in attempts
+    )
+
+
+def _finish(prob, s, sol, lam_t, nK, K_fixed, beta_opt, sigma):
+    """Unscale and verify in float64, original units."""
+    T, U, a = s.T, s.U, s.a
+    Wt = sol.W
+    Wti = np.linalg.inv(Wt)
+    W = T[:, None] * Wt * T
+    W = 0.5 * (W + W.T)
+    P = np.linalg.inv(W)
+    P = 0.5 * (P + P.T)
+    if K_fixed is None:
+        Kt = [getattr(sol, f"Y{k}") @ Wti for k in range(nK)]
+    else:
+        Kt = K_fixed
+    Gt = [getattr(sol, f"Z{k}") @ Wti for k in range(nK)]
+    Ks = tuple(U[:, None] * K / T for K in Kt)
+    Gs = tuple(U[:, None] * G / T for G in Gt)
+    Tm = a * np.diag(1.0 / (np.asarray(sol.s, float).reshape(-1) * U**2))
+    has_w = bool(prob["iw"])
+    lam = lam_t * a
+    c = 2 * sigma + lam
+    As, Bs, Es = prob["As"], prob["Bs"], prob["Es"]
+    wmax = prob["wmax"]
+    mu = np.asarray(sol.mu, float).reshape(-1) * a if has_w else np.zeros(0)
+    m = len(U)
+    checks = [
+        _positive_check("P > 0", P),
+        EllipsoidCheck("T > 0", -float(np.min(np.diag(Tm))), 0.0),
+    ]
+    nw = len(wmax)
+
+    def M(j, k, ab=False):
+        # ab=True: the same expression in absolute values (rounding bound).
+        f = np.abs if ab else (lambda X: X)
+        sg = 1.0 if ab else -1.0
+        Pj, Bj, Kk, Gk = f(P), f(Bs[j]), f(Ks[k]), f(Gs[k])
+        Acl = (f(As[j]) + Bj @ Kk) if ab else (As[j] - Bs[j] @ Ks[k])
+        off = sg * (Pj @ Bj) + sg * (Gk.T @ Tm)
+        top = [Acl.T @ Pj + Pj @ Acl + c * Pj, off]
+        mid = [off.T, 2 * sg * Tm]
+        if not has_w:
+            return np.block([top, mid])
+        PE = Pj @ f(Es[j] * wmax)
+        return np.block(
+            [
+                top + [PE],
+                mid + [np.zeros((m, nw))],
+                [PE.T, np.zeros((nw, m)), sg * np.diag(mu)],
+            ]
+        )
+
+    N = len(As)
+    scheduled = nK > 1
+    for j, k in _pairs(N, scheduled):
+        if not scheduled:
+            checks.append(_strict_check(f"sector vertex {j}", M(j, 0), M(j, 0, True)))
+        elif j == k:
+            checks.append(_strict_check(f"sector pair {j},{j}", M(j, j), M(j, j, True)))
+        else:
+            checks.append(
+                _strict_check(
+                    f"sector pair {j},{k}",
+                    M(j, k) + M(k, j),
+                    M(j, k, True) + M(k, j, True),
+                )
+            )
+    for k in range(nK):
+        D = Ks[k] - Gs[k]
+        ratio = np.einsum("ij,jk,ik->i", D, W, D) / U**2
+        for i in range(m):
+            checks.append(
+                EllipsoidCheck(f"inclusion gain {k} input {i}", float(ratio[i]), 1.0)
+            )
+    rho = 0.0
+    if has_w:
+        rho = float(mu.sum() / c)
+        checks.append(EllipsoidCheck("mu >= 0", -float(mu.min()), 0.0))
+        checks.append(EllipsoidCheck("rho = sum(mu)/(2 sigma + lambda)", rho, 1.0))
+    # Stated region size, recomputed.
+    if prob["R"] is not None:
+        beta = float(1.0 / np.sqrt(eigh(P, prob["R"], eigvals_only=True)[-1]))
+    else:
+        V = prob["V"]
+        beta = float(1.0 / np.sqrt(np.einsum("ij,jk,ik->i", V, P, V).max()))
+    statement = (
+        "for every delta(t) in the polytope"
+        + (" and every |w_i(t)| <= w_max_i" if has_w else "")
+        + ": on {x'Px <= 1} the saturated closed loop satisfies "
+        + "d(x'Px)/dt <= -(2 sigma + lambda)(x'Px - rho)"
+    )
+    certificate = EllipsoidCertificate(tuple(checks), sol.checks, statement=statement)
+    if not certificate.verified:
+        raise CertificationError(
+            f"saturation: the returned point failed its float64 checks ({certificate})",
+            sol.attempts,
+        )
+    labels = prob["sys"].physical_inputs
+    capped = bool(np.linalg.eigvalsh(Wt)[-1] >= 0.99 * _W_CAP)
+    return SaturatedDesign(
+        system=prob["sys"],
+        u=tuple(labels[i] for i in prob["iu"]),
+        u_max=U.copy(),
+        gains=Ks,
+        G=Gs,
+        P=P,
+        ellipsoid=Ellipsoid(P, 1.0),
+        ultimate=Ellipsoid(P, rho) if has_w else None,
+        rho=rho,
+        beta=beta,
+        beta_opt=beta_opt,
+        decay=sigma,
+        lam=lam,
+        w=tuple(labels[i] for i in prob["iw"]),
+        w_max=wmax.copy(),
+        certificate=certificate,
+        capped=capped,
+        designed=K_fixed is None,
+        attempts=tuple(sol.attempts),
+    )
