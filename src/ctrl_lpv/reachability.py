@@ -54,7 +54,7 @@ import scipy.linalg as sla
 from control import StateSpace
 
 from ._checks import as_matrix, signal_indices
-from .exceptions import CertificationError, InfeasibleError
+from .exceptions import CertificationError, InfeasibleError, SynthesisError
 from .lmi import LMIProblem, SolveAttempt, default_solvers
 
 __all__ = [
@@ -629,7 +629,7 @@ def ultimate_bound(
         lmi.set_parameter("lam", lam)
         try:
             sol = lmi.solve(objective, solvers=use)
-        except InfeasibleError:  # includes CertificationError
+        except SynthesisError:
             return np.inf, None
         return float(sol.objective), sol
 

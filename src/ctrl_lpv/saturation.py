@@ -72,7 +72,7 @@ import numpy as np
 from scipy.linalg import eigh
 
 from ._checks import as_matrix, signal_indices
-from .exceptions import CertificationError, InfeasibleError
+from .exceptions import CertificationError, InfeasibleError, SynthesisError
 from .lmi import LMIProblem, SolveAttempt, default_solvers
 from .reachability import (
     Ellipsoid,
@@ -574,7 +574,7 @@ def saturated_state_feedback(
         raise ValueError(
             f"backoff: must be None or a nonnegative number, got {backoff}"
         )
-    from .synthesis import check_stabilizability
+    from .stabilizability import check_stabilizability
 
     prob = _setup(
         sys, u, u_max, shape, points, output, beta_min, decay, w, w_max, margin
@@ -761,10 +761,10 @@ def _solve_scaled(prob, s, nK, K_fixed, backoff, solvers):
             lmi.set_parameter("lam", lam)
         try:
             sol = lmi.solve(objective, solvers=use, certify=False)
-        except InfeasibleError as exc:  # includes CertificationError
+        except SynthesisError as exc:
             estimate.setdefault("message", str(exc))
             estimate.setdefault("attempts", list(exc.attempts))
-            certain = not isinstance(exc, CertificationError)
+            certain = isinstance(exc, InfeasibleError)
             estimate["infeasible"] = estimate.get("infeasible", True) and certain
             return np.inf, None
         if not sol.certified:
@@ -836,7 +836,7 @@ def _backoff(lmi, sigma_t, lam, chain):
             return lmi.solve(
                 lambda v: v.kappa[0, 0], stage="backoff", solvers=chain[:1]
             )
-        except InfeasibleError:
+        except SynthesisError:
             return None
 
     lo, hi = sigma_t, max(2 * sigma_t, _DECAY_START)
