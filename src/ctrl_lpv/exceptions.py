@@ -74,6 +74,9 @@ class CertificationError(SynthesisError):
 class ProblemSizeWarning(UserWarning):
     """An LMI problem is large enough to take minutes or much memory.
 
-    The message gives the number of LMIs, their size and the estimated
-    memory of the compiled problem.
+    Parameters
+    ----------
+    message : str
+        The number of LMIs, their size and the estimated memory of the
+        compiled problem.
     """
