@@ -35,3 +35,31 @@ class CertificationError(InfeasibleError):
         The solver attempts (`ctrl_lpv.lmi.SolveAttempt`), none of them
         certified, each with the reason.
     """
+
+
+class NominalPointWarning(UserWarning):
+    """A python-control linear tool read a polytopic system at its nominal point.
+
+    A `ctrl_lpv.PolytopicStateSpace` is a `control.StateSpace` whose ``A, B,
+    C, D`` are the frozen system at ``sys.nominal`` (default: the domain's
+    center). Linear tools (`control.poles`, `control.bode_plot`,
+    `control.lqr`, ``sys(s)``, ...) therefore analyse that single frozen
+    system, not the LPV system; this warning, issued once per call, names
+    the nominal point. Use ``sys.at(p)`` to choose the point (no warning),
+    or filter the category::
+
+        warnings.simplefilter("ignore", ctrl_lpv.NominalPointWarning)
+    """
+
+
+class ParameterClipWarning(UserWarning):
+    """A scheduled parameter value outside the domain was projected onto it.
+
+    Issued once per simulation by a `ctrl_lpv.PolytopicStateSpace` scheduled
+    by its inputs or by a callable, naming the parameter, the value and the
+    time; the system then uses the nearest point of its domain (a saturated
+    scheduling signal), never an extrapolation.
+    """
+
+
+__all__ += ["NominalPointWarning", "ParameterClipWarning"]
