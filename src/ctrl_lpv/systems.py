@@ -40,15 +40,23 @@ def _given(params) -> bool:
 def _reader(frame):
     """Classify the code reading a polytopic system's matrices.
 
-    Walks up from `frame` over python-control's frames and returns
-    ``(entry, caller, params)``: the outermost python-control frame of the
-    call (None for a direct attribute access), the first frame outside
-    python-control, and the ``params`` argument of an enclosing time
-    response of `control.timeresp` (``forced_response``, ``step_response``,
-    ``initial_response``, ...), or None.
+    Walks up from `frame` over python-control's frames (and the numpy or
+    scipy frames between them) and returns ``(entry, caller, params)``: the
+    outermost python-control frame of the call (None for a direct attribute
+    access), the first frame outside these packages, and the ``params``
+    argument of an enclosing time response of `control.timeresp`
+    (``forced_response``, ``step_response``, ``initial_response``, ...), or
+    None.
     """
     entry, params = None, None
-    while frame is not None and _in("control", _module(frame)):
+    # numpy and scipy frames are crossed too: python-control's lambdas run
+    # inside scipy.optimize (``bandwidth``) or numpy callbacks.
+    while frame is not None and any(
+        _in(pkg, _module(frame)) for pkg in ("control", "numpy", "scipy")
+    ):
+        if not _in("control", _module(frame)):
+            frame = frame.f_back
+            continue
         if (
             params is None
             and _module(frame) == "control.timeresp"
@@ -99,8 +107,8 @@ def _call_name(entry, attribute: str) -> str:
     return f"{_module(entry)}.{qualname}"
 
 
-# The last nominal-point warning, so that one call warns once:
-# (id of the system, the frame of the call, line for direct accesses).
+# The last nominal-point warning, so that one call warns once, whatever
+# systems it reads: (the frame of the call, line for direct accesses).
 _last_nominal_warning: list = [None]
 
 
@@ -246,11 +254,15 @@ class PolytopicStateSpace(StateSpace):
         self._data = data
         self.domain = _as_domain(domain, len(data))
         _check_vertex_order(vertices, self.domain)
-        self._nominal_source = "the domain's center" if nominal is None else "nominal="
         self.nominal = (
             self.domain.center.copy()
             if nominal is None
             else self.domain._as_point(nominal)
+        )
+        self._nominal_source = (
+            "the domain's center"
+            if np.allclose(self.nominal, self.domain.center, rtol=1e-12, atol=0.0)
+            else "nominal="
         )
         self._clip_warned = False
         if not self.domain.contains(self.nominal):
@@ -536,14 +548,9 @@ class PolytopicStateSpace(StateSpace):
         anchor = entry if entry is not None else caller
         line = None if entry is not None or caller is None else caller.f_lineno
         last = _last_nominal_warning[0]
-        if (
-            last is not None
-            and last[0] == id(self)
-            and last[1] is anchor
-            and last[2] == line
-        ):
+        if last is not None and last[0] is anchor and last[1] == line:
             return
-        _last_nominal_warning[0] = (id(self), anchor, line)
+        _last_nominal_warning[0] = (anchor, line)
         message = detail or (
             f"{what}: the polytopic system {self.name!r} is read at its nominal "
             f"point {self._nominal_text()}, i.e. as the frozen system "
