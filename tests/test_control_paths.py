@@ -403,3 +403,17 @@ def test_vertex_systems_with_params_are_checked_against_the_order():
     lpv.pss([v1, v4], {"k": (1.0, 4.0)})  # right order: accepted
     with pytest.raises(ValueError, match=r"vertices\[0\].*vertex 1 of the domain"):
         lpv.pss([v4, v1], {"k": (1.0, 4.0)})
+
+
+def test_warning_from_an_interactive_session(single_input):
+    # A REPL or ``python -c`` runs in a __main__ whose loader has no source.
+    import importlib.machinery
+
+    namespace = {
+        "__name__": "__main__",
+        "__loader__": importlib.machinery.BuiltinImporter,
+        "ct": ct,
+        "sys": single_input,
+    }
+    with pytest.warns(NominalPointWarning, match="control.lti.poles"):
+        exec(compile("ct.poles(sys)", "<stdin>", "exec"), namespace)

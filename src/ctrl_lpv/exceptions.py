@@ -49,6 +49,11 @@ class NominalPointWarning(UserWarning):
     or filter the category::
 
         warnings.simplefilter("ignore", ctrl_lpv.NominalPointWarning)
+
+    Parameters
+    ----------
+    message : str
+        Names the call, the system and the nominal point.
     """
 
 
@@ -57,8 +62,15 @@ class ParameterClipWarning(UserWarning):
 
     Issued once per simulation by a `ctrl_lpv.PolytopicStateSpace` scheduled
     by its inputs or by a callable, naming the parameter, the value and the
-    time; the system then uses the nearest point of its domain (a saturated
-    scheduling signal), never an extrapolation.
+    time; the system then uses a point of its domain instead (for a box,
+    each parameter clipped to its bounds: a saturated scheduling signal),
+    never an extrapolation.
+
+    Parameters
+    ----------
+    message : str
+        Names the system, the scheduling source, the parameter, its value
+        and the time.
     """
 
 

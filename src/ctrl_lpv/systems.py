@@ -92,7 +92,6 @@ def _warn_at(message: str, category, frame) -> None:
         frame.f_lineno,
         module=module_globals.get("__name__"),
         registry=module_globals.setdefault("__warningregistry__", {}),
-        module_globals=module_globals,
     )
 
 
@@ -146,22 +145,52 @@ class PolytopicStateSpace(StateSpace):
     coordinates themselves).
 
     It is a `control.StateSpace`: its matrices ``A, B, C, D`` are the frozen
-    system at the `nominal` parameter value, which is what python-control's
-    linear tools (`poles`, `bode_plot`, `lqr`, ...) see. Its nonlinear I/O
-    behaviour (`dynamics`, `output`, simulation with
-    `control.input_output_response`) follows the scheduled matrices, with the
-    parameter taken from one of three `scheduling` sources:
+    system at the `nominal` parameter value (default: the domain's center,
+    the mean of its vertices), which is what python-control's linear tools
+    (`poles`, `bode_plot`, `lqr`, ``sys(s)``, ...) see. Each such call
+    issues one `NominalPointWarning` naming the nominal point; ``sys.at(p)``
+    gives the frozen system at a point of your choice without a warning.
+    python-control's time responses `control.step_response`,
+    `control.forced_response`, `control.initial_response` and
+    `control.step_info` given ``params={name: value}`` return the response
+    of ``sys.at(params)`` (parameters missing from ``params`` keep their
+    nominal value, with a warning); a ``params`` outside the domain, or
+    naming none of the parameters, is a `ValueError`. See the docs page
+    "python-control functions" for the full table.
+
+    Its nonlinear I/O behaviour (`dynamics`, `output`, `linearize`,
+    simulation with `control.input_output_response`) follows the scheduled
+    matrices, with the parameter taken from one of three `scheduling`
+    sources:
 
     * ``None`` (default): the system parameters ``params``, one entry per
       parameter name, default the nominal value (a frozen-parameter
-      simulation at a value you choose with ``params={...}``);
+      simulation at a value you choose with ``params={...}``; a value
+      outside the domain is a `ValueError` naming ``params``);
     * ``"inputs"``: extra inputs, one per parameter, named after the
       parameters and appended after the physical inputs;
     * a callable ``p = f(t, x, u)`` of time, state and physical input
-      (quasi-LPV).
+      (quasi-LPV), returning an array of the parameter values in the
+      domain's order or a dict ``{name: value}``.
 
-    A scheduled value outside the domain is projected onto it (a saturated
-    scheduling signal), never extrapolated.
+    A scheduled value (inputs or callable) outside the domain is projected
+    onto it (a saturated scheduling signal), never extrapolated; the first
+    one of each simulation issues a `ParameterClipWarning` naming the
+    parameter, the value and the time. A non-finite scheduled value is a
+    `ValueError`.
+
+    **Vertex order.** The vertex systems correspond one to one, in order, to
+    the vertices of the domain (``domain.points``). For a `ParameterBox` of
+    ``k`` parameters these are the ``2**k`` corners with the first parameter
+    varying slowest and each parameter at its lower bound first: for
+    ``{"a": (a0, a1), "b": (b0, b1)}`` the order is ``(a0, b0), (a0, b1),
+    (a1, b0), (a1, b1)``. A list in another order silently builds another
+    system, so: give the vertices as a mapping ``{vertex point: system}``
+    (``{(a0, b0): sys00, ...}``, a number for one parameter), which is
+    matched to the domain's vertices and checked; or use `from_affine`,
+    which builds them in order. Vertex `control.StateSpace` systems that
+    carry ``params`` naming every parameter (``ct.ss(..., params={"k":
+    1.0})``) are checked against the vertex of the same index.
 
     Operations that stay polytopic (negation, sums, products with LTI
     systems or gains, indexing, `append`, `feedback` where the closed loop is
@@ -174,18 +203,23 @@ class PolytopicStateSpace(StateSpace):
     * `control.interconnect` of blocks that are all `StateSpace` returns a
       `control.LinearICSystem`. Its simulation with
       `control.input_output_response` evaluates each block's own scheduled
-      dynamics, so it keeps the LPV behaviour; its ``A, B, C, D`` are
-      python-control's linearization at ``x = 0, u = 0`` (a frozen model).
+      dynamics, so it keeps the LPV behaviour (and its ``params``); its
+      ``A, B, C, D`` are python-control's linearization at ``x = 0, u = 0``
+      and the nominal point (a frozen model), which its linear tools and
+      its `control.step_response` use without a warning, ``params`` or not.
     * `control.ss(sys)`, ``control.StateSpace(sys)`` and
       ``G.feedback(sys)`` with a plain `StateSpace` ``G`` on the left read
-      ``sys.A, B, C, D``: they convert to the frozen nominal system. Use
-      ``sys.at(p)`` to choose the point, or put `sys` on the left.
+      ``sys.A, B, C, D``: they convert to the frozen nominal system (with a
+      `NominalPointWarning`). Use ``sys.at(p)`` to choose the point, or put
+      `sys` on the left.
 
     Parameters
     ----------
-    vertices : sequence of `control.StateSpace` or (A, B, C, D) tuples
-        Vertex systems, all of the same dimensions, continuous time.
-        Signal names default to those of the first `StateSpace` vertex.
+    vertices : sequence or mapping of `control.StateSpace` or (A, B, C, D)
+        Vertex systems, all of the same dimensions, continuous time, in the
+        order of the domain's vertices, or a mapping ``{vertex point:
+        system}`` (see "Vertex order"). Signal names default to those of
+        the first `StateSpace` vertex.
     domain : `ParameterBox`, `Polytope`, `Simplex` or mapping, optional
         Parameter domain whose vertices match `vertices` in number and order.
         A mapping ``{name: (lower, upper)}`` is a box. Default: the simplex of
@@ -193,11 +227,20 @@ class PolytopicStateSpace(StateSpace):
     scheduling : None, "inputs" or callable, optional
         Source of the parameter in simulation (see above).
     nominal : array_like or mapping, optional
-        Parameter value of the frozen matrices; default the domain's center.
+        Parameter value of the frozen matrices ``A, B, C, D``; default the
+        domain's center.
     inputs, outputs, states : int, str or list of str, optional
         Signal names (physical inputs only), as in `control.ss`.
     name : str, optional
         System name.
+
+    Raises
+    ------
+    ValueError
+        Vertices of different dimensions, a vertex count that differs from
+        the domain's, a mapping key that is not a vertex of the domain, a
+        vertex whose ``params`` name another vertex, or a `nominal` outside
+        the domain.
 
     Attributes
     ----------
