@@ -130,6 +130,8 @@ def test_params_errors_name_params(single_input):
         ct.forced_response(single_input, T, 1.0, params={"k": "4"})
     with pytest.raises(ValueError, match="params.*outside"):
         ct.input_output_response(single_input, T, 1.0, params={"k": 0.0})
+    with pytest.raises(ValueError, match="params: none of"):
+        ct.input_output_response(single_input, T, 1.0, params={"K": 4.0})
     with pytest.raises(ValueError, match="params.*outside"):
         ct.linearize(single_input, [0, 0], 0, params={"k": 9.0})
     # impulse_response (python-control 0.10) takes no params: refused.
@@ -213,6 +215,29 @@ def _linear_calls(sys):
         "gram": lambda: ct.gram(sys, "c"),
         "similarity_transform": lambda: ct.similarity_transform(sys, np.eye(2)),
         "state feedback A-BK": lambda: sys.A - sys.B @ K,
+        "nyquist_plot": lambda: ct.nyquist_plot(sys),
+        "singular_values_response": lambda: ct.singular_values_response(sys),
+        "margin": lambda: ct.margin(sys),
+        "pole_zero_map": lambda: ct.pole_zero_map(sys),
+        "root_locus_map": lambda: ct.root_locus_map(sys, [0.0, 1.0]),
+        "ss2tf": lambda: ct.ss2tf(sys),
+        "StateSpace(sys)": lambda: ct.StateSpace(sys),
+        "nlsys": lambda: ct.nlsys(sys).dynamics(0.0, [1.0, 0.0], [0.0]),
+        "canonical_form": lambda: ct.canonical_form(sys),
+        "modal_form": lambda: ct.modal_form(sys),
+        "balred": lambda: ct.balred(sys, 2),
+        "hsvd": lambda: ct.hsvd(sys),
+        "modred": lambda: ct.modred(sys, [1]),
+        "obsv": lambda: ct.obsv(sys.A, sys.C),
+        "acker": lambda: ct.acker(sys.A, sys.B, [-1.0, -2.0]),
+        "lqe": lambda: ct.lqe(sys, np.eye(1), np.eye(1)),
+        "lqr integral_action": lambda: ct.lqr(
+            sys, np.eye(3), np.eye(1), integral_action=np.array([[1.0, 0.0]])
+        ),
+        "augw": lambda: ct.augw(sys, ct.tf(1, [1, 1])),
+        "create_estimator_iosystem": lambda: ct.create_estimator_iosystem(
+            sys, np.eye(1), np.eye(1)
+        ),
     }
 
 
@@ -417,3 +442,67 @@ def test_warning_from_an_interactive_session(single_input):
     }
     with pytest.warns(NominalPointWarning, match="control.lti.poles"):
         exec(compile("ct.poles(sys)", "<stdin>", "exec"), namespace)
+
+
+def test_hinfsyn_and_h2syn_warn_once():
+    # w = (force, sensor noise), u; z = (x, u), y = x + noise.
+    base = ct.ss(
+        [[0.0, 1.0], [0.0, -0.5]],
+        [[0.0, 0.0, 0.0], [1.0, 0.0, 1.0]],
+        [[1.0, 0.0], [0.0, 0.0], [1.0, 0.0]],
+        [[0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]],
+    )
+    term = ([[0.0, 0.0], [-1.0, 0.0]], 0, 0, 0)
+    P = lpv.PolytopicStateSpace.from_affine(base, {"k": term}, {"k": (1.0, 4.0)})
+    for synthesis in (ct.hinfsyn, ct.h2syn):
+        with warnings.catch_warnings(record=True) as record:
+            warnings.simplefilter("always")
+            synthesis(P, 1, 1)
+        assert count(record) == 1
+
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda s: ct.minreal(s),
+        lambda s: ct.sample_system(s, 0.1),
+        lambda s: ct.c2d(s, 0.1),
+        lambda s: s.sample(0.1),
+        lambda s: s.returnScipySignalLTI(),
+    ],
+    ids=["minreal", "sample_system", "c2d", "sys.sample", "returnScipySignalLTI"],
+)
+def test_refused_paths(single_input, call):
+    with pytest.raises(TypeError, match=r"sys\.at\(p\)"):
+        call(single_input)
+
+
+G = ct.ss([[-3.0]], [[1.0]], [[2.0]], [[0.5]])
+POLYTOPIC = {
+    "neg": lambda s: -s,
+    "add": lambda s: s + G,
+    "mul": lambda s: s * G,
+    "rmul": lambda s: G * s,
+    "getitem": lambda s: s[0, 0],
+    "feedback(sys, K)": lambda s: ct.feedback(s, 2.0),
+    "series": lambda s: ct.series(G, s),
+    "parallel": lambda s: ct.parallel(s, G),
+    "append": lambda s: ct.append(s, G),
+    "negate": lambda s: ct.negate(s),
+    "lft": lambda s: s.append(G).lft(ct.ss([], [], [], [[-1.0]]), 1, 1),
+}
+
+
+@pytest.mark.parametrize("name", sorted(POLYTOPIC))
+def test_operations_that_stay_polytopic(single_input, name):
+    operation = POLYTOPIC[name]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", NominalPointWarning)
+        result = operation(single_input)
+    assert isinstance(result, lpv.PolytopicStateSpace)
+    # At k = 3: the same operation on python-control's own frozen system.
+    frozen = ct.ss(*msd(3.0)[0:1], [[0.0], [1.0]], [[1.0, 0.0]], 0)
+    expected = operation(frozen)
+    got = result.at({"k": 3.0})
+    for s in (1j, 0.3 + 2j):
+        np.testing.assert_allclose(got(s), expected(s), rtol=1e-10)

@@ -185,12 +185,14 @@ class ParameterBox(_Domain):
         return np.prod(np.where(self._bits, lam, 1.0 - lam), axis=1)
 
     def _weights_report(self, point: np.ndarray) -> tuple[np.ndarray, str | None]:
-        """`_weights` and, if `point` is outside, which value was clipped."""
+        """`_weights` and, if `point` is outside (or not finite), a report."""
         raw = (point - self.lower) / (self.upper - self.lower)
-        bad = np.flatnonzero((raw < -_INSIDE_RTOL) | (raw > 1.0 + _INSIDE_RTOL))
         lam = np.clip(raw, 0.0, 1.0)
         delta = np.prod(np.where(self._bits, lam, 1.0 - lam), axis=1)
-        if bad.size == 0:
+        if not (lam != raw).any():  # inside (a NaN compares unequal)
+            return delta, None
+        bad = np.flatnonzero(~((raw >= -_INSIDE_RTOL) & (raw <= 1.0 + _INSIDE_RTOL)))
+        if bad.size == 0:  # outside by less than the boundary tolerance
             return delta, None
         i = int(bad[0])
         return delta, (
@@ -253,15 +255,16 @@ class Simplex(_Domain):
         return delta / total if total > 0 else np.full(delta.size, 1.0 / delta.size)
 
     def _weights_report(self, delta: np.ndarray) -> tuple[np.ndarray, str | None]:
-        """`_weights` and, if `delta` is not convex, what was projected."""
-        neg = np.flatnonzero(delta < -_INSIDE_RTOL)
+        """`_weights` and, if `delta` is not convex (or finite), a report."""
+        total = delta.sum()
+        if delta.min() >= -_INSIDE_RTOL and abs(total - 1.0) <= _INSIDE_RTOL:
+            return self._weights(delta), None
+        neg = np.flatnonzero(~(delta >= -_INSIDE_RTOL))
         if neg.size:
             i = int(neg[0])
             report = f"{self.names[i]} = {delta[i]:.6g} (negative)"
-        elif abs(delta.sum() - 1.0) > _INSIDE_RTOL:
-            report = f"coordinates summing to {delta.sum():.6g} (not 1)"
         else:
-            report = None
+            report = f"coordinates summing to {total:.6g} (not 1)"
         return self._weights(delta), report
 
 
@@ -324,6 +327,8 @@ class Polytope(_Domain):
 
     def _weights_report(self, point: np.ndarray) -> tuple[np.ndarray, str | None]:
         """`_weights` and, if `point` is outside the hull, a description."""
+        if not np.all(np.isfinite(point)):
+            return np.full(self.nvertices, np.nan), "a non-finite value"
         delta, residual = self._solve(point)
         if residual <= 1e-7 * self._scale:
             return delta, None

@@ -717,6 +717,10 @@ class PolytopicStateSpace(StateSpace):
         # are not parameters of this system are ignored (python-control
         # passes one dict to every block of an interconnection).
         if self.scheduling is None:
+            if _given(params):
+                # A block of an interconnection always receives its own
+                # names; a direct call naming none of them is a typo.
+                self._params_point(params)
             own = {k: self._current_params[k] for k in self.domain.names}
             point, _ = self._params_point(own)
             self._inside_or_raise(point)
@@ -727,6 +731,8 @@ class PolytopicStateSpace(StateSpace):
     def _scheduled_point(self, value) -> np.ndarray:
         """Parameter point returned by a scheduling callable (dict or array)."""
         names = self.domain.names
+        if type(value) is np.ndarray and value.shape == (len(names),):
+            return value.astype(float, copy=False)
         if isinstance(value, Mapping):
             if set(value) != set(names):
                 raise ValueError(
@@ -753,14 +759,16 @@ class PolytopicStateSpace(StateSpace):
                 self.scheduling(t, x, u[: len(self._physical_inputs)])
             )
             source = "scheduling callable"
+        delta, report = self.domain._weights_report(point)
+        if report is None:
+            return delta
         if not np.all(np.isfinite(point)):
             values = dict(zip(self.domain.names, point.tolist()))
             raise ValueError(
                 f"scheduling: non-finite parameter value {values} from the "
                 f"{source} of {self.name!r} at t = {float(t):.6g}"
             )
-        delta, report = self.domain._weights_report(point)
-        if report is not None and not self._clip_warned:
+        if not self._clip_warned:
             self._clip_warned = True
             _warn_at(
                 f"{self.name!r}: the {source} gives {report} at t = {float(t):.6g}; "
