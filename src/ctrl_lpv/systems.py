@@ -155,8 +155,8 @@ class PolytopicStateSpace(StateSpace):
     `control.step_info` given ``params={name: value}`` return the response
     of ``sys.at(params)`` (parameters missing from ``params`` keep their
     nominal value, with a warning); a ``params`` outside the domain, or
-    naming none of the parameters, is a `ValueError`. See the docs page
-    "python-control functions" for the full table.
+    naming none of the parameters, is a `ValueError`. The table of every
+    python-control function is on :doc:`/python_control`.
 
     Its nonlinear I/O behaviour (`dynamics`, `output`, `linearize`,
     simulation with `control.input_output_response`) follows the scheduled
