@@ -35,6 +35,8 @@ _EXPORTS = {
     "InfeasibleError": "exceptions",
     "CertificationError": "exceptions",
     "ProblemSizeWarning": "exceptions",
+    "NominalPointWarning": "exceptions",
+    "ParameterClipWarning": "exceptions",
     "LMIRegion": "regions",
     "halfplane": "regions",
     "disk": "regions",

@@ -17,6 +17,8 @@ __all__ = [
     "InfeasibleError",
     "CertificationError",
     "ProblemSizeWarning",
+    "NominalPointWarning",
+    "ParameterClipWarning",
 ]
 
 
@@ -79,4 +81,41 @@ class ProblemSizeWarning(UserWarning):
     message : str
         The number of LMIs, their size and the estimated memory of the
         compiled problem.
+    """
+
+
+class NominalPointWarning(UserWarning):
+    """A python-control linear tool read a polytopic system at its nominal point.
+
+    A `ctrl_lpv.PolytopicStateSpace` is a `control.StateSpace` whose ``A, B,
+    C, D`` are the frozen system at ``sys.nominal`` (default: the domain's
+    center). Linear tools (`control.poles`, `control.bode_plot`,
+    `control.lqr`, ``sys(s)``, ...) therefore analyse that single frozen
+    system, not the LPV system; this warning, issued once per call, names
+    the nominal point. Use ``sys.at(p)`` to choose the point (no warning),
+    or filter the category::
+
+        warnings.simplefilter("ignore", ctrl_lpv.NominalPointWarning)
+
+    Parameters
+    ----------
+    message : str
+        Names the call, the system and the nominal point.
+    """
+
+
+class ParameterClipWarning(UserWarning):
+    """A scheduled parameter value outside the domain was projected onto it.
+
+    Issued once per simulation by a `ctrl_lpv.PolytopicStateSpace` scheduled
+    by its inputs or by a callable, naming the parameter, the value and the
+    time; the system then uses a point of its domain instead (for a box,
+    each parameter clipped to its bounds: a saturated scheduling signal),
+    never an extrapolation.
+
+    Parameters
+    ----------
+    message : str
+        Names the system, the scheduling source, the parameter, its value
+        and the time.
     """

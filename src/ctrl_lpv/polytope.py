@@ -184,6 +184,22 @@ class ParameterBox(_Domain):
         lam = np.clip((point - self.lower) / (self.upper - self.lower), 0.0, 1.0)
         return np.prod(np.where(self._bits, lam, 1.0 - lam), axis=1)
 
+    def _weights_report(self, point: np.ndarray) -> tuple[np.ndarray, str | None]:
+        """`_weights` and, if `point` is outside (or not finite), a report."""
+        raw = (point - self.lower) / (self.upper - self.lower)
+        lam = np.clip(raw, 0.0, 1.0)
+        delta = np.prod(np.where(self._bits, lam, 1.0 - lam), axis=1)
+        if not (lam != raw).any():  # inside (a NaN compares unequal)
+            return delta, None
+        bad = np.flatnonzero(~((raw >= -_INSIDE_RTOL) & (raw <= 1.0 + _INSIDE_RTOL)))
+        if bad.size == 0:  # outside by less than the boundary tolerance
+            return delta, None
+        i = int(bad[0])
+        return delta, (
+            f"{self.names[i]} = {point[i]:.6g} (outside "
+            f"[{self.lower[i]:g}, {self.upper[i]:g}])"
+        )
+
 
 class Simplex(_Domain):
     """Domain whose parameters are the convex coordinates themselves.
@@ -237,6 +253,19 @@ class Simplex(_Domain):
         delta = np.maximum(delta, 0.0)
         total = delta.sum()
         return delta / total if total > 0 else np.full(delta.size, 1.0 / delta.size)
+
+    def _weights_report(self, delta: np.ndarray) -> tuple[np.ndarray, str | None]:
+        """`_weights` and, if `delta` is not convex (or finite), a report."""
+        total = delta.sum()
+        if delta.min() >= -_INSIDE_RTOL and abs(total - 1.0) <= _INSIDE_RTOL:
+            return self._weights(delta), None
+        neg = np.flatnonzero(~(delta >= -_INSIDE_RTOL))
+        if neg.size:
+            i = int(neg[0])
+            report = f"{self.names[i]} = {delta[i]:.6g} (negative)"
+        else:
+            report = f"coordinates summing to {total:.6g} (not 1)"
+        return self._weights(delta), report
 
 
 class Polytope(_Domain):
@@ -295,6 +324,16 @@ class Polytope(_Domain):
 
     def _weights(self, point: np.ndarray) -> np.ndarray:
         return self._solve(point)[0]
+
+    def _weights_report(self, point: np.ndarray) -> tuple[np.ndarray, str | None]:
+        """`_weights` and, if `point` is outside the hull, a description."""
+        if not np.all(np.isfinite(point)):
+            return np.full(self.nvertices, np.nan), "a non-finite value"
+        delta, residual = self._solve(point)
+        if residual <= 1e-7 * self._scale:
+            return delta, None
+        values = ", ".join(f"{n} = {v:.6g}" for n, v in zip(self.names, point))
+        return delta, f"({values}) (outside the polytope)"
 
 
 def box(**bounds: tuple[float, float]) -> ParameterBox:

@@ -2,17 +2,133 @@
 
 from __future__ import annotations
 
+import sys as _sys
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 from control import NonlinearIOSystem, StateSpace
 
 from ._checks import as_ss_data
+from .exceptions import NominalPointWarning, ParameterClipWarning
 from .polytope import ParameterBox, Polytope, Simplex
 
 __all__ = ["PolytopicStateSpace", "pss"]
 
 Scheduling = None | str | Callable
+
+
+# ----------------------------------------------------------------------
+# Who reads the matrices: python-control's linear tools read ``sys.A, B, C,
+# D`` directly (no method receives ``params``), so the matrices are
+# properties that look at the calling frames. Nothing in python-control is
+# patched: the lookup only reads the frames of the current call.
+# ----------------------------------------------------------------------
+def _module(frame) -> str:
+    return frame.f_globals.get("__name__", "") if frame is not None else ""
+
+
+def _in(package: str, module: str) -> bool:
+    return module == package or module.startswith(package + ".")
+
+
+def _given(params) -> bool:
+    """Whether a ``params`` argument asks for something (not None or {})."""
+    return params is not None and not (isinstance(params, Mapping) and not params)
+
+
+def _reader(frame):
+    """Classify the code reading a polytopic system's matrices.
+
+    Walks up from `frame` over python-control's frames (and the numpy or
+    scipy frames between them) and returns ``(entry, caller, params)``: the
+    outermost python-control frame of the call (None for a direct attribute
+    access), the first frame outside these packages, and the ``params``
+    argument of an enclosing time response of `control.timeresp`
+    (``forced_response``, ``step_response``, ``initial_response``, ...), or
+    None.
+    """
+    entry, params = None, None
+    # numpy and scipy frames are crossed too: python-control's lambdas run
+    # inside scipy.optimize (``bandwidth``) or numpy callbacks.
+    while frame is not None and any(
+        _in(pkg, _module(frame)) for pkg in ("control", "numpy", "scipy")
+    ):
+        if not _in("control", _module(frame)):
+            frame = frame.f_back
+            continue
+        if (
+            params is None
+            and _module(frame) == "control.timeresp"
+            and "params" in frame.f_code.co_varnames
+        ):
+            value = frame.f_locals.get("params")
+            if _given(value):
+                params = value
+        entry = frame
+        frame = frame.f_back
+    return entry, frame, params
+
+
+def _user_frame(frame):
+    """First frame outside python-control, scipy, numpy and ctrl_lpv."""
+    while frame is not None and any(
+        _in(pkg, _module(frame)) for pkg in ("control", "scipy", "numpy", "ctrl_lpv")
+    ):
+        frame = frame.f_back
+    return frame
+
+
+def _warn_at(message: str, category, frame) -> None:
+    """Issue a warning attributed to the line of `frame`."""
+    if frame is None:
+        warnings.warn(message, category, stacklevel=3)
+        return
+    module_globals = frame.f_globals
+    warnings.warn_explicit(
+        message,
+        category,
+        frame.f_code.co_filename,
+        frame.f_lineno,
+        module=module_globals.get("__name__"),
+        registry=module_globals.setdefault("__warningregistry__", {}),
+    )
+
+
+def _call_name(entry, attribute: str) -> str:
+    """User-facing name of the python-control call (or attribute) reading."""
+    if entry is None:
+        return f"reading sys.{attribute}"
+    code = entry.f_code
+    qualname = getattr(code, "co_qualname", code.co_name)
+    if qualname.endswith("__call__"):
+        return "sys(s)"
+    return f"{_module(entry)}.{qualname}"
+
+
+# The last nominal-point warning, so that one call warns once, whatever
+# systems it reads: (the frame of the call, line for direct accesses).
+_last_nominal_warning: list = [None]
+
+
+def _matrix_property(index: int, label: str) -> property:
+    def getter(self):
+        return self._matrices_for(_sys._getframe(1), label)[index]
+
+    def setter(self, value):
+        data = list(self.__dict__.get("_ss_data", (None,) * 4))
+        data[index] = value
+        self.__dict__["_ss_data"] = tuple(data)
+
+    return property(
+        getter,
+        setter,
+        doc=f"""``{label}`` matrix at the nominal point `nominal` (see the class).
+
+        Read by python-control's linear tools, which then warn with
+        `NominalPointWarning`; inside a time response with ``params`` it is
+        ``sys.at(params).{label}``.""",
+    )
 
 
 class PolytopicStateSpace(StateSpace):
@@ -29,22 +145,52 @@ class PolytopicStateSpace(StateSpace):
     coordinates themselves).
 
     It is a `control.StateSpace`: its matrices ``A, B, C, D`` are the frozen
-    system at the `nominal` parameter value, which is what python-control's
-    linear tools (`poles`, `bode_plot`, `lqr`, ...) see. Its nonlinear I/O
-    behaviour (`dynamics`, `output`, simulation with
-    `control.input_output_response`) follows the scheduled matrices, with the
-    parameter taken from one of three `scheduling` sources:
+    system at the `nominal` parameter value (default: the domain's center,
+    the mean of its vertices), which is what python-control's linear tools
+    (`poles`, `bode_plot`, `lqr`, ``sys(s)``, ...) see. Each such call
+    issues one `NominalPointWarning` naming the nominal point; ``sys.at(p)``
+    gives the frozen system at a point of your choice without a warning.
+    python-control's time responses `control.step_response`,
+    `control.forced_response`, `control.initial_response` and
+    `control.step_info` given ``params={name: value}`` return the response
+    of ``sys.at(params)`` (parameters missing from ``params`` keep their
+    nominal value, with a warning); a ``params`` outside the domain, or
+    naming none of the parameters, is a `ValueError`. The table of every
+    python-control function is on :doc:`/python_control`.
+
+    Its nonlinear I/O behaviour (`dynamics`, `output`, `linearize`,
+    simulation with `control.input_output_response`) follows the scheduled
+    matrices, with the parameter taken from one of three `scheduling`
+    sources:
 
     * ``None`` (default): the system parameters ``params``, one entry per
       parameter name, default the nominal value (a frozen-parameter
-      simulation at a value you choose with ``params={...}``);
+      simulation at a value you choose with ``params={...}``; a value
+      outside the domain is a `ValueError` naming ``params``);
     * ``"inputs"``: extra inputs, one per parameter, named after the
       parameters and appended after the physical inputs;
     * a callable ``p = f(t, x, u)`` of time, state and physical input
-      (quasi-LPV).
+      (quasi-LPV), returning an array of the parameter values in the
+      domain's order or a dict ``{name: value}``.
 
-    A scheduled value outside the domain is projected onto it (a saturated
-    scheduling signal), never extrapolated.
+    A scheduled value (inputs or callable) outside the domain is projected
+    onto it (a saturated scheduling signal), never extrapolated; the first
+    one of each simulation issues a `ParameterClipWarning` naming the
+    parameter, the value and the time. A non-finite scheduled value is a
+    `ValueError`.
+
+    **Vertex order.** The vertex systems correspond one to one, in order, to
+    the vertices of the domain (``domain.points``). For a `ParameterBox` of
+    ``k`` parameters these are the ``2**k`` corners with the first parameter
+    varying slowest and each parameter at its lower bound first: for
+    ``{"a": (a0, a1), "b": (b0, b1)}`` the order is ``(a0, b0), (a0, b1),
+    (a1, b0), (a1, b1)``. A list in another order silently builds another
+    system, so: give the vertices as a mapping ``{vertex point: system}``
+    (``{(a0, b0): sys00, ...}``, a number for one parameter), which is
+    matched to the domain's vertices and checked; or use `from_affine`,
+    which builds them in order. Vertex `control.StateSpace` systems that
+    carry ``params`` naming every parameter (``ct.ss(..., params={"k":
+    1.0})``) are checked against the vertex of the same index.
 
     Operations that stay polytopic (negation, sums, products with LTI
     systems or gains, indexing, `append`, `feedback` where the closed loop is
@@ -57,18 +203,23 @@ class PolytopicStateSpace(StateSpace):
     * `control.interconnect` of blocks that are all `StateSpace` returns a
       `control.LinearICSystem`. Its simulation with
       `control.input_output_response` evaluates each block's own scheduled
-      dynamics, so it keeps the LPV behaviour; its ``A, B, C, D`` are
-      python-control's linearization at ``x = 0, u = 0`` (a frozen model).
+      dynamics, so it keeps the LPV behaviour (and its ``params``); its
+      ``A, B, C, D`` are python-control's linearization at ``x = 0, u = 0``
+      and the nominal point (a frozen model), which its linear tools and
+      its `control.step_response` use without a warning, ``params`` or not.
     * `control.ss(sys)`, ``control.StateSpace(sys)`` and
       ``G.feedback(sys)`` with a plain `StateSpace` ``G`` on the left read
-      ``sys.A, B, C, D``: they convert to the frozen nominal system. Use
-      ``sys.at(p)`` to choose the point, or put `sys` on the left.
+      ``sys.A, B, C, D``: they convert to the frozen nominal system (with a
+      `NominalPointWarning`). Use ``sys.at(p)`` to choose the point, or put
+      `sys` on the left.
 
     Parameters
     ----------
-    vertices : sequence of `control.StateSpace` or (A, B, C, D) tuples
-        Vertex systems, all of the same dimensions, continuous time.
-        Signal names default to those of the first `StateSpace` vertex.
+    vertices : sequence or mapping of `control.StateSpace` or (A, B, C, D)
+        Vertex systems, all of the same dimensions, continuous time, in the
+        order of the domain's vertices, or a mapping ``{vertex point:
+        system}`` (see "Vertex order"). Signal names default to those of
+        the first `StateSpace` vertex.
     domain : `ParameterBox`, `Polytope`, `Simplex` or mapping, optional
         Parameter domain whose vertices match `vertices` in number and order.
         A mapping ``{name: (lower, upper)}`` is a box. Default: the simplex of
@@ -76,11 +227,20 @@ class PolytopicStateSpace(StateSpace):
     scheduling : None, "inputs" or callable, optional
         Source of the parameter in simulation (see above).
     nominal : array_like or mapping, optional
-        Parameter value of the frozen matrices; default the domain's center.
+        Parameter value of the frozen matrices ``A, B, C, D``; default the
+        domain's center.
     inputs, outputs, states : int, str or list of str, optional
         Signal names (physical inputs only), as in `control.ss`.
     name : str, optional
         System name.
+
+    Raises
+    ------
+    ValueError
+        Vertices of different dimensions, a vertex count that differs from
+        the domain's, a mapping key that is not a vertex of the domain, a
+        vertex whose ``params`` name another vertex, or a `nominal` outside
+        the domain.
 
     Attributes
     ----------
@@ -114,12 +274,15 @@ class PolytopicStateSpace(StateSpace):
         nominal=None,
         **kwargs,
     ):
+        if isinstance(vertices, Mapping):
+            vertices = _ordered_vertices(vertices, domain)
         if isinstance(vertices, (StateSpace, np.ndarray, str)) or not isinstance(
             vertices, Sequence
         ):
             raise TypeError(
                 "vertices: expected a sequence of control.StateSpace or "
-                f"(A, B, C, D) tuples, got {type(vertices).__name__}"
+                "(A, B, C, D) tuples, or a mapping {vertex point: system}, got "
+                f"{type(vertices).__name__}"
             )
         if len(vertices) == 0:
             raise ValueError("vertices: at least one vertex system is required")
@@ -133,11 +296,18 @@ class PolytopicStateSpace(StateSpace):
                 )
         self._data = data
         self.domain = _as_domain(domain, len(data))
+        _check_vertex_order(vertices, self.domain)
         self.nominal = (
             self.domain.center.copy()
             if nominal is None
             else self.domain._as_point(nominal)
         )
+        self._nominal_source = (
+            "the domain's center"
+            if np.allclose(self.nominal, self.domain.center, rtol=1e-12, atol=0.0)
+            else "nominal="
+        )
+        self._clip_warned = False
         if not self.domain.contains(self.nominal):
             raise ValueError(f"nominal: {self.nominal} is outside {self.domain!r}")
         self._set_scheduling(scheduling)
@@ -389,26 +559,225 @@ class PolytopicStateSpace(StateSpace):
         return tuple(tuple(m.copy() for m in d) for d in self._data)
 
     # ------------------------------------------------------------------
+    # The StateSpace matrices: nominal, or frozen at a time response's params
+    # ------------------------------------------------------------------
+    A = _matrix_property(0, "A")
+    B = _matrix_property(1, "B")
+    C = _matrix_property(2, "C")
+    D = _matrix_property(3, "D")
+
+    def _matrices_for(self, frame, attribute: str) -> tuple[np.ndarray, ...]:
+        """The matrices as the code at `frame` should see them.
+
+        Inside a `control.timeresp` call given ``params`` (the linear path of
+        `control.forced_response`, which `step_response` and
+        `initial_response` use): the frozen system at ``params``. Otherwise
+        the nominal matrices, with a `NominalPointWarning` when the reader is
+        not ctrl_lpv itself.
+        """
+        entry, caller, params = _reader(frame)
+        if params is not None:
+            return self._frozen_for_params(params, entry, caller)
+        if not _in("ctrl_lpv", _module(caller)):
+            self._warn_nominal(entry, caller, _call_name(entry, attribute))
+        return self._ss_data
+
+    def _nominal_text(self) -> str:
+        point = dict(zip(self.domain.names, self.nominal.tolist()))
+        return f"p = {point} ({self._nominal_source})"
+
+    def _warn_nominal(self, entry, caller, what: str, detail: str = "") -> None:
+        """Warn once per call that `what` reads the nominal frozen system."""
+        anchor = entry if entry is not None else caller
+        line = None if entry is not None or caller is None else caller.f_lineno
+        last = _last_nominal_warning[0]
+        if last is not None and last[0] is anchor and last[1] == line:
+            return
+        _last_nominal_warning[0] = (anchor, line)
+        message = detail or (
+            f"{what}: the polytopic system {self.name!r} is read at its nominal "
+            f"point {self._nominal_text()}, i.e. as the frozen system "
+            "sys.at(sys.nominal), not as the LPV system; use sys.at(p) to "
+            "choose the point (time responses: params={...})"
+        )
+        _warn_at(message, NominalPointWarning, caller)
+
+    def _params_point(self, params) -> tuple[np.ndarray, list[str]]:
+        """Parameter point of a ``params`` dict; missing names are nominal.
+
+        Raises
+        ------
+        TypeError, ValueError
+            Naming ``params`` when it is not a mapping, names none of the
+            parameters, or holds a value that is not a finite real number.
+        """
+        if not isinstance(params, Mapping):
+            raise TypeError(
+                "params: expected a dict {parameter name: value}, got "
+                f"{type(params).__name__}"
+            )
+        names = self.domain.names
+        if not any(name in params for name in names):
+            raise ValueError(
+                f"params: none of {sorted(map(str, params))} is a parameter of "
+                f"{self.name!r}; its parameters are {list(names)}"
+            )
+        values = []
+        for name, nominal in zip(names, self.nominal):
+            value = params.get(name, nominal)
+            try:
+                if isinstance(value, (str, bytes, complex)):
+                    raise TypeError
+                value = float(value)
+            except (TypeError, ValueError):
+                raise TypeError(
+                    f"params[{name!r}]: expected a real number, got {value!r}"
+                ) from None
+            if not np.isfinite(value):
+                raise ValueError(f"params[{name!r}]: must be finite, got {value}")
+            values.append(value)
+        return np.array(values), [name for name in names if name not in params]
+
+    def _inside_or_raise(self, point: np.ndarray, label: str = "params") -> None:
+        if not self.domain.contains(point):
+            values = dict(zip(self.domain.names, point.tolist()))
+            raise ValueError(
+                f"{label}: {values} is outside the domain {self.domain!r} of "
+                f"{self.name!r}; a frozen parameter value must lie in it"
+            )
+
+    def _frozen_for_params(self, params, entry, caller) -> tuple[np.ndarray, ...]:
+        if self.scheduling is not None:
+            how = "its inputs" if self.scheduling == "inputs" else "a callable"
+            raise ValueError(
+                f"params: {self.name!r} is scheduled by {how}, so params= does "
+                "not freeze its parameter; use sys.at(p) for the frozen system "
+                "or control.input_output_response for the scheduled simulation"
+            )
+        point, missing = self._params_point(params)
+        self._inside_or_raise(point)
+        if missing and not _in("ctrl_lpv", _module(caller)):
+            nominal = {
+                n: float(v)
+                for n, v in zip(self.domain.names, self.nominal)
+                if n in missing
+            }
+            self._warn_nominal(
+                entry,
+                caller,
+                "params",
+                detail=(
+                    f"params: {missing} not given for {self.name!r}; the nominal "
+                    f"value(s) {nominal} are used"
+                ),
+            )
+        return self._combine(self.domain._weights(point))
+
+    def linearize(self, x0, u0=None, t=0, params=None, **kwargs):
+        """Linearize about ``(x0, u0)``, frozen at ``params``.
+
+        With ``scheduling=None`` the result is the frozen system at ``params``
+        (``sys.at(params)`` with the scheduling inputs, if any); without
+        ``params`` it is the nominal one, with a `NominalPointWarning`. With
+        a scheduling by inputs or by a callable it is the Jacobian of the
+        scheduled (quasi-LPV) dynamics at ``(x0, u0)``.
+
+        See `control.NonlinearIOSystem.linearize` for the arguments.
+        """
+        if self.scheduling is None:
+            entry, caller, _ = _reader(_sys._getframe(1))
+            if _given(params):
+                point, missing = self._params_point(params)
+                self._inside_or_raise(point)
+                if missing and not _in("ctrl_lpv", _module(caller)):
+                    self._warn_nominal(
+                        entry,
+                        caller,
+                        "linearize",
+                        detail=f"params: {missing} not given; nominal value used",
+                    )
+            elif not _in("ctrl_lpv", _module(caller)):
+                self._warn_nominal(entry, caller, _call_name(entry, "linearize"))
+        return super().linearize(x0, u0, t=t, params=params, **kwargs)
+
+    def _repr_html_(self):
+        return StateSpace._repr_html_(self)
+
+    def _repr_eval_(self):
+        return StateSpace._repr_eval_(self)
+
+    # ------------------------------------------------------------------
     # Nonlinear I/O behaviour: the scheduled matrices
     # ------------------------------------------------------------------
     def _update_params(self, params):
         super()._update_params(params)
+        self._clip_warned = False
         # Parameters from the params dict are constant during a simulation:
-        # combine the vertex matrices once, not on every RHS call.
+        # combine the vertex matrices once, not on every RHS call. Names that
+        # are not parameters of this system are ignored (python-control
+        # passes one dict to every block of an interconnection).
         if self.scheduling is None:
-            point = np.array([self._current_params[k] for k in self.domain.names])
-            self._params_delta = self.domain._weights(self.domain._as_point(point))
+            if _given(params):
+                # A block of an interconnection always receives its own
+                # names; a direct call naming none of them is a typo.
+                self._params_point(params)
+            own = {k: self._current_params[k] for k in self.domain.names}
+            point, _ = self._params_point(own)
+            self._inside_or_raise(point)
+            self._params_delta = self.domain._weights(point)
             self._params_AB = np.tensordot(self._params_delta, self._AB, axes=1)
             self._params_CD = np.tensordot(self._params_delta, self._CD, axes=1)
+
+    def _scheduled_point(self, value) -> np.ndarray:
+        """Parameter point returned by a scheduling callable (dict or array)."""
+        names = self.domain.names
+        if type(value) is np.ndarray and value.shape == (len(names),):
+            return value.astype(float, copy=False)
+        if isinstance(value, Mapping):
+            if set(value) != set(names):
+                raise ValueError(
+                    f"scheduling: the callable returned keys {sorted(map(str, value))}"
+                    f"; expected the parameter names {list(names)}"
+                )
+            value = [value[name] for name in names]
+        point = np.asarray(value, dtype=float).reshape(-1)
+        if point.size != len(names):
+            raise ValueError(
+                f"scheduling: the callable returned {point.size} value(s); expected "
+                f"{len(names)} for the parameters {list(names)}"
+            )
+        return point
 
     def _delta(self, t, x, u) -> np.ndarray:
         if self.scheduling is None:
             return self._params_delta
         if self.scheduling == "inputs":
-            return self.domain._weights(u[len(self._physical_inputs) :])
-        return self.domain._weights(
-            np.asarray(self.scheduling(t, x, u[: len(self._physical_inputs)]), float)
-        )
+            point = u[len(self._physical_inputs) :]
+            source = "scheduling input"
+        else:
+            point = self._scheduled_point(
+                self.scheduling(t, x, u[: len(self._physical_inputs)])
+            )
+            source = "scheduling callable"
+        delta, report = self.domain._weights_report(point)
+        if report is None:
+            return delta
+        if not np.all(np.isfinite(point)):
+            values = dict(zip(self.domain.names, point.tolist()))
+            raise ValueError(
+                f"scheduling: non-finite parameter value {values} from the "
+                f"{source} of {self.name!r} at t = {float(t):.6g}"
+            )
+        if not self._clip_warned:
+            self._clip_warned = True
+            _warn_at(
+                f"{self.name!r}: the {source} gives {report} at t = {float(t):.6g}; "
+                "it is projected onto the parameter domain (later values outside "
+                "the domain in this simulation are projected without a warning)",
+                ParameterClipWarning,
+                _user_frame(_sys._getframe(1)),
+            )
+        return delta
 
     # The hot path: python-control passes float vectors; one matrix-vector
     # product per call when the parameter comes from `params`.
@@ -680,6 +1049,88 @@ def _as_domain(domain, nvertices: int):
             "systems were given"
         )
     return domain
+
+
+def _domain_scale(domain) -> float:
+    return max(1.0, float(np.abs(domain.points).max(initial=0.0)))
+
+
+def _matching_vertex(point: np.ndarray, domain) -> list[int]:
+    tol = 1e-9 * _domain_scale(domain)
+    return [
+        i
+        for i, q in enumerate(domain.points)
+        if q.shape == point.shape and np.all(np.abs(q - point) <= tol)
+    ]
+
+
+def _ordered_vertices(mapping: Mapping, domain) -> list:
+    """Vertex systems given as ``{vertex point: system}``, in domain order."""
+    if domain is None:
+        raise TypeError(
+            "vertices: a mapping {vertex point: system} needs a domain (a "
+            "ParameterBox, Polytope or a mapping of bounds)"
+        )
+    dom = _as_domain(domain, len(mapping))
+    ordered = [None] * dom.nvertices
+    for key, system in mapping.items():
+        try:
+            point = np.asarray(
+                key if isinstance(key, (tuple, list)) else (key,), dtype=float
+            ).reshape(-1)
+        except (TypeError, ValueError):
+            raise TypeError(
+                f"vertices: key {key!r} is not a parameter point (a number or a "
+                "tuple of numbers, one per parameter)"
+            ) from None
+        match = _matching_vertex(point, dom)
+        if not match:
+            raise ValueError(
+                f"vertices: key {key!r} is not a vertex of {dom!r}; its vertices "
+                f"are {[tuple(q) for q in dom.points.tolist()]}"
+            )
+        if ordered[match[0]] is not None:
+            raise ValueError(f"vertices: vertex {key!r} is given twice")
+        ordered[match[0]] = system
+    return ordered
+
+
+def _check_vertex_order(vertices: Sequence, domain) -> None:
+    """Check vertex systems that carry ``params`` against the domain order.
+
+    A vertex `control.StateSpace` built with ``params={name: value}`` for
+    every parameter states its own point; it must be the domain's vertex of
+    the same index. Vertices without such ``params`` cannot be checked.
+    """
+    if isinstance(domain, Simplex):
+        return
+    names = domain.names
+    for j, vertex in enumerate(vertices):
+        own = (
+            getattr(vertex, "params", None) if isinstance(vertex, StateSpace) else None
+        )
+        if not own or not all(name in own for name in names):
+            continue
+        try:
+            point = np.array([float(own[name]) for name in names])
+        except (TypeError, ValueError):
+            continue
+        if j in _matching_vertex(point, domain):
+            continue
+        match = _matching_vertex(point, domain)
+        where = (
+            f"vertex {match[0]} of the domain"
+            if match
+            else "not a vertex of the domain"
+        )
+        raise ValueError(
+            f"vertices[{j}]: its params {dict(zip(names, point.tolist()))} are "
+            f"{where}, but vertex {j} of {domain!r} is "
+            f"{dict(zip(names, domain.points[j].tolist()))}; vertex systems must "
+            "follow the domain's vertex order (ParameterBox: the first parameter "
+            "varies slowest, lower bound first), or pass a mapping "
+            "{vertex point: system}"
+        )
 
 
 def pss(vertices, domain=None, **kwargs) -> PolytopicStateSpace:
