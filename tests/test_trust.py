@@ -180,3 +180,5 @@ def test_large_problems_warn_with_an_estimate():
     )  # fmt: skip
     with pytest.warns(lpv.ProblemSizeWarning, match="20100 LMIs"):
         _guard_size(structure)
+    with pytest.raises(lpv.CertificationError, match="^time_limit:.*20100 LMIs"):
+        _guard_size(structure, time_limit=60.0)

@@ -101,6 +101,11 @@ class SynthesisCache:
         ):
             self._entries.popitem(last=False)
 
+    def __contains__(self, structure) -> bool:
+        """Whether a compiled problem of `structure` is held."""
+        with self._lock:
+            return structure in self._entries
+
     def clear(self) -> None:
         """Drop every compiled problem and reset the counters."""
         with self._lock:

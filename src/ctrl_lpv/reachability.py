@@ -38,8 +38,9 @@ two (states by the square root of the largest reachability Gramian
 diagonal over the vertices, time by ``max ||A_j||``), strict LMIs get a
 margin in those units, and the returned result is re-verified in float64 in
 the original units (each vertex matrix after Jacobi normalisation, against a
-bound on its rounding error); a point that fails is never returned. `InfeasibleError` only when a vertex is not
-Hurwitz (then no ``P`` exists); otherwise `CertificationError`.
+bound on its rounding error); a point that fails is never returned.
+`InfeasibleError` only when a vertex is not Hurwitz (then no ``P``
+exists); otherwise `CertificationError`.
 """
 
 from __future__ import annotations

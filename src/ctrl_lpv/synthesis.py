@@ -102,11 +102,12 @@ _MARGIN_FACTORS = (1.0, 1e-3)
 # A given gamma is posed as gamma^2 (1 - _GAMMA_SLACK) so that the
 # certified bound is met strictly.
 _GAMMA_SLACK = (1e-6, 1e-3)
-# Above this many LMI matrix entries or LMIs (cvxpy compiles each LMI in
-# Python: thousands take minutes) a warning gives the estimate; a
-# problem estimated to need more than half the memory is refused.
-_WARN_ENTRIES = 2_000_000
-_WARN_LMIS = 2_000
+# Compile-time and memory estimates of a problem (see `_guard_size`): a
+# warning above _WARN_COMPILE_SECONDS, a refusal above the time limit or
+# half the memory.
+_COMPILE_SECONDS_PER_LMI = 0.05
+_COMPILE_SECONDS_PER_ENTRY = 1e-5
+_WARN_COMPILE_SECONDS = 30.0
 _BYTES_PER_ENTRY = 400  # cvxpy's compiled problem, measured order of magnitude
 
 
@@ -1046,14 +1047,22 @@ def _validated_options(
     )
 
 
-def _guard_size(structure) -> None:
-    """Warn about, or refuse, a problem too large for this machine."""
+def _guard_size(structure, time_limit=None) -> None:
+    """Warn about, or refuse, a problem too large for this machine or time.
+
+    cvxpy compiles each LMI in Python: measured here about 0.03-0.07 s per
+    LMI of a vertex pair and 1e-2 s per thousand matrix entries, all stages
+    together, so a scheduled design on 200 vertices (20,100 LMIs) takes
+    about a quarter of an hour before any solver runs.
+    """
     entries = structure.entries
-    estimate = entries * _BYTES_PER_ENTRY
     npairs = len(_pairs(structure.N, structure.scheduled))
+    estimate = entries * _BYTES_PER_ENTRY
+    seconds = _COMPILE_SECONDS_PER_LMI * npairs + _COMPILE_SECONDS_PER_ENTRY * entries
     text = (
         f"{npairs} LMIs of size up to {structure.lmi_size}, about {entries:,} "
-        f"matrix entries, estimated {estimate / 2**30:.2g} GiB to compile"
+        f"matrix entries, estimated {estimate / 2**30:.2g} GiB and "
+        f"{seconds:.3g} s to compile"
     )
     try:
         memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
@@ -1065,10 +1074,16 @@ def _guard_size(structure) -> None:
             f"half of its {memory / 2**30:.3g} GiB); use fewer vertices or a "
             "common gain"
         )
-    if entries > _WARN_ENTRIES or npairs > _WARN_LMIS:
+    if structure in synthesis_cache:
+        return  # compiled already: only the solver's time is left
+    if time_limit is not None and seconds > time_limit:
+        raise CertificationError(
+            f"time_limit: no design tried, the problem would not compile within "
+            f"{time_limit:g} s ({text})"
+        )
+    if seconds > _WARN_COMPILE_SECONDS:
         warnings.warn(
-            f"large LMI problem: {text}; compiling and solving may take minutes "
-            "(time_limit= bounds the solve)",
+            f"large LMI problem: {text}; time_limit= bounds the whole call",
             ProblemSizeWarning,
             stacklevel=4,
         )
@@ -1086,7 +1101,9 @@ def _synthesize(
     suspects = check_stabilizability(sys, iu)
     deadline = None if time_limit is None else start + time_limit
     original = _vertex_channels(sys, iw, iu, iz)
-    _guard_size(_Structure.of(original, hinf, scheduled, regions, gain_bound))
+    _guard_size(
+        _Structure.of(original, hinf, scheduled, regions, gain_bound), time_limit
+    )
 
     record: list[str] = []
     attempts: list[SolveAttempt] = []
