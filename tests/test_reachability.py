@@ -12,7 +12,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import ctrl_lpv as lpv
-from ctrl_lpv.exceptions import CertificationError, InfeasibleError
+from ctrl_lpv.exceptions import InfeasibleError
 from ctrl_lpv.reachability import Ellipsoid, ultimate_bound
 
 
@@ -157,10 +157,6 @@ def test_unstable_vertex_is_refused_as_infeasible():
     A2 = np.array([[0.5, 0.0], [0.0, -2.0]])
     with pytest.raises(InfeasibleError, match="vertex 1 is not Hurwitz"):
         ultimate_bound(([A1, A2], np.ones((2, 1))))
-
-
-def test_certification_error_is_an_infeasible_error():
-    assert issubclass(CertificationError, InfeasibleError)
 
 
 @pytest.mark.parametrize(

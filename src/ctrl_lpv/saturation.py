@@ -640,6 +640,17 @@ def saturation_region(
         raise ValueError(
             f"gain: expected one gain or {sys.nvertices} vertex gains, got {len(Ks)}"
         )
+    # Near the origin the loop is linear: a vertex whose linear closed loop
+    # is not Hurwitz has no region of attraction to certify (a proof).
+    for j, (A, B) in enumerate(zip(prob["As"], prob["Bs"])):
+        K = Ks[j if len(Ks) > 1 else 0]
+        worst = float(np.linalg.eigvals(A - B @ K).real.max())
+        if worst >= 0:
+            raise InfeasibleError(
+                f"gain: the linear closed loop at vertex {j} is not asymptotically "
+                f"stable (eigenvalue with real part {worst:.6g}), so the saturated "
+                "loop has no region of attraction there"
+            )
     return _run(prob, len(Ks), Ks, None, solvers)
 
 
