@@ -53,7 +53,7 @@ _MAX_RETRY_FACTOR = 1e4
 # What a verified dual certificate must show before `LMIProblem.solve`
 # calls the LMIs infeasible: no solution, even with margin 0, within this
 # radius (scaled units).
-INFEASIBLE_RADIUS = 1e6
+INFEASIBLE_RADIUS = 1e8
 # Alternating projections that polish a solver's dual point into a Farkas
 # certificate (PSD cone, then the null space of the adjoint map).
 _FARKAS_REFINEMENTS = 200

@@ -1254,7 +1254,9 @@ class _Job:
 
         A verified infeasibility proof that needs no normalisation is
         re-raised when `proof` is set (the stage poses the user's problem
-        itself); otherwise it only ends this branch.
+        itself, with its variables bounded by the data: a given gamma);
+        otherwise it only ends this branch, and the note says what it
+        proved.
         """
         lmi = self.lmi
         first = self.chain[0][0] if self.chain else None
@@ -1268,7 +1270,7 @@ class _Job:
             self.attempts.extend(exc.attempts)
             if proof and not exc.farkas.normalized:
                 raise
-            self.notes.append(f"{stage}: infeasible with its normalisation")
+            self.notes.append(f"{stage}: {exc.farkas}")
             return None
         except CertificationError as exc:
             self.attempts.extend(exc.attempts)
@@ -1382,7 +1384,9 @@ class _Job:
                 return best, None
             return self._minimise_gain(best, None)
 
-        raw = self._solve("optimal", lambda v: v.g[0, 0], certify=False, proof=True)
+        # Not a proof stage: gamma is free, so a certificate that excludes a
+        # ball of (W, Z, gamma^2) leaves designs with a huge gamma possible.
+        raw = self._solve("optimal", lambda v: v.g[0, 0], certify=False)
         if raw is None:
             return None
         # gamma* from the nominal-margin point, even when the raw point only
