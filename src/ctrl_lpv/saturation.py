@@ -582,9 +582,15 @@ def saturated_state_feedback(
         one and ``sigma_max`` (`SaturatedDesign.decay` is that certified
         rate). None for the raw optimum at the requested decay.
     margin : float, optional
-        Margin of the strict LMIs in scaled units.
+        Margin of the strict LMIs in the prescaled units, in ``(0, 1)``;
+        default 1e-6.
     solvers : sequence of (name, options), optional
-        As in `ctrl_lpv.lmi.LMIProblem.solve`.
+        Solvers tried in turn, each a pair of a cvxpy solver name (e.g.
+        ``"CLARABEL"``, ``"SCS"``) and a dict of its options; a bare name
+        is not accepted here. Default: Clarabel, then SCS, then CVXOPT and
+        MOSEK if installed. With `w`, the line search over the
+        S-procedure rate ``lambda`` uses the first solver only (the whole
+        list if it finds nothing); so does the back-off stage.
 
     Returns
     -------
@@ -652,8 +658,50 @@ def saturation_region(
         Plant.
     gain : array_like or sequence of array_like
         ``m x n`` gain of ``u = -K x``, or one per vertex (scheduled).
-    u, u_max, shape, points, output, beta_min, decay, w, w_max, margin, solvers
-        As in `saturated_state_feedback`.
+    u : str, int or list
+        Saturated control inputs (names or indices of the physical inputs),
+        one per row of the gain.
+    u_max : float or array_like
+        Saturation levels ``u_max_i > 0``, one per control input (a scalar
+        for all).
+    shape : array_like, optional
+        ``n x n`` positive definite ``R`` of the reference set ``{x' R x <=
+        1}`` whose largest multiple ``beta * shape`` is certified (default
+        the identity: a ball in the model's units).
+    points : array_like, optional
+        Instead of `shape`: nonzero rows ``v_k`` (one state vector each);
+        ``beta`` is then the largest factor with every ``beta * v_k``
+        inside the region.
+    output : str, int, list or array_like, optional
+        Instead of the largest region: the smallest invariant ellipsoid
+        along these outputs (names or indices of ``sys``'s outputs, or rows
+        ``C`` on the state), minimising ``max_i c_i' P^-1 c_i / ||c_i||^2``:
+        the ultimate bound of the saturated loop, certified for
+        trajectories that start inside it. Needs `w`.
+    beta_min : float, optional
+        Only with `output`: keep ``beta_min * shape`` (or the points)
+        inside the ellipsoid, so that it is also a region for the initial
+        states.
+    decay : float, optional
+        Required rate ``sigma >= 0`` (default 0): ``V = x' P x`` decays at
+        least as ``exp(-2 sigma t)`` inside the region for ``w = 0``.
+    w : str, int or list, optional
+        Peak-bounded disturbance inputs (names or indices, disjoint from
+        `u`): the region is then also invariant for every
+        ``|w_i(t)| <= w_max_i``.
+    w_max : float or array_like, optional
+        Positive bounds of `w`, one per input (a scalar for all); required
+        with `w`, refused without it.
+    margin : float, optional
+        Margin of the strict LMIs in the prescaled units, in ``(0, 1)``;
+        default 1e-6.
+    solvers : sequence of (name, options), optional
+        Solvers tried in turn, each a pair of a cvxpy solver name (e.g.
+        ``"CLARABEL"``, ``"SCS"``) and a dict of its options; a bare name
+        is not accepted here. Default: Clarabel, then SCS, then CVXOPT and
+        MOSEK if installed. With `w`, the line search over the
+        S-procedure rate ``lambda`` uses the first solver only (the whole
+        list if it finds nothing).
 
     Returns
     -------
