@@ -129,21 +129,6 @@ POINTER = re.compile(
     r"^(see|as in)\s+`[^`]+`(\s*\([^)]*\))?(\s+for the \w+)?\.?$", re.IGNORECASE
 )
 
-# Pointer-only descriptions in modules being rewritten by others (issue 11,
-# deliverable 6): listed so that the test checks every other callable.
-POINTER_ELSEWHERE = {
-    "ctrl_lpv.hinf_state_feedback",
-    "ctrl_lpv.gain_scheduled_stabilization",
-    "ctrl_lpv.gain_scheduled_hinf",
-    "ctrl_lpv.interconnect",
-    "ctrl_lpv.simulate",
-    "ctrl_lpv.twomass.simulate",
-    "ctrl_lpv.twomass.sweep",
-    "ctrl_lpv.twomass.backstepping_spec",
-    "ctrl_lpv.PolytopicStateSpace",
-    "ctrl_lpv.StateFeedbackDesign",
-}
-
 
 def pointer_only_descriptions(obj) -> list[str]:
     """Parameters, Returns and Raises entries that only point elsewhere."""
@@ -169,22 +154,7 @@ def pointer_only_descriptions(obj) -> list[str]:
     return found
 
 
-@pytest.mark.parametrize(
-    "name, obj",
-    [
-        pytest.param(
-            n,
-            obj,
-            marks=pytest.mark.xfail(
-                reason="pointer-only descriptions in a module owned elsewhere"
-            ),
-        )
-        if n in POINTER_ELSEWHERE
-        else (n, obj)
-        for n, obj in CALLABLES
-    ],
-    ids=[n for n, _ in CALLABLES],
-)
+@pytest.mark.parametrize("name, obj", CALLABLES, ids=[n for n, _ in CALLABLES])
 def test_public_descriptions_say_what_they_do(name, obj):
     """No parameter, return or exception is described only as "See X"."""
     assert pointer_only_descriptions(obj) == []

@@ -639,8 +639,22 @@ def interconnect(syslist, connections=None, inplist=None, outlist=None, **kwargs
     ----------
     syslist : list of `control.NonlinearIOSystem`
         The subsystems.
-    connections, inplist, outlist : optional
-        As in `control.interconnect`.
+    connections : list, False or None, optional
+        Internal connections, one list ``[input_spec, output_spec, ...]``
+        per subsystem input: the input is the sum of the listed outputs,
+        each given as ``"sys.sig"``, ``"-sys.sig"`` (gain -1),
+        ``("sys", "sig", gain)`` or index tuples, with lists and slices
+        for vector signals. Default (None): every subsystem input is
+        connected to the subsystem outputs of the same name (summed if
+        several); False leaves the connection map empty.
+    inplist : list, optional
+        For each external input, the subsystem input(s) it drives
+        (``"sys.sig"`` or a list of them). Default: the ``inputs`` keyword,
+        whose names are matched to subsystem inputs.
+    outlist : list, optional
+        For each external output, the subsystem output(s) summed into it
+        (``"sys.sig"``, ``"-sys.sig"``, a list of them). Default: the
+        ``outputs`` keyword, whose names are matched to subsystem outputs.
     **kwargs
         Passed to `control.interconnect` (``inputs``, ``outputs``,
         ``states``, ``name``, ``params``, ``check_unused``, ...).
@@ -652,7 +666,8 @@ def interconnect(syslist, connections=None, inplist=None, outlist=None, **kwargs
     Raises
     ------
     TypeError, ValueError
-        As `control.interconnect`.
+        Raised by `control.interconnect`, e.g. for a connection that names
+        an unknown system or signal or is not a list.
 
     Notes
     -----

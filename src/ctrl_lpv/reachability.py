@@ -521,7 +521,12 @@ def ultimate_bound(
     margin : float, optional
         Margin of the strict LMIs in the prescaled units.
     solvers : sequence of (name, options), optional
-        As in `ctrl_lpv.lmi.LMIProblem.solve`.
+        Solvers tried in turn, each a pair of a cvxpy solver name (e.g.
+        ``"CLARABEL"``, ``"SCS"``) and a dict of its options; a bare name
+        is not accepted here. Default: Clarabel, then SCS, then CVXOPT and
+        MOSEK if installed. The line search over ``lambda`` uses the first
+        solver only (the whole list if it finds nothing); a fixed `decay`
+        uses the whole list.
 
     Returns
     -------

@@ -197,9 +197,49 @@ class SaturatedDesign:
     def controller(self, *args, **kwargs):
         """Controller ``u = -K x`` as a python-control I/O system.
 
-        See `ctrl_lpv.controllers.state_feedback` for the arguments. Its
+        Calls `ctrl_lpv.controllers.state_feedback` on this design. Its
         output is not clipped: the saturation ``sat_u0`` is the plant's (or a
         saturation block placed before the plant input).
+
+        Parameters
+        ----------
+        scheduling : None, "inputs" or callable, optional
+            For vertex gains only (None for a common gain): where the
+            parameter comes from. ``"inputs"`` (the default for vertex
+            gains) adds one input per parameter, named after it; a callable
+            ``p = f(t, x)`` computes it from time and the design model's
+            state vector, returning an array or a dict ``{name: value}``.
+            The parameter is projected onto the domain.
+        reference : bool, optional, keyword-only
+            If True, add inputs ``<state>_d`` (desired states) and
+            ``<input>_d`` (feedforward): ``u = ud - K (x - xd)``. Default
+            False.
+        states : sequence of str or mapping, optional, keyword-only
+            Names of the measured-state inputs: one per measured state, or
+            ``{state label: input name}`` renaming some. Default: the design
+            model's state labels.
+        integrals : mapping of str to str, optional, keyword-only
+            ``{integral state label: integrated signal}`` integrated by the
+            controller itself; default those recorded by
+            `integral_augmentation` (``{}`` reads every state as an input).
+        name : str, optional, keyword-only
+            System name.
+
+        Returns
+        -------
+        `control.NonlinearIOSystem`
+            Inputs: the measured states (plus integrated outputs, references
+            and parameter inputs as requested); outputs: the control inputs
+            ``u``; states: the controller's integral states, if any.
+
+        Raises
+        ------
+        ValueError
+            For a `scheduling` that does not fit the design, `states` of the
+            wrong length or with unknown labels, or `integrals` naming
+            unknown states or signals.
+        TypeError
+            If `integrals` is not a mapping.
         """
         from .controllers import state_feedback
 
@@ -542,9 +582,15 @@ def saturated_state_feedback(
         one and ``sigma_max`` (`SaturatedDesign.decay` is that certified
         rate). None for the raw optimum at the requested decay.
     margin : float, optional
-        Margin of the strict LMIs in scaled units.
+        Margin of the strict LMIs in the prescaled units, in ``(0, 1)``;
+        default 1e-6.
     solvers : sequence of (name, options), optional
-        As in `ctrl_lpv.lmi.LMIProblem.solve`.
+        Solvers tried in turn, each a pair of a cvxpy solver name (e.g.
+        ``"CLARABEL"``, ``"SCS"``) and a dict of its options; a bare name
+        is not accepted here. Default: Clarabel, then SCS, then CVXOPT and
+        MOSEK if installed. With `w`, the line search over the
+        S-procedure rate ``lambda`` uses the first solver only (the whole
+        list if it finds nothing); so does the back-off stage.
 
     Returns
     -------
@@ -612,8 +658,50 @@ def saturation_region(
         Plant.
     gain : array_like or sequence of array_like
         ``m x n`` gain of ``u = -K x``, or one per vertex (scheduled).
-    u, u_max, shape, points, output, beta_min, decay, w, w_max, margin, solvers
-        As in `saturated_state_feedback`.
+    u : str, int or list
+        Saturated control inputs (names or indices of the physical inputs),
+        one per row of the gain.
+    u_max : float or array_like
+        Saturation levels ``u_max_i > 0``, one per control input (a scalar
+        for all).
+    shape : array_like, optional
+        ``n x n`` positive definite ``R`` of the reference set ``{x' R x <=
+        1}`` whose largest multiple ``beta * shape`` is certified (default
+        the identity: a ball in the model's units).
+    points : array_like, optional
+        Instead of `shape`: nonzero rows ``v_k`` (one state vector each);
+        ``beta`` is then the largest factor with every ``beta * v_k``
+        inside the region.
+    output : str, int, list or array_like, optional
+        Instead of the largest region: the smallest invariant ellipsoid
+        along these outputs (names or indices of ``sys``'s outputs, or rows
+        ``C`` on the state), minimising ``max_i c_i' P^-1 c_i / ||c_i||^2``:
+        the ultimate bound of the saturated loop, certified for
+        trajectories that start inside it. Needs `w`.
+    beta_min : float, optional
+        Only with `output`: keep ``beta_min * shape`` (or the points)
+        inside the ellipsoid, so that it is also a region for the initial
+        states.
+    decay : float, optional
+        Required rate ``sigma >= 0`` (default 0): ``V = x' P x`` decays at
+        least as ``exp(-2 sigma t)`` inside the region for ``w = 0``.
+    w : str, int or list, optional
+        Peak-bounded disturbance inputs (names or indices, disjoint from
+        `u`): the region is then also invariant for every
+        ``|w_i(t)| <= w_max_i``.
+    w_max : float or array_like, optional
+        Positive bounds of `w`, one per input (a scalar for all); required
+        with `w`, refused without it.
+    margin : float, optional
+        Margin of the strict LMIs in the prescaled units, in ``(0, 1)``;
+        default 1e-6.
+    solvers : sequence of (name, options), optional
+        Solvers tried in turn, each a pair of a cvxpy solver name (e.g.
+        ``"CLARABEL"``, ``"SCS"``) and a dict of its options; a bare name
+        is not accepted here. Default: Clarabel, then SCS, then CVXOPT and
+        MOSEK if installed. With `w`, the line search over the
+        S-procedure rate ``lambda`` uses the first solver only (the whole
+        list if it finds nothing).
 
     Returns
     -------

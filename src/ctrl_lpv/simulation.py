@@ -301,9 +301,22 @@ def simulate(
         Solver tolerances, default 1e-6 and 1e-9 (python-control's
         default ``rtol = 1e-3`` is too loose for most closed loops).
     params : dict, optional
-        System parameters, as in `control.input_output_response`.
-    return_states, squeeze, transpose : bool, optional
-        As in `control.input_output_response`.
+        System parameters ``{name: value}``, set on `sys` (and its
+        subsystems) for the whole simulation, as in
+        `control.input_output_response`; for a `PolytopicStateSpace` with
+        ``scheduling=None`` they are the frozen parameter values.
+    return_states : bool, optional
+        If True, unpacking the response as a tuple gives ``(time, outputs,
+        states)`` instead of ``(time, outputs)``. Default False. The states
+        are in ``response.states`` either way.
+    squeeze : bool, optional
+        If True, a single output (and input) is returned as a 1-D array;
+        if False, always as 2-D arrays. Default None:
+        ``control.config.defaults["control.squeeze_time_response"]``
+        (1-D for a SISO system).
+    transpose : bool, optional
+        If True, the arrays are indexed by time first (as in
+        `scipy.signal.lsim` and MATLAB). Default False.
     ignore_errors : bool, optional
         If False (default) a solver failure or a divergence raises;
         otherwise the response has ``success = False``, a message, and the

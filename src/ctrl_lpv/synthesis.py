@@ -269,9 +269,51 @@ class StateFeedbackDesign:
         return A, frozen.B[:, iw], C, frozen.D[np.ix_(iz, iw)]
 
     def controller(self, *args, **kwargs):
-        """State-feedback controller as a python-control I/O system.
+        """State-feedback controller ``u = -K x`` as a python-control I/O system.
 
-        See `ctrl_lpv.controllers.state_feedback` for the arguments.
+        Calls `ctrl_lpv.controllers.state_feedback` on this design; its
+        inputs are named after the design model's states, so that
+        `control.interconnect` connects it to the plant by name.
+
+        Parameters
+        ----------
+        scheduling : None, "inputs" or callable, optional
+            For vertex gains only (None for a common gain): where the
+            parameter comes from. ``"inputs"`` (the default for vertex
+            gains) adds one input per parameter, named after it; a callable
+            ``p = f(t, x)`` computes it from time and the design model's
+            state vector, returning an array or a dict ``{name: value}``.
+            The parameter is projected onto the domain.
+        reference : bool, optional, keyword-only
+            If True, add inputs ``<state>_d`` (desired states) and
+            ``<input>_d`` (feedforward): ``u = ud - K (x - xd)``. Default
+            False.
+        states : sequence of str or mapping, optional, keyword-only
+            Names of the measured-state inputs: one per measured state, or
+            ``{state label: input name}`` renaming some. Default: the design
+            model's state labels.
+        integrals : mapping of str to str, optional, keyword-only
+            ``{integral state label: integrated signal}`` integrated by the
+            controller itself; default those recorded by
+            `integral_augmentation` (``{}`` reads every state as an input).
+        name : str, optional, keyword-only
+            System name.
+
+        Returns
+        -------
+        `control.NonlinearIOSystem`
+            Inputs: the measured states (plus integrated outputs, references
+            and parameter inputs as requested); outputs: the control inputs
+            ``u``; states: the controller's integral states, if any.
+
+        Raises
+        ------
+        ValueError
+            For a `scheduling` that does not fit the design, `states` of the
+            wrong length or with unknown labels, or `integrals` naming
+            unknown states or signals.
+        TypeError
+            If `integrals` is not a mapping.
         """
         from .controllers import state_feedback
 
@@ -340,24 +382,34 @@ def quadratic_stabilization(
         The plant; all states are measured.
     u : str, int or list
         Control inputs (names or indices); required.
-    regions : sequence of `LMIRegion`, optional
-        Pole regions every frozen closed loop must lie in (`halfplane`,
-        `disk`, `sector`).
+    regions : LMIRegion or sequence of LMIRegion, optional
+        Pole regions (`halfplane`, `disk`, `sector`) that every frozen
+        closed loop must lie in; default none.
     gain_bound : float, optional
-        Upper bound on the spectral norm of every gain, in the model's
-        units (a sufficient condition, see the module documentation).
-        Without it the returned point maximises ``t`` subject to
-        ``t I <= W <= I``, ``A_cl W + W A_cl' <= -t I`` and ``||Z|| <= 1``
-        (scaled units): a well-conditioned Lyapunov matrix with a decay
-        margin and moderate gains.
+        Upper bound on the spectral norm of the gain, in the model's units.
+        The first point maximises ``t`` subject to ``t I <= W <= I``,
+        ``A_cl W + W A_cl' <= -t I`` and ``||Z|| <= 1`` (scaled units; the
+        bound on ``||Z||`` is relaxed to 100, then 1e4, if that gives no
+        certified point): a well-conditioned Lyapunov matrix with a decay
+        margin and moderate gains, returned as it is without `gain_bound`.
+        With it, the gain is then minimised under the bound by
+        convex-concave iterations (a sufficient condition, see the module
+        documentation), and a design whose gain still exceeds the bound is
+        not returned (`CertificationError`).
     margin : float, optional
-        Margin of the strict LMIs, relative to the prescaled data.
+        Margin of the strict LMIs, posed as ``F <= -margin I`` in the
+        prescaled units; positive and below 1, default 1e-6. When no point
+        certifies, the first solver is tried again with ``1e-3 * margin``.
     solvers : str or sequence, optional
-        A solver name, or names or ``(name, options)`` pairs tried in
-        turn; default Clarabel, then SCS, then CVXOPT/MOSEK if installed.
+        A solver name, or names or ``(name, options)`` pairs tried in turn
+        (``options``: keywords of that cvxpy solver); default Clarabel,
+        then SCS, then CVXOPT and MOSEK if installed. A solver that is not
+        installed is a `ValueError`.
     time_limit : float, optional
-        Wall-time limit in seconds: solvers get the time left, and no
-        fallback is started after it (`CertificationError`).
+        Wall-time limit of the whole call, in seconds (default none):
+        solvers get the time left and no fallback is started after it; a
+        problem whose estimated compile time exceeds it is refused before
+        any solve. Both end in `CertificationError`.
 
     Returns
     -------
@@ -407,9 +459,34 @@ def gain_scheduled_stabilization(
         The plant; all states are measured.
     u : str, int or list
         Control inputs (names or indices); required.
-    regions, gain_bound, margin, solvers, time_limit
-        See `quadratic_stabilization` (`gain_bound` bounds every vertex
-        gain).
+    regions : LMIRegion or sequence of LMIRegion, optional
+        Pole regions (`halfplane`, `disk`, `sector`) that every frozen
+        closed loop must lie in; default none.
+    gain_bound : float, optional
+        Upper bound on the spectral norm of every vertex gain ``K_j``, in
+        the model's units. The first point maximises ``t`` subject to
+        ``t I <= W <= I``, ``A_cl W + W A_cl' <= -t I`` and ``||Z_j|| <= 1``
+        (scaled units; the bound on ``||Z_j||`` is relaxed to 100, then 1e4,
+        if that gives no certified point): a well-conditioned Lyapunov
+        matrix with a decay margin and moderate gains, returned as it is
+        without `gain_bound`. With it, the gain is then minimised under the
+        bound by convex-concave iterations (a sufficient condition, see the
+        module documentation), and a design whose gain still exceeds the
+        bound is not returned (`CertificationError`).
+    margin : float, optional
+        Margin of the strict LMIs, posed as ``F <= -margin I`` in the
+        prescaled units; positive and below 1, default 1e-6. When no point
+        certifies, the first solver is tried again with ``1e-3 * margin``.
+    solvers : str or sequence, optional
+        A solver name, or names or ``(name, options)`` pairs tried in turn
+        (``options``: keywords of that cvxpy solver); default Clarabel,
+        then SCS, then CVXOPT and MOSEK if installed. A solver that is not
+        installed is a `ValueError`.
+    time_limit : float, optional
+        Wall-time limit of the whole call, in seconds (default none):
+        solvers get the time left and no fallback is started after it; a
+        problem whose estimated compile time exceeds it is refused before
+        any solve. Both end in `CertificationError`.
 
     Returns
     -------
@@ -463,13 +540,36 @@ def hinf_state_feedback(
     gamma : float, optional
         Required bound, met strictly; if given the LMIs are solved for
         feasibility at this gamma instead of minimising it.
-    regions, gain_bound, margin, solvers, time_limit
-        See `quadratic_stabilization`.
+    regions : LMIRegion or sequence of LMIRegion, optional
+        Pole regions (`halfplane`, `disk`, `sector`) that every frozen
+        closed loop must lie in; default none.
     backoff : float or None, optional
         Relax the minimum gamma by this fraction (default 0.2), then
         re-solve for a well-conditioned ``W`` and the smallest gain norm.
-        None returns the raw minimum-gamma point, whose gains are often
-        very large.
+        None (or 0) returns the raw minimum-gamma point, whose gains are
+        often very large.
+    gain_bound : float, optional
+        Upper bound on the spectral norm of the gain, in the model's units,
+        imposed in the gain-minimisation stage (convex-concave iterations, a
+        sufficient condition, see the module documentation) that follows the
+        back-off or a given `gamma`; a design whose gain still exceeds it is
+        not returned (`CertificationError`). It is not applied to the raw
+        minimum-gamma point that ``backoff=None`` (and no `gamma`) returns
+        when that point certifies.
+    margin : float, optional
+        Margin of the strict LMIs, posed as ``F <= -margin I`` in the
+        prescaled units; positive and below 1, default 1e-6. When no point
+        certifies, the first solver is tried again with ``1e-3 * margin``.
+    solvers : str or sequence, optional
+        A solver name, or names or ``(name, options)`` pairs tried in turn
+        (``options``: keywords of that cvxpy solver); default Clarabel,
+        then SCS, then CVXOPT and MOSEK if installed. A solver that is not
+        installed is a `ValueError`.
+    time_limit : float, optional
+        Wall-time limit of the whole call, in seconds (default none):
+        solvers get the time left and no fallback is started after it; a
+        problem whose estimated compile time exceeds it is refused before
+        any solve. Both end in `CertificationError`.
 
     Returns
     -------
@@ -524,21 +624,35 @@ def gain_scheduled_hinf(
         Required bound, met strictly; if given the LMIs are solved for
         feasibility at this gamma instead of minimising it.
     regions : LMIRegion or sequence of LMIRegion, optional
-        Pole regions every frozen closed loop must lie in.
+        Pole regions (`halfplane`, `disk`, `sector`) that every frozen
+        closed loop must lie in; default none.
     backoff : float or None, optional
         Relax the minimum gamma by this fraction (default 0.2), then
         re-solve for a well-conditioned ``W`` and small vertex gains; None
         or 0 returns the raw minimum-gamma point.
     gain_bound : float, optional
-        Bound on the spectral norm of every vertex gain (a sufficient
-        condition: missing it raises `CertificationError`).
+        Upper bound on the spectral norm of every vertex gain ``K_j``, in
+        the model's units, imposed in the gain-minimisation stage
+        (convex-concave iterations, a sufficient condition, see the module
+        documentation) that follows the back-off or a given `gamma`; a
+        design whose gain still exceeds it is not returned
+        (`CertificationError`). It is not applied to the raw minimum-gamma
+        point that ``backoff=None`` (and no `gamma`) returns when that point
+        certifies.
     margin : float, optional
-        Margin of the strict LMIs, relative to the prescaled data.
+        Margin of the strict LMIs, posed as ``F <= -margin I`` in the
+        prescaled units; positive and below 1, default 1e-6. When no point
+        certifies, the first solver is tried again with ``1e-3 * margin``.
     solvers : str or sequence, optional
-        A solver name, or names or ``(name, options)`` pairs tried in
-        turn; default Clarabel, then SCS, then CVXOPT/MOSEK if installed.
+        A solver name, or names or ``(name, options)`` pairs tried in turn
+        (``options``: keywords of that cvxpy solver); default Clarabel,
+        then SCS, then CVXOPT and MOSEK if installed. A solver that is not
+        installed is a `ValueError`.
     time_limit : float, optional
-        Wall-time limit in seconds.
+        Wall-time limit of the whole call, in seconds (default none):
+        solvers get the time left and no fallback is started after it; a
+        problem whose estimated compile time exceeds it is refused before
+        any solve. Both end in `CertificationError`.
 
     Returns
     -------

@@ -464,11 +464,26 @@ class PolytopicStateSpace(StateSpace):
         Parameters
         ----------
         by : None, "inputs" or callable
-            See `PolytopicStateSpace`.
+            Where the parameter comes from in simulation: None, the system
+            parameters ``params`` (a frozen parameter, default the nominal
+            value); ``"inputs"``, one extra input per parameter, named after
+            it and appended after the physical inputs; or a callable
+            ``p = f(t, x, u)`` of time, state and physical input returning
+            the parameter values (array in the domain's order, or a dict
+            ``{name: value}``). Scheduled values outside the domain are
+            projected onto it.
 
         Returns
         -------
         `PolytopicStateSpace`
+            The same vertices, domain, nominal point, name and signal
+            names (plus the scheduling inputs for ``"inputs"``), with
+            `scheduling` set to `by`.
+
+        Raises
+        ------
+        ValueError
+            If `by` is not None, ``"inputs"`` or a callable.
         """
         return PolytopicStateSpace(
             self.vertices,
@@ -682,7 +697,43 @@ class PolytopicStateSpace(StateSpace):
         a scheduling by inputs or by a callable it is the Jacobian of the
         scheduled (quasi-LPV) dynamics at ``(x0, u0)``.
 
-        See `control.NonlinearIOSystem.linearize` for the arguments.
+        Parameters
+        ----------
+        x0 : array_like or `control.OperatingPoint`
+            State at which to linearize (need not be an equilibrium); an
+            operating point gives both the state and the input.
+        u0 : array_like, optional
+            Input at which to linearize, one entry per input of this system
+            (physical inputs, then the scheduling inputs for
+            ``scheduling="inputs"``); default 0 (or the operating point's).
+        t : float, optional
+            Time of the linearization, default 0 (it matters only for a
+            time-dependent scheduling callable).
+        params : dict, optional
+            ``{parameter name: value}`` at which the matrices are frozen
+            with ``scheduling=None``; names that are missing keep their
+            nominal value (with a `NominalPointWarning`). Default: the
+            nominal point, with a `NominalPointWarning`. Ignored by the
+            dynamics with a scheduling by inputs or by a callable.
+        **kwargs
+            Passed to `control.NonlinearIOSystem.linearize`: ``eps``
+            (finite-difference step, default 1e-6), ``copy_names``
+            (copy the signal names, default False), ``name``, ``inputs``,
+            ``outputs``, ``states``.
+
+        Returns
+        -------
+        `control.StateSpace`
+            The linearization, computed by finite differences.
+
+        Raises
+        ------
+        TypeError
+            If `params` is not a mapping or holds a value that is not a
+            real number.
+        ValueError
+            If `params` names none of the parameters, or lies outside the
+            domain.
         """
         if self.scheduling is None:
             entry, caller, _ = _reader(_sys._getframe(1))

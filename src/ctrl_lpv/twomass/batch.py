@@ -182,19 +182,33 @@ def backstepping_spec(
 
     Parameters
     ----------
-    params, gains : optional
-        As in `backstepping_controller`.
+    params : `Parameters`, optional
+        Drive data of the controller's design model; default (None) the
+        paper's table.
+    gains : (c1, c2, c3, c4), optional
+        Positive backstepping gains, default ``(10, 20, 100, 200)``.
     **kwargs : float
-        `alpha`, `sharpness`, `eps`, `Td_hat`.
+        Only these keywords of `backstepping_controller`: ``alpha``
+        (backlash half-gap assumed by the controller, rad; default
+        ``params.alpha``), ``sharpness`` (``k alpha`` of the smooth dead
+        zone, default 10), ``eps`` (width of the smoothed inverse, rad,
+        default 1e-3) and ``Td_hat`` (known load torque, Nm, default 0).
+        The torque limit is a scenario variable, given to
+        `BacksteppingSpec.build`.
 
     Returns
     -------
     `BacksteppingSpec`
+        Validated: its controller was built once in the calling process.
 
     Raises
     ------
-    TypeError, ValueError
-        As `backstepping_controller` for bad arguments.
+    TypeError
+        For a keyword other than those above, or `params` that is not a
+        `Parameters`.
+    ValueError
+        For gains that are not four positive numbers, a negative `alpha`,
+        a nonpositive `sharpness` or `eps`, or non-finite values.
     """
     allowed = {"alpha", "sharpness", "eps", "Td_hat"}
     unknown = sorted(set(kwargs) - allowed)
@@ -426,8 +440,26 @@ def sweep(
     simulate : callable, optional
         Simulation function, default `twomass.simulate`; must pickle
         (module level) for process and cluster executors.
-    executor, max_workers, progress, chunksize, timeout
-        As in `ctrl_lpv.sweep` (see there for a Dask cluster).
+    executor : `concurrent.futures.Executor`, "processes" or "serial", optional
+        Where to run. Default (None or "processes"): a
+        `~concurrent.futures.ProcessPoolExecutor` with `max_workers`
+        processes, shut down at the end. "serial": in this process, no
+        pickling. Any other executor (e.g. a Dask cluster's
+        ``Client.get_executor()``, see `ctrl_lpv.sweep`) is used as given
+        and left open.
+    max_workers : int, optional
+        Processes of the default executor, default ``os.cpu_count()``; 1
+        runs serially.
+    progress : bool, optional
+        Show a progress bar (tqdm if installed, else a counter on stderr);
+        default True.
+    chunksize : int, optional
+        Runs per task; default about 16 tasks per worker.
+    timeout : float, optional
+        Wall-time limit of one run, s (default none): a run that exceeds it
+        is stopped and gets status ``"timeout: ..."`` and NaN metrics. It
+        interrupts Python code (the simulation's right-hand side), not a
+        long call into compiled code.
 
     Returns
     -------

@@ -200,7 +200,9 @@ class GainFile:
         Returns
         -------
         `control.NonlinearIOSystem`
-            As `lpv_controller`.
+            The `lpv_controller` of these gains: inputs ``["theta_m",
+            "omega_m", "theta_l", "omega_l", "theta_r"]``, output
+            ``["Tm"]``, state ``["int_e_l"]`` for integral designs.
 
         Raises
         ------

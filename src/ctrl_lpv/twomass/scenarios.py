@@ -92,9 +92,16 @@ def simulate(
     Parameters
     ----------
     controller : `control.NonlinearIOSystem`
-        As in `closed_loop`.
-    params, model, alpha : optional
-        Plant data, backlash model and backlash, as in `closed_loop`.
+        The controller: inputs ``theta_m, omega_m, theta_l, omega_l,
+        theta_r``, output ``Tm`` (as from `lpv_controller` or
+        `backstepping_controller`), connected to the plant by name.
+    params : `Parameters`, optional
+        Plant data; default the paper's table.
+    model : {"exact", "deadzone"}, optional
+        Backlash model of the plant, default ``"exact"``.
+    alpha : float or callable, optional
+        Backlash half-gap of the plant (rad), or a function ``alpha(t)``
+        (see `alpha_step`); default ``params.alpha``.
     theta_r, Td : float, optional
         Reference step (rad) and load torque (Nm).
     T : float, optional
@@ -115,7 +122,9 @@ def simulate(
     Returns
     -------
     `control.TimeResponseData`
-        Outputs as in `closed_loop`.
+        Outputs ``["theta_l", "Tm", "theta_m", "omega_m", "omega_l",
+        "Ts"]`` (the loop of `closed_loop`) at `npoints` times from 0 to
+        `T`.
 
     Raises
     ------
