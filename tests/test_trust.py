@@ -182,3 +182,17 @@ def test_large_problems_warn_with_an_estimate():
         _guard_size(structure)
     with pytest.raises(lpv.CertificationError, match="^time_limit:.*20100 LMIs"):
         _guard_size(structure, time_limit=60.0)
+
+
+def test_gain_bound_holds_for_the_raw_optimum(plant):
+    raw = lpv.hinf_state_feedback(plant, backoff=None, **CHANNELS)
+    bound = 0.5 * np.linalg.norm(raw.gains[0], 2)
+    design = lpv.hinf_state_feedback(plant, backoff=None, gain_bound=bound, **CHANNELS)
+    assert np.linalg.norm(design.gains[0], 2) <= bound
+    assert frozen_norms(plant, design).max() <= design.gamma
+
+
+def test_saturation_accepts_a_solver_name():
+    sys = lpv.pss([([[1.0]], [[1.0]], [[1.0]], 0)], inputs=["u"])
+    design = lpv.saturated_state_feedback(sys, "u", 1.0, solvers="CLARABEL")
+    assert design.certificate.verified

@@ -56,7 +56,7 @@ from control import StateSpace
 
 from ._checks import as_matrix, signal_indices
 from .exceptions import CertificationError, InfeasibleError, SynthesisError
-from .lmi import LMIProblem, SolveAttempt, default_solvers
+from .lmi import LMIProblem, SolveAttempt, default_solvers, solver_chain
 
 __all__ = [
     "Ellipsoid",
@@ -520,10 +520,10 @@ def ultimate_bound(
         Fix the rate ``lambda`` (1/s) instead of the line search.
     margin : float, optional
         Margin of the strict LMIs in the prescaled units.
-    solvers : sequence of (name, options), optional
-        Solvers tried in turn, each a pair of a cvxpy solver name (e.g.
-        ``"CLARABEL"``, ``"SCS"``) and a dict of its options; a bare name
-        is not accepted here. Default: Clarabel, then SCS, then CVXOPT and
+    solvers : str or sequence, optional
+        A cvxpy solver name (e.g. ``"CLARABEL"``, ``"SCS"``), or names or
+        ``(name, options)`` pairs tried in turn. Default: Clarabel, then
+        SCS, then CVXOPT and
         MOSEK if installed. The line search over ``lambda`` uses the first
         solver only (the whole list if it finds nothing); a fixed `decay`
         uses the whole list.
@@ -629,7 +629,7 @@ def ultimate_bound(
         def objective(v):
             return cp.trace(v.W)
 
-    chain = default_solvers() if solvers is None else list(solvers)
+    chain = solver_chain(solvers) or default_solvers()
 
     def solve_at(lam, use=chain[:1]):
         lmi.set_parameter("lam", lam)

@@ -73,7 +73,7 @@ from scipy.linalg import eigh
 
 from ._checks import as_matrix, signal_indices
 from .exceptions import CertificationError, InfeasibleError, SynthesisError
-from .lmi import LMIProblem, SolveAttempt, default_solvers
+from .lmi import LMIProblem, SolveAttempt, default_solvers, solver_chain
 from .reachability import (
     Ellipsoid,
     EllipsoidCertificate,
@@ -584,10 +584,10 @@ def saturated_state_feedback(
     margin : float, optional
         Margin of the strict LMIs in the prescaled units, in ``(0, 1)``;
         default 1e-6.
-    solvers : sequence of (name, options), optional
-        Solvers tried in turn, each a pair of a cvxpy solver name (e.g.
-        ``"CLARABEL"``, ``"SCS"``) and a dict of its options; a bare name
-        is not accepted here. Default: Clarabel, then SCS, then CVXOPT and
+    solvers : str or sequence, optional
+        A cvxpy solver name (e.g. ``"CLARABEL"``, ``"SCS"``), or names or
+        ``(name, options)`` pairs tried in turn. Default: Clarabel, then
+        SCS, then CVXOPT and
         MOSEK if installed. With `w`, the line search over the
         S-procedure rate ``lambda`` uses the first solver only (the whole
         list if it finds nothing); so does the back-off stage.
@@ -695,10 +695,10 @@ def saturation_region(
     margin : float, optional
         Margin of the strict LMIs in the prescaled units, in ``(0, 1)``;
         default 1e-6.
-    solvers : sequence of (name, options), optional
-        Solvers tried in turn, each a pair of a cvxpy solver name (e.g.
-        ``"CLARABEL"``, ``"SCS"``) and a dict of its options; a bare name
-        is not accepted here. Default: Clarabel, then SCS, then CVXOPT and
+    solvers : str or sequence, optional
+        A cvxpy solver name (e.g. ``"CLARABEL"``, ``"SCS"``), or names or
+        ``(name, options)`` pairs tried in turn. Default: Clarabel, then
+        SCS, then CVXOPT and
         MOSEK if installed. With `w`, the line search over the
         S-procedure rate ``lambda`` uses the first solver only (the whole
         list if it finds nothing).
@@ -848,7 +848,7 @@ def _solve_scaled(prob, s, nK, K_fixed, backoff, solvers):
     has_w = bool(prob["iw"])
     lmi = _build(s, nK, K_fixed, has_w, prob["margin"])
     sigma_t = prob["decay"] / s.a
-    chain = default_solvers() if solvers is None else list(solvers)
+    chain = solver_chain(solvers) or default_solvers()
     estimate = {}
 
     def objective(v):

@@ -553,9 +553,8 @@ def hinf_state_feedback(
         imposed in the gain-minimisation stage (convex-concave iterations, a
         sufficient condition, see the module documentation) that follows the
         back-off or a given `gamma`; a design whose gain still exceeds it is
-        not returned (`CertificationError`). It is not applied to the raw
-        minimum-gamma point that ``backoff=None`` (and no `gamma`) returns
-        when that point certifies.
+        not returned (`CertificationError`); with ``backoff=None`` the
+        gain stage starts from the raw minimum-gamma point.
     margin : float, optional
         Margin of the strict LMIs, posed as ``F <= -margin I`` in the
         prescaled units; positive and below 1, default 1e-6. When no point
@@ -636,9 +635,8 @@ def gain_scheduled_hinf(
         (convex-concave iterations, a sufficient condition, see the module
         documentation) that follows the back-off or a given `gamma`; a
         design whose gain still exceeds it is not returned
-        (`CertificationError`). It is not applied to the raw minimum-gamma
-        point that ``backoff=None`` (and no `gamma`) returns when that point
-        certifies.
+        (`CertificationError`); with ``backoff=None`` the gain stage starts
+        from the raw minimum-gamma point.
     margin : float, optional
         Margin of the strict LMIs, posed as ``F <= -margin I`` in the
         prescaled units; positive and below 1, default 1e-6. When no point
@@ -1523,7 +1521,9 @@ class _Job:
         raw_design = self._accept(raw, "raw optimum")
         if not self.backoff:
             if raw_design is not None:
-                return raw_design, gamma_opt
+                if self.gain_bound is None:
+                    return raw_design, gamma_opt
+                return self._minimise_gain(raw_design, gamma_opt)
             self.notes.append("raw optimum: not certified; backing off")
             factors = (1.001, 1.01, 1.05, 1.2)
         else:
