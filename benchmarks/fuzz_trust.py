@@ -20,7 +20,7 @@ Usage::
 
     python benchmarks/fuzz_trust.py [--n 1000] [--seed 0] [--start 0]
         [--json PATH] [--probe-budget SECONDS]
-    python benchmarks/fuzz_trust.py --case SEED:INDEX   # one case, verbose
+    python benchmarks/fuzz_trust.py --case SEED:INDEX [--small]   # one case, verbose
 """
 
 from __future__ import annotations
@@ -76,7 +76,8 @@ def summarize(records, seconds) -> str:
         f"{'  true (proved by construction)':44s} "
         f"{sum(r['verdict'] == 'true refusal (proved)' for r in refusals):5d}",
         f"{'  false (probe found a verified design)':44s} {len(false_ref):5d}",
-        f"{'  unresolved':44s} {sum(r['verdict'] == 'unresolved' for r in refusals):5d}",
+        f"{'  unresolved':44s} "
+        f"{sum(r['verdict'] == 'unresolved' for r in refusals):5d}",
         f"{'  with a false statement':44s} "
         f"{sum(bool(r.get('false_statement')) for r in refusals):5d}",
         f"{'uncaught exceptions (other classes)':44s} {len(uncaught):5d}",
@@ -87,7 +88,9 @@ def summarize(records, seconds) -> str:
         "",
         "refusals by class / message kind / verdict:",
     ]
-    counts = collections.Counter((r["class"], r["kind"], r["verdict"]) for r in refusals)
+    counts = collections.Counter(
+        (r["class"], r["kind"], r["verdict"]) for r in refusals
+    )
     for (cls, kind, verdict), c in sorted(counts.items(), key=lambda x: -x[1]):
         lines.append(f"  {c:4d}  {cls:20s} {kind:18s} {verdict}")
     if uncaught:
@@ -101,7 +104,11 @@ def summarize(records, seconds) -> str:
         row[1] += r["outcome"] == "design"
         row[2] += r["outcome"] == "design" and not r["check_ok"]
         row[3] += r.get("verdict") == "false refusal"
-    lines += ["", f"{'function':30s} {'cases':>6s} {'designs':>8s} {'failed':>7s} {'false ref':>9s}"]
+    lines += [
+        "",
+        f"{'function':30s} {'cases':>6s} {'designs':>8s} {'failed':>7s} "
+        f"{'false ref':>9s}",
+    ]
     for fn, (c, d, f, fr) in sorted(by_fn.items()):
         lines.append(f"{fn:30s} {c:6d} {d:8d} {f:7d} {fr:9d}")
     if failed:
@@ -113,7 +120,11 @@ def summarize(records, seconds) -> str:
         for r in (false_ref + uncaught)[:30]:
             lines.append(
                 f"  {r['describe']}\n      -> {r['class']}: {r['message'][:160]}"
-                + (f"\n      probe: {r['probe_method']}" if r.get("probe_found") else "")
+                + (
+                    f"\n      probe: {r['probe_method']}"
+                    if r.get("probe_found")
+                    else ""
+                )
             )
     return "\n".join(lines)
 
@@ -125,15 +136,24 @@ def main(argv=None):
     parser.add_argument("--start", type=int, default=0, help="first index")
     parser.add_argument("--json", help="write the records here")
     parser.add_argument("--probe-budget", type=float, default=60.0)
-    parser.add_argument("--time-cap", type=float, default=90.0,
-                        help="seconds per library call (then recorded as a timeout)")
+    parser.add_argument(
+        "--time-cap",
+        type=float,
+        default=90.0,
+        help="seconds per library call (then recorded as a timeout)",
+    )
     parser.add_argument("--case", help="SEED:INDEX: re-run one case verbosely")
+    parser.add_argument(
+        "--small",
+        action="store_true",
+        help="the capped sizes of tests/test_trust_fuzz.py",
+    )
     args = parser.parse_args(argv)
     warnings.simplefilter("ignore")
 
     if args.case:
         seed, index = (int(x) for x in args.case.split(":"))
-        case = generate_case(seed, index)
+        case = generate_case(seed, index, small=args.small)
         print(case.describe())
         with np.printoptions(precision=4, linewidth=120):
             for j, v in enumerate(case.vertices):
@@ -150,8 +170,10 @@ def main(argv=None):
     records = []
     t0 = time.perf_counter()
     for i in range(args.start, args.start + args.n):
-        case = generate_case(args.seed, i)
-        rec = run_case(case, lpv, probe_budget=args.probe_budget, time_cap=args.time_cap)
+        case = generate_case(args.seed, i, small=args.small)
+        rec = run_case(
+            case, lpv, probe_budget=args.probe_budget, time_cap=args.time_cap
+        )
         records.append(rec)
         bad = sum(r["outcome"] == "design" and not r["check_ok"] for r in records)
         fr = sum(r.get("verdict") == "false refusal" for r in records)
@@ -186,7 +208,9 @@ def _dump(args, records, seconds):
         "ctrl_lpv": getattr(lpv, "__version__", "?"),
     }
     with open(args.json, "w") as f:
-        json.dump({"meta": meta, "records": records}, f, indent=1, default=_json_default)
+        json.dump(
+            {"meta": meta, "records": records}, f, indent=1, default=_json_default
+        )
 
 
 if __name__ == "__main__":

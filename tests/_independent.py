@@ -133,6 +133,7 @@ class Case:
     gamma_lower: float | None = None  # max over vertices of the Riccati optimum
     nice: tuple | None = None  # (T, nice vertices): x_nice = T x (T None: x = x_nice)
     channel_style: str = "names"  # how u, w, z are passed
+    small: bool = False
 
     @property
     def N(self):
@@ -163,7 +164,7 @@ class Case:
         return self.function in SCHEDULED
 
     def label(self):
-        return f"{self.seed}:{self.index}"
+        return f"{self.seed}:{self.index}" + (" (small)" if self.small else "")
 
     def describe(self) -> str:
         extra = []
@@ -179,8 +180,10 @@ class Case:
             extra.append(f"unstabilizable vertices {sorted(self.unstabilizable)}")
         return (
             f"case {self.label()}: {self.function} N={self.N} n={self.n} "
-            f"m={self.m}" + (f" nw={self.nw} nz={self.nz}" if self.hinf else "")
-            + f" [{', '.join(self.tags)}]" + ("; " + "; ".join(extra) if extra else "")
+            f"m={self.m}"
+            + (f" nw={self.nw} nz={self.nz}" if self.hinf else "")
+            + f" [{', '.join(self.tags)}]"
+            + ("; " + "; ".join(extra) if extra else "")
         )
 
     # ------------------------------------------------------------------
@@ -265,23 +268,36 @@ def _eigen_block(rng, n, family):
 FAMILIES = ("random", "random", "marginal", "light")
 
 
-def generate_case(seed: int, index: int) -> Case:
-    """The problem number `index` of the stream `seed` (reproducible alone)."""
+def generate_case(seed: int, index: int, small: bool = False) -> Case:
+    """The problem number `index` of the stream `seed` (reproducible alone).
+
+    `small` caps the sizes (n <= 5, N <= 6, scheduled N <= 4) for the fast
+    test subset; the draws are otherwise the same.
+    """
     rng = np.random.default_rng([seed, index])
     function = FUNCTIONS[rng.integers(4)]
     hinf = function in HINF
     tags = []
     kind = rng.choice(
-        ["generic", "scaled", "illcond", "nearunc", "issue"], p=[0.3, 0.2, 0.15, 0.2, 0.15]
+        ["generic", "scaled", "illcond", "nearunc", "issue"],
+        p=[0.3, 0.2, 0.15, 0.2, 0.15],
     )
     # sizes: mostly small, sometimes up to n = 10, N = 16
-    n = int(rng.choice(np.arange(1, 11), p=np.array([4, 8, 8, 7, 6, 4, 3, 2, 2, 2]) / 46))
+    n = int(
+        rng.choice(np.arange(1, 11), p=np.array([4, 8, 8, 7, 6, 4, 3, 2, 2, 2]) / 46)
+    )
     m = int(rng.choice([1, 2, 3], p=[0.5, 0.3, 0.2]))
-    N = int(rng.choice([1, 2, 3, 4, 6, 8, 12, 16], p=[0.15, 0.25, 0.15, 0.15, 0.1, 0.1, 0.05, 0.05]))
+    N = int(
+        rng.choice(
+            [1, 2, 3, 4, 6, 8, 12, 16], p=[0.15, 0.25, 0.15, 0.15, 0.1, 0.1, 0.05, 0.05]
+        )
+    )
     if function in SCHEDULED and n * N > 60:
         N = max(2, 60 // n)
+    if small:
+        n, N = min(n, 5), min(N, 4 if function in SCHEDULED else 6)
     nw = int(rng.choice([1, 2])) if hinf else 0
-    case = Case(seed, index, function, [], tags=tags)
+    case = Case(seed, index, function, [], tags=tags, small=small)
 
     if kind == "issue":
         nice, T = _issue_vertices(rng, N, hinf, nw, tags)
@@ -314,12 +330,18 @@ def generate_case(seed: int, index: int) -> Case:
     verts = [tuple(x.copy() for x in v) for v in nice]
     if T is not None:
         Ti = np.linalg.inv(T)
-        verts = [(Ti @ A @ T, Ti @ B1, Ti @ B2, C @ T, D1, D2) for A, B1, B2, C, D1, D2 in verts]
+        verts = [
+            (Ti @ A @ T, Ti @ B1, Ti @ B2, C @ T, D1, D2)
+            for A, B1, B2, C, D1, D2 in verts
+        ]
     omega = 1.0
     if rng.random() < 0.2:
         omega = _loguniform(rng, -2, 3)
         tags.append(f"time x{omega:.3g}")
-        verts = [(omega * A, omega * B1, omega * B2, C, D1, D2) for A, B1, B2, C, D1, D2 in verts]
+        verts = [
+            (omega * A, omega * B1, omega * B2, C, D1, D2)
+            for A, B1, B2, C, D1, D2 in verts
+        ]
     if rng.random() < 0.2:
         su = 10.0 ** rng.uniform(-3, 3, m)
         tags.append("input scaled")
@@ -328,7 +350,10 @@ def generate_case(seed: int, index: int) -> Case:
         sw, sz = _loguniform(rng, -3, 3), _loguniform(rng, -3, 3)
         wz_gain = sz * sw
         tags.append("w/z scaled")
-        verts = [(A, B1 * sw, B2, C * sz, D1 * sw * sz, D2 * sz) for A, B1, B2, C, D1, D2 in verts]
+        verts = [
+            (A, B1 * sw, B2, C * sz, D1 * sw * sz, D2 * sz)
+            for A, B1, B2, C, D1, D2 in verts
+        ]
     case.vertices = verts
     case.channel_style = "names" if rng.random() < 0.7 else "indices"
 
@@ -440,7 +465,9 @@ def _issue_vertices(rng, N, hinf, nw, tags):
             b = _loguniform(rng, -6, -2)
             A = np.array([[1.0 * f, 0.0], [c, -1.0]])
             B = np.array([[b], [0.0]])
-            tags.append(f"issue A=[[1,0],[{c:.1e},-1]] B=[{b:.1e};0]") if j == 0 else None
+            tags.append(
+                f"issue A=[[1,0],[{c:.1e},-1]] B=[{b:.1e};0]"
+            ) if j == 0 else None
         elif variant == 1:
             a = _loguniform(rng, 6, 9)
             A = np.diag([a * f, -(10.0 ** -rng.uniform(6, 9))])
@@ -450,7 +477,12 @@ def _issue_vertices(rng, N, hinf, nw, tags):
             k = _loguniform(rng, 6, 9.5)
             # two-mass like: stiff spring k between two inertias, torque on one
             A = np.array(
-                [[0, 1, 0, 0], [-k * f, -0.1, k * f, 0], [0, 0, 0, 1], [k, 0, -k, -0.1]],
+                [
+                    [0, 1, 0, 0],
+                    [-k * f, -0.1, k * f, 0],
+                    [0, 0, 0, 1],
+                    [k, 0, -k, -0.1],
+                ],
                 float,
             )
             B = np.array([[0.0], [1.0], [0.0], [0.0]])
@@ -483,7 +515,9 @@ def _random_regions(rng, omega):
 def _gain_scale(verts):
     """Rough size of a stabilizing gain: ||pinv(B) (A + I)|| over vertices."""
     return max(
-        np.linalg.norm(np.linalg.pinv(B2) @ (A + np.linalg.norm(A, 2) * np.eye(len(A))), 2)
+        np.linalg.norm(
+            np.linalg.pinv(B2) @ (A + np.linalg.norm(A, 2) * np.eye(len(A))), 2
+        )
         for A, _, B2, *_ in verts
     )
 
@@ -506,27 +540,33 @@ def _gamma_lower(verts):
 # Float64 checks of a design
 # ======================================================================
 def negdef_margin(F, G, inner):
-    """Certified bound on ``lambda_max`` of ``F`` after a diagonal congruence.
+    """Enclosure of ``lambda_max`` of ``F`` after a diagonal congruence.
 
     ``F`` is a computed symmetric matrix and ``G >= 0`` bounds the absolute
     sizes that entered each entry (so the rounding error of ``F`` is at most
-    ``gamma_inner * G`` entrywise). With ``D = diag(-F_ii)^-1/2``, returns
-    ``(lam, bound)``: ``lam = lambda_max(D F D)`` and ``bound`` adds the
-    rounding error of ``F`` and of the eigenvalue computation. ``F < 0`` is
-    proved when ``bound < 0``.
+    ``gamma_inner * G`` entrywise). With ``D = diag(-F_ii)^-1/2`` and
+    ``lam = lambda_max(D F D)``, returns ``(lam - err, lam + err)`` where
+    ``err`` bounds the rounding error of ``F`` and of the eigenvalue
+    computation: ``F < 0`` is proved when the upper end is negative, and
+    disproved when the lower end is positive.
     """
     F = 0.5 * (F + F.T)
+    G = 0.5 * (G + G.T)
+    k = inner + 4
+    gam = k * UNIT / (1 - k * UNIT)
     d = np.diag(F)
-    if not np.all(np.isfinite(F)) or np.any(d >= 0):
+    if not np.all(np.isfinite(F)):
         return float(np.inf), float(np.inf)
+    if np.any(d >= 0):
+        if np.any(d > gam * np.diag(G)):
+            return float(np.inf), float(np.inf)
+        return -1e-300, float(np.inf)  # within rounding of zero: undecided
     s = 1.0 / np.sqrt(-d)
     Fh = F * s[:, None] * s[None, :]
     Gh = G * s[:, None] * s[None, :]
     lam = float(np.linalg.eigvalsh(Fh)[-1])
-    k = inner + 4
-    err = (k * UNIT / (1 - k * UNIT)) * np.linalg.norm(Gh, 2)
-    err += 4 * len(F) * UNIT * np.linalg.norm(Fh, 2)
-    return lam, lam + float(err)
+    err = gam * np.linalg.norm(Gh, 2) + 4 * len(F) * UNIT * np.linalg.norm(Fh, 2)
+    return lam - float(err), lam + float(err)
 
 
 def _sym_abs(X):
@@ -545,7 +585,7 @@ def brl_lmi(P, Acl, absAcl, B1, Ccl, absCcl, D1, g, c=1.0):
 
     (``g = gamma^2``; ``c = 2`` for the pair sums of Theorem 2.)
     """
-    n, nw, nz = Acl.shape[0], B1.shape[1], Ccl.shape[0]
+    nw, nz = B1.shape[1], Ccl.shape[0]
     PB = P @ B1
     F = np.block(
         [
@@ -571,7 +611,11 @@ def region_lmi(P, Acl, absAcl, L, M):
     PA = P @ Acl
     F = np.kron(L, P) + np.kron(M, PA) + np.kron(M.T, PA.T)
     aPA = np.abs(P) @ absAcl
-    G = np.kron(np.abs(L), np.abs(P)) + np.kron(np.abs(M), aPA) + np.kron(np.abs(M).T, aPA.T)
+    G = (
+        np.kron(np.abs(L), np.abs(P))
+        + np.kron(np.abs(M), aPA)
+        + np.kron(np.abs(M).T, aPA.T)
+    )
     return F, G
 
 
@@ -596,9 +640,7 @@ def sample_deltas(N, count=32, seed=0, pairs=True):
 
 def frozen(case_vertices, delta):
     """Frozen ``(A, B1, B2, C, D1, D2)`` at convex coordinates `delta`."""
-    return tuple(
-        sum(d * v[i] for d, v in zip(delta, case_vertices)) for i in range(6)
-    )
+    return tuple(sum(d * v[i] for d, v in zip(delta, case_vertices)) for i in range(6))
 
 
 def hinf_norm(A, B, C, D):
@@ -617,7 +659,11 @@ def hinf_norm(A, B, C, D):
     ev = np.linalg.eigvals(Ab)
     scale = max(np.abs(ev).max(initial=0.0), 1e-6)
     omegas = np.concatenate(
-        [[0.0], np.logspace(np.log10(scale) - 4, np.log10(scale) + 3, 200), np.abs(ev.imag)]
+        [
+            [0.0],
+            np.logspace(np.log10(scale) - 4, np.log10(scale) + 3, 200),
+            np.abs(ev.imag),
+        ]
     )
     lower = float(np.linalg.svd(D, compute_uv=False).max(initial=0.0))
     eye = np.eye(len(A))
@@ -661,7 +707,9 @@ def _conventions(gamma):
     return (("P", 1.0), ("P/gamma", 1.0 / gamma), ("P/gamma^2", 1.0 / gamma**2))
 
 
-def check_design(case: Case, gains, P, gamma=None, *, samples=32, norms=True) -> CheckResult:
+def check_design(
+    case: Case, gains, P, gamma=None, *, samples=32, norms=True
+) -> CheckResult:
     """Independent float64 verification of a design (see module doc).
 
     Parameters
@@ -691,9 +739,27 @@ def check_design(case: Case, gains, P, gamma=None, *, samples=32, norms=True) ->
         return res
     sched = len(gains) > 1
     res.info["max_gain"] = max(float(np.linalg.norm(K, 2)) for K in gains)
-    if case.gain_bound is not None and res.info["max_gain"] > case.gain_bound * (1 + 1e-9):
+    # Exact power-of-two diagonal change of coordinates x = D x^ that makes
+    # diag(P^) about 1: every LMI below is then computed in coordinates
+    # where its rounding error is small, and is exactly congruent to the
+    # original one (scaling by powers of two is exact in binary floating
+    # point). Eigenvalues and transfer functions do not change.
+    dP = np.diag(P)
+    if np.all(np.isfinite(dP)) and np.all(dP > 0):
+        d = 2.0 ** np.round(-0.5 * np.log2(dP))
+        V = [
+            (A * d[None, :] / d[:, None], B1 / d[:, None], B2 / d[:, None],
+             C * d[None, :], D1, D2)
+            for A, B1, B2, C, D1, D2 in V
+        ]  # fmt: skip
+        gains = [K * d[None, :] for K in gains]
+        P = P * d[:, None] * d[None, :]
+    if case.gain_bound is not None and res.info["max_gain"] > case.gain_bound * (
+        1 + 1e-9
+    ):
         res.hard.append(
-            f"gain bound {case.gain_bound:.6g} exceeded: ||K|| = {res.info['max_gain']:.6g}"
+            f"gain bound {case.gain_bound:.6g} exceeded: "
+            f"||K|| = {res.info['max_gain']:.6g}"
         )
     asym = np.abs(P - P.T).max() / max(np.abs(P).max(), 1e-300)
     if asym > 1e-8:
@@ -748,10 +814,13 @@ def check_design(case: Case, gains, P, gamma=None, *, samples=32, norms=True) ->
                 )
             else:
                 res.soft.append(
-                    f"bounded-real LMI holds only with {scale:.3g} P (no standard convention)"
+                    f"bounded-real LMI holds only with {scale:.3g} P "
+                    "(no standard convention)"
                 )
         elif worst["brl"] >= 0:
-            res.soft.append(f"BRL ({conv_used}) not proved beyond rounding ({worst['brl']:.2e})")
+            res.soft.append(
+                f"BRL ({conv_used}) not proved beyond rounding ({worst['brl']:.2e})"
+            )
         res.info["P_convention"] = conv_used
     for j, k in pairs:
         Acl, aA = closed(j, k)[:2]
@@ -763,13 +832,16 @@ def check_design(case: Case, gains, P, gamma=None, *, samples=32, norms=True) ->
         worst["lyap"] = max(worst["lyap"], bound)
         if lam >= 0:
             res.hard.append(
-                f"Lyapunov LMI fails at {'vertex ' + str(j) if j == k else f'pair {(j, k)}'}"
-                f" (lambda_max {lam:.3g} after diagonal congruence)"
+                "Lyapunov LMI fails at "
+                + (f"vertex {j}" if j == k else f"pair {(j, k)}")
+                + f" (lambda_max {lam:.3g} after diagonal congruence)"
             )
             break
     else:
         if worst["lyap"] >= 0:
-            res.soft.append(f"Lyapunov LMI not proved beyond rounding ({worst['lyap']:.2e})")
+            res.soft.append(
+                f"Lyapunov LMI not proved beyond rounding ({worst['lyap']:.2e})"
+            )
     for region in case.regions:
         L, M = region.LM()
         for j, k in pairs:
@@ -782,7 +854,9 @@ def check_design(case: Case, gains, P, gamma=None, *, samples=32, norms=True) ->
             lam, bound = negdef_margin(F, G, 2 * n + case.m)
             worst["region"] = max(worst["region"], bound)
             if bound >= 0:
-                res.soft.append(f"region {region} LMI with this P not proved at {(j, k)}")
+                res.soft.append(
+                    f"region {region} LMI with this P not proved at {(j, k)}"
+                )
                 break
     res.info["lyap_bound"] = worst["lyap"]
     res.info["brl_bound"] = worst["brl"]
@@ -797,12 +871,15 @@ def check_design(case: Case, gains, P, gamma=None, *, samples=32, norms=True) ->
         ev = np.linalg.eigvals(Acl)
         max_re = max(max_re, float(ev.real.max()))
         if ev.real.max() >= 0:
-            res.hard.append(f"closed loop not Hurwitz at delta={np.round(delta, 3).tolist()}")
+            res.hard.append(
+                f"closed loop not Hurwitz at delta={np.round(delta, 3).tolist()}"
+            )
             break
         for region in case.regions:
             if not region.contains(ev):
                 res.hard.append(
-                    f"eigenvalues outside {region} at delta={np.round(delta, 3).tolist()}"
+                    f"eigenvalues outside {region} at "
+                    f"delta={np.round(delta, 3).tolist()}"
                 )
                 break
         if hinf and norms:
@@ -814,7 +891,9 @@ def check_design(case: Case, gains, P, gamma=None, *, samples=32, norms=True) ->
                 )
                 break
             if np.isfinite(value) and value > gamma * (1 + 1e-7):
-                res.hard.append(f"frozen H-inf norm {value:.8g} (linfnorm) > gamma {gamma:.8g}")
+                res.hard.append(
+                    f"frozen H-inf norm {value:.8g} (linfnorm) > gamma {gamma:.8g}"
+                )
                 break
     res.info["max_real"] = max_re
     res.info["max_frozen_norm"] = max_norm
@@ -838,14 +917,18 @@ def _pair_brl(closed, j, k, P, g):
     if j == k:
         return brl_lmi(P, Acl, aA, B1, Ccl, aC, D1, g, 1.0)
     Acl2, aA2, B12, Ccl2, aC2, D12 = closed(k, j)
-    return brl_lmi(P, Acl + Acl2, aA + aA2, B1 + B12, Ccl + Ccl2, aC + aC2, D1 + D12, g, 2.0)
+    return brl_lmi(
+        P, Acl + Acl2, aA + aA2, B1 + B12, Ccl + Ccl2, aC + aC2, D1 + D12, g, 2.0
+    )
 
 
 # ======================================================================
 # Stabilizability, scale invariant
 # ======================================================================
 def mode_controllability(A, B):
-    """Per eigenvalue with ``Re >= 0`` the scale-invariant cosine ``max_k |v'b_k| / (|v|'|b_k|)``.
+    """Scale-invariant controllability cosine of each mode with ``Re >= 0``.
+
+    The cosine is ``max_k |v'b_k| / (|v|'|b_k|)``.
 
     ``v`` is the left eigenvector; the ratio does not change under diagonal
     state or input scaling. Returns ``[(eigenvalue, cosine), ...]``.
@@ -912,17 +995,27 @@ def _scaling(case, mode):
     if mode == "raw":
         a = 1.0
     cols = np.max([np.linalg.norm(Ti @ v[2], axis=0) for v in V], axis=0)
-    Su = np.where(cols > 0, a / np.maximum(cols, 1e-300), 1.0) if mode != "raw" else np.ones(case.m)
+    Su = (
+        np.where(cols > 0, a / np.maximum(cols, 1e-300), 1.0)
+        if mode != "raw"
+        else np.ones(case.m)
+    )
     sw = sz = 1.0
     if case.hinf and mode != "raw":
         nb1 = max(np.linalg.norm(Ti @ v[1], 2) for v in V)
         sw = a / nb1 if nb1 > 0 else 1.0
-        nz = max(np.linalg.norm(np.hstack([v[3] @ T, v[4] * sw, v[5] * Su]), 2) for v in V)
+        nz = max(
+            np.linalg.norm(np.hstack([v[3] @ T, v[4] * sw, v[5] * Su]), 2) for v in V
+        )
         sz = nz if nz > 0 else 1.0
     data = [
         (
-            Ti @ A @ T / a, Ti @ B1 * sw / a, Ti @ B2 * Su / a,
-            C @ T / sz, D1 * sw / sz, D2 * Su / sz,
+            Ti @ A @ T / a,
+            Ti @ B1 * sw / a,
+            Ti @ B2 * Su / a,
+            C @ T / sz,
+            D1 * sw / sz,
+            D2 * Su / sz,
         )  # fmt: skip
         for A, B1, B2, C, D1, D2 in V
     ]
@@ -1007,7 +1100,9 @@ def lmi_design(case, mode="balanced", margin=1e-6, solver="CLARABEL", gamma_fact
                 warnings.simplefilter("ignore")
                 prob.solve(solver=solver, **opts)
         except Exception as exc:  # noqa: BLE001 - recorded
-            out.append((f"{mode}/{solver}/{name}/m={margin:g}: {type(exc).__name__}", None))
+            out.append(
+                (f"{mode}/{solver}/{name}/m={margin:g}: {type(exc).__name__}", None)
+            )
             return None
         if W.value is None or prob.status not in ("optimal", "optimal_inaccurate"):
             out.append((f"{mode}/{solver}/{name}/m={margin:g}: {prob.status}", None))
@@ -1073,7 +1168,7 @@ def _gain_iterate(case, mode, start, solver="CLARABEL", iterations=6, margin=1e-
             [(j, k) for j in range(N) for k in range(j + 1, N)] if sched else []
         )
 
-        def X(j, k):
+        def X(j, k, W=W, Z=Z):
             return data[j][0] @ W - data[j][2] @ (Z[k] if sched else Z[0])
 
         for j, k in pairs:
@@ -1084,7 +1179,7 @@ def _gain_iterate(case, mode, start, solver="CLARABEL", iterations=6, margin=1e-
                 B1 = data[j][1] if j == k else data[j][1] + data[k][1]
                 D1 = data[j][4] if j == k else data[j][4] + data[k][4]
 
-                def Y(jj, kk):
+                def Y(jj, kk, W=W, Z=Z):
                     return data[jj][3] @ W - data[jj][5] @ (Z[kk] if sched else Z[0])
 
                 Ys = Y(j, k) if j == k else Y(j, k) + Y(k, j)
@@ -1105,7 +1200,11 @@ def _gain_iterate(case, mode, start, solver="CLARABEL", iterations=6, margin=1e-
         if case.hinf:
             gb = start[2] * sw / sz if start[2] is not None else None
             if case.gamma is not None:
-                gb = case.gamma * sw / sz * (1 - 1e-6) if gb is None else min(gb, case.gamma * sw / sz * (1 - 1e-6))
+                gb = (
+                    case.gamma * sw / sz * (1 - 1e-6)
+                    if gb is None
+                    else min(gb, case.gamma * sw / sz * (1 - 1e-6))
+                )
             cons.append(g <= (gb if gb is not None else 1e12) ** 2 * 1.44)
         prob = cp.Problem(cp.Minimize(mu), cons)
         try:
@@ -1123,7 +1222,10 @@ def _gain_iterate(case, mode, start, solver="CLARABEL", iterations=6, margin=1e-
         gamma = None if g is None else float(np.sqrt(max(float(g.value), 0))) * sz / sw
         out.append((gains, P, gamma))
         W0 = Wv
-        if case.gain_bound is not None and max(np.linalg.norm(K, 2) for K in gains) <= case.gain_bound:
+        if (
+            case.gain_bound is not None
+            and max(np.linalg.norm(K, 2) for K in gains) <= case.gain_bound
+        ):
             break
     return out
 
@@ -1132,7 +1234,8 @@ def _riccati_candidates(case):
     """LTI: LQR / H-infinity Riccati gains with P from the Riccati solution."""
     out = []
     if case.N != 1 and not all(
-        all(np.array_equal(x, y) for x, y in zip(case.vertices[0], v)) for v in case.vertices
+        all(np.array_equal(x, y) for x, y in zip(case.vertices[0], v))
+        for v in case.vertices
     ):
         return out
     A, B1, B2, C, D1, D2 = case.vertices[0]
@@ -1147,7 +1250,15 @@ def _riccati_candidates(case):
                 gam = gopt * f
                 if case.gamma is not None:
                     gam = min(gam, case.gamma * (1 - 1e-6))
-                sol = hinf_riccati_at(A, B1, B2, C, D2, gam)
+                sol = hinf_riccati_at(
+                    A,
+                    B1,
+                    B2,
+                    C,
+                    D2,
+                    gam,
+                    eps=1e-6 * max(np.linalg.norm(C, 2) ** 2, 1e-12),
+                )
                 if sol is None:
                     continue
                 X, K = sol
@@ -1179,7 +1290,6 @@ def _analysis_P(case, gains, solver="CLARABEL"):
     Si = np.diag(1 / s)
     a = max(np.linalg.norm(Si @ Acls[key][0] @ S, 2) for key in Acls) or 1.0
     Q = cp.Variable((n, n), symmetric=True)
-    g = cp.Variable()
     t = cp.Variable()
     cons = [Q >> np.eye(n), Q << 1e6 * np.eye(n)]
     pairs = [(j, j) for j in range(N)] + (
@@ -1284,7 +1394,10 @@ def message_kind(exc) -> str:
 def proved_infeasible(case: Case) -> str | None:
     """A proof from the construction that no design exists, or None."""
     if case.unstabilizable:
-        return f"vertices {sorted(case.unstabilizable)} have an exactly uncontrollable mode Re >= 0"
+        return (
+            f"vertices {sorted(case.unstabilizable)} have an exactly "
+            "uncontrollable mode Re >= 0"
+        )
     if case.gamma is not None and case.gamma_lower is not None:
         if case.gamma < case.gamma_lower * (1 - 1e-3):
             return (
@@ -1368,7 +1481,8 @@ class _time_cap:
 def run_case(case: Case, lpv, probe_budget=120.0, verbose=False, time_cap=None) -> dict:
     """Call the library on `case`, check what it says, probe refusals."""
     rec = {"case": case.label(), "function": case.function, "N": case.N, "n": case.n,
-           "m": case.m, "tags": list(case.tags), "describe": case.describe()}  # fmt: skip
+           "m": case.m, "tags": list(case.tags),
+           "describe": case.describe()}  # fmt: skip
     t0 = time.perf_counter()
     design, exc = None, None
     with warnings.catch_warnings(record=True) as caught:
@@ -1377,7 +1491,9 @@ def run_case(case: Case, lpv, probe_budget=120.0, verbose=False, time_cap=None) 
             with _time_cap(time_cap):
                 design = case.call(lpv)
         except LibraryTimeout as e:
-            rec.update(outcome="timeout", seconds=time.perf_counter() - t0, message=str(e))
+            rec.update(
+                outcome="timeout", seconds=time.perf_counter() - t0, message=str(e)
+            )
             return rec
         except Exception as e:  # noqa: BLE001 - classified below
             exc = e
@@ -1439,16 +1555,20 @@ def _loop_shift(A, B1, B2, C1, D12):
     return At, B2t, C1t, F0, Rih
 
 
-def hinf_riccati_at(A, B1, B2, C1, D12, gamma):
+def hinf_riccati_at(A, B1, B2, C1, D12, gamma, eps=0.0):
     """Stabilizing ``X >= 0`` of the H-infinity Riccati equation at `gamma`.
 
     ``A'X + XA + X (B1 B1'/gamma^2 - B2 B2') X + C1'C1 = 0`` (after the
     loop-shifting of a general `D12`), or None when it has none. Returns
-    ``(X, K)`` with ``u = -K x`` achieving ``||T_zw|| < gamma``.
+    ``(X, K)`` with ``u = -K x`` achieving ``||T_zw|| < gamma``. With
+    ``eps > 0`` the equation has ``C1'C1 + eps I``: then ``X`` satisfies the
+    bounded-real inequality of the closed loop strictly (storage form,
+    ``P = X / gamma^2`` in the form of `brl_lmi`).
     """
     At, B2t, C1t, F0, Rih = _loop_shift(A, B1, B2, C1, D12)
     n = A.shape[0]
-    H = np.block([[At, B1 @ B1.T / gamma**2 - B2t @ B2t.T], [-C1t.T @ C1t, -At.T]])
+    Q = C1t.T @ C1t + eps * np.eye(n)  # eps > 0: a strict storage inequality
+    H = np.block([[At, B1 @ B1.T / gamma**2 - B2t @ B2t.T], [-Q, -At.T]])
     ev = np.linalg.eigvals(H)
     hn = max(np.linalg.norm(H, 1), 1e-300)
     if np.any(np.abs(ev.real) < 1e-9 * hn):
@@ -1475,7 +1595,9 @@ def hinf_riccati(A, B1, B2, C1, D12, rtol=1e-7):
     At, B2t, C1t, _, _ = _loop_shift(A, B1, B2, C1, D12)
     n = A.shape[0]
     try:
-        X = sla.solve_continuous_are(At, B2t, C1t.T @ C1t + 1e-9 * np.eye(n), np.eye(B2t.shape[1]))
+        X = sla.solve_continuous_are(
+            At, B2t, C1t.T @ C1t + 1e-9 * np.eye(n), np.eye(B2t.shape[1])
+        )
     except (np.linalg.LinAlgError, ValueError) as exc:
         raise RuntimeError(f"no stabilizing LQR gain: {exc}") from None
     hi = 1.0
