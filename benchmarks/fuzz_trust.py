@@ -40,7 +40,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "tests"))
 
 import ctrl_lpv as lpv  # noqa: E402
-from _independent import generate_case, run_case  # noqa: E402
+from _independent import generate_case, message_kind, run_case  # noqa: E402
 
 
 def _json_default(obj):
@@ -111,6 +111,17 @@ def summarize(records, seconds) -> str:
     ]
     for fn, (c, d, f, fr) in sorted(by_fn.items()):
         lines.append(f"{fn:30s} {c:6d} {d:8d} {f:7d} {fr:9d}")
+    by_fam = collections.defaultdict(collections.Counter)
+    for r in records:
+        verdict = r.get("verdict") or r["outcome"]
+        if r["outcome"] == "design":
+            verdict = "design ok" if r["check_ok"] else "design FAILED"
+        by_fam[_family(r["tags"])][verdict] += 1
+    lines += ["", "by problem family:"]
+    for fam, counter in sorted(by_fam.items()):
+        lines.append(
+            f"  {fam:16s} " + ", ".join(f"{k} {v}" for k, v in counter.items())
+        )
     if failed:
         lines += ["", "failing designs:"]
         for r in failed[:20]:
@@ -135,7 +146,9 @@ def main(argv=None):
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--start", type=int, default=0, help="first index")
     parser.add_argument("--json", help="write the records here")
-    parser.add_argument("--probe-budget", type=float, default=60.0)
+    parser.add_argument(
+        "--probe-budget", type=float, default=30.0, help="CPU seconds per refusal"
+    )
     parser.add_argument(
         "--time-cap",
         type=float,
@@ -144,12 +157,28 @@ def main(argv=None):
     )
     parser.add_argument("--case", help="SEED:INDEX: re-run one case verbosely")
     parser.add_argument(
+        "--rescore",
+        nargs="+",
+        metavar="JSON",
+        help="re-read record files (merged) and print the table",
+    )
+    parser.add_argument(
         "--small",
         action="store_true",
         help="the capped sizes of tests/test_trust_fuzz.py",
     )
     args = parser.parse_args(argv)
     warnings.simplefilter("ignore")
+
+    if args.rescore:
+        records, seconds = [], 0.0
+        for path in args.rescore:
+            with open(path) as f:
+                data = json.load(f)
+            records += [_rescore(r) for r in data["records"]]
+            seconds += data["meta"]["seconds"]
+        print(summarize(records, seconds))
+        return 0
 
     if args.case:
         seed, index = (int(x) for x in args.case.split(":"))
@@ -195,6 +224,37 @@ def main(argv=None):
     if args.json:
         _dump(args, records, seconds)
     return 0
+
+
+def _family(tags):
+    """The generator's problem kind, from a case's tags."""
+    text = " ".join(tags)
+    for key, name in (
+        ("issue", "issue examples"),
+        ("uncontrollable mode", "uncontrollable"),
+        ("weak B", "weak B"),
+        ("illcond", "ill-conditioned"),
+        ("scaled 1e-4", "scaled states"),
+    ):
+        if key in text:
+            return name
+    return "generic"
+
+
+def _rescore(rec):
+    """Re-derive the message kind and statement check of a stored refusal."""
+    if rec["outcome"] != "refusal" or rec["verdict"] == "uncaught exception":
+        return rec
+    rec = dict(rec)
+    rec["kind"] = message_kind(Exception(rec["message"]))
+    if rec["kind"] != "not stabilizable":
+        plain = rec["class"] == "InfeasibleError"
+        rec["false_statement"] = (
+            "InfeasibleError on a feasible problem"
+            if plain and rec.get("probe_found")
+            else None
+        )
+    return rec
 
 
 def _dump(args, records, seconds):

@@ -1382,7 +1382,7 @@ def probe_case(case: Case, budget=120.0, verbose=False) -> ProbeResult:
 def message_kind(exc) -> str:
     """What a refusal claims, from the head of its message."""
     msg = str(exc).lower()
-    head = msg.split("[", 1)[0]  # the solver summary (statuses) follows "["
+    head = msg.split(" [", 1)[0]  # the solver summary (statuses) follows " ["
     if "not stabilizable" in head or "uncontrollable" in head:
         return "not stabilizable"
     if "gain_bound" in head:
