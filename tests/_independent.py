@@ -1160,7 +1160,7 @@ def _gain_iterate(case, mode, start, solver="CLARABEL", iterations=6, margin=1e-
         H = T @ W @ G0inv
         cons = [W >> margin * np.eye(n)]
         for k in range(len(Z)):
-            S = (Su[:, None] * Z[k]) @ G0inv
+            S = np.diag(Su) @ Z[k] @ G0inv
             cons.append(cp.bmat([[H + H.T - np.eye(n), S.T], [S, mu * np.eye(m)]]) >> 0)
         pairs = [(j, j) for j in range(N)] + (
             [(j, k) for j in range(N) for k in range(j + 1, N)] if sched else []
@@ -1351,7 +1351,14 @@ def probe_case(case: Case, budget=120.0, verbose=False) -> ProbeResult:
     for mode, margin, solver in plans:
         if res.found or over():
             break
-        for name, cand in lmi_design(case, mode, margin, solver):
+        try:
+            designs = lmi_design(case, mode, margin, solver)
+        except Exception as exc:  # noqa: BLE001 - a probe bug must not stop a run
+            res.tried.append(
+                f"{mode}/{solver}: probe error {type(exc).__name__}: {exc}"
+            )
+            continue
+        for name, cand in designs:
             if cand is None:
                 res.tried.append(name)
                 if verbose:
@@ -1361,9 +1368,12 @@ def probe_case(case: Case, budget=120.0, verbose=False) -> ProbeResult:
             if accept(name, gains, P, gamma):
                 break
             if case.gain_bound is not None and not over():
-                for i, (g2, P2, gm2) in enumerate(
-                    _gain_iterate(case, mode, cand, solver, margin=margin)
-                ):
+                try:
+                    iterates = _gain_iterate(case, mode, cand, solver, margin=margin)
+                except Exception as exc:  # noqa: BLE001
+                    res.tried.append(f"gain iteration: probe error {exc}")
+                    iterates = []
+                for i, (g2, P2, gm2) in enumerate(iterates):
                     if accept(f"{name}/gain iteration {i}", g2, P2, gm2):
                         break
                 if res.found:

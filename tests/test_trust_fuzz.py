@@ -31,7 +31,7 @@ from _independent import (
 
 SEED = 2026
 NCASES = 40
-PROBE_BUDGET = 6.0  # CPU seconds per refusal
+PROBE_BUDGET = 4.0  # CPU seconds per refusal
 
 
 # ----------------------------------------------------------------------
