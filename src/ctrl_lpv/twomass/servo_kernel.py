@@ -56,6 +56,7 @@ class ServoTuning:
     probe_rate: float
     integral_leak: float
     observer_bandwidth: float
+    rest_speed: float = 0.01
     goal_rate: float = 2000.0
     replan_rate: float = 1e4
     goal_tolerance: float = 1e-6
@@ -78,6 +79,7 @@ def servo_kernel(c: ServoTuning) -> BlockKernel:
     anti, estimate = c.anti_hunting, c.gap_estimate
     leak, gam, probe = c.integral_leak, c.estimate_rate, c.probe_rate
     ratio = ks / k1
+    rest_speed = c.rest_speed
 
     def core(x, u):
         r, v, a, j, g, h, xi, dah = x[:8]
@@ -94,7 +96,10 @@ def servo_kernel(c: ServoTuning) -> BlockKernel:
         # the flank: the backlash offset in the motor reference.
         tstar = F - ratio * (k3 * el + k4 * dl + k5 * xi) if anti else F
         y = tstar / teps
-        psi = 1.0 if y >= 1.0 else (-1.0 if y <= -1.0 else 0.5 * y * (3.0 - y * y))
+        # psi: odd smoothstep, flat at 0 and at +-1 (C1).
+        ya = y if y >= 0.0 else -y
+        psi = 1.0 if ya >= 1.0 else ya * ya * (3.0 - 2.0 * ya)
+        psi = psi if y >= 0.0 else -psi
         thm = r + F / ks + ah * psi
         wmf = v + F1 / ks
         tff = Jm * (a + F2 / ks) + cm * wmf + F
@@ -128,7 +133,10 @@ def servo_kernel(c: ServoTuning) -> BlockKernel:
                 # the gap is wider than estimated.
                 m = abs(tstar) / (2.0 * tc) - 1.0
                 m = 0.0 if m < 0.0 else (1.0 if m > 1.0 else m)
-                ddah += probe * (1.0 - wc) * m * (1.0 if ah < amax else 0.0)
+                # Only with the move ended and the load nearly at rest.
+                rest = 1.0 - (abs(v) + abs(wl)) / rest_speed
+                rest = 0.0 if rest < 0.0 else rest
+                ddah += probe * (1.0 - wc) * m * rest * (1.0 if ah < amax else 0.0)
         # Integral action: conditional on saturation (anti-windup) and, with
         # anti-hunting, only in contact, fading out of contact.
         if (raw > limit and el < 0.0) or (raw < -limit and el > 0.0):
