@@ -11,7 +11,9 @@
 * `design`, `save_gains`, `load_gains`: certified designs in one call and
   their gain files;
 * `compare`, `reproduce`: the LPV vs backstepping comparison and the whole
-  reproduction of the paper (``ctrl-lpv reproduce``).
+  reproduction of the paper (``ctrl-lpv reproduce``);
+* `servo_design`: the torque-limited position servo (planner, feedforward,
+  certified feedback, anti-hunting) and its comparison helpers.
 """
 
 from .backstepping import backstepping_controller
@@ -24,6 +26,16 @@ from .parameters import Parameters
 from .plant import plant
 from .reproduce import errata_findings, reproduce
 from .scenarios import alpha_step, closed_loop, metrics, simulate
+from .servo import ServoDesign, servo_design, servo_polytope
+from .servo_compare import (
+    comparison_controllers,
+    run_servo_scenario,
+    servo_comparison,
+    servo_loop,
+    servo_metrics,
+    servo_scenarios,
+)
+from .trajectory import move_duration, reference_generator, rest_to_rest
 
 __all__ = [
     "Parameters",
@@ -53,4 +65,16 @@ __all__ = [
     "lpv_spec",
     "backstepping_spec",
     "comparison_specs",
+    "servo_design",
+    "ServoDesign",
+    "servo_polytope",
+    "servo_loop",
+    "run_servo_scenario",
+    "servo_metrics",
+    "servo_scenarios",
+    "comparison_controllers",
+    "servo_comparison",
+    "move_duration",
+    "rest_to_rest",
+    "reference_generator",
 ]

@@ -174,7 +174,8 @@ class ServoDesign:
         lines = [
             f"ServoDesign: |Tm| <= {self.torque_limit:g} Nm, alpha <= "
             f"{self.alpha_max:g} rad, Jl in [{self.Jl_range[0]:g}, "
-            f"{self.Jl_range[1]:g}] x {self.params.Jl:g} kg m^2, Td <= {self.Td_max:g} Nm",
+            f"{self.Jl_range[1]:g}] x {self.params.Jl:g} kg m^2, "
+            f"Td <= {self.Td_max:g} Nm",
             f"  moves: minimum-snap, peak acceleration {t.accel_limit:.3g} rad/s^2 "
             f"(0.5 rad in {self.move_duration(0.5):.3f} s, 1 rad in "
             f"{self.move_duration(1.0):.3f} s)",
@@ -195,7 +196,7 @@ def servo_design(
     Jl_range: tuple[float, float] = (0.8, 1.2),
     Td_max: float = 10.0,
     torque_reserve: float = 0.12,
-    min_duration: float = 0.12,
+    min_duration: float = 0.2,
     p_bounds: tuple[float, float] = (-0.5, 0.0),
     torque_weight: float = 5e-4,
     integral_weight: float = 30.0,
@@ -207,7 +208,8 @@ def servo_design(
     estimate_rate: float = 50.0,
     probe_rate: float = 0.05,
     integral_leak: float = 2.0,
-    observer_bandwidth: float = 300.0,
+    observer_bandwidth: float = 1000.0,
+    integral_hold: float = 0.05,
     horizon_floor: float = 0.04,
     certify: bool = True,
 ) -> ServoDesign:
@@ -231,7 +233,8 @@ def servo_design(
         the rigid-body torque of the heaviest load plus `Td_max` stays below
         ``(1 - torque_reserve) * torque_limit`` (default 0.12).
     min_duration : float, optional
-        Shortest move, s (default 0.12).
+        Shortest move, s (default 0.2: short moves excite the shaft mode
+        through the feedforward's inertia error).
     p_bounds : (float, float), optional
         Backlash parameter interval of the feedback synthesis.
     torque_weight, integral_weight : float, optional
@@ -259,7 +262,11 @@ def servo_design(
     integral_leak : float, optional
         Decay rate (1/s) of the integral out of contact.
     observer_bandwidth : float, optional
-        Shaft-torque observer bandwidth, rad/s.
+        Shaft-torque observer bandwidth, rad/s (default 1000).
+    integral_hold : float, optional
+        Planned speed, rad/s, above which the integral is held (default
+        0.05): it integrates at rest, for the load torque, not the tracking
+        error of a move (which would wind it up); 0 disables the hold.
     horizon_floor : float, optional
         Floor of the planner's time-to-go, s.
     certify : bool, optional
@@ -289,6 +296,7 @@ def servo_design(
     for label, value in (
         ("Td_max", Td_max), ("estimate_rate", estimate_rate),
         ("probe_rate", probe_rate), ("integral_leak", integral_leak),
+        ("integral_hold", integral_hold),
     ):  # fmt: skip
         if not (np.isfinite(value) and value >= 0):
             raise ValueError(f"{label}: must be >= 0, got {value!r}")
@@ -329,6 +337,7 @@ def servo_design(
         estimate_rate=float(estimate_rate), probe_rate=float(probe_rate),
         integral_leak=float(integral_leak),
         observer_bandwidth=float(observer_bandwidth),
+        integral_hold=float(integral_hold),
         anti_hunting=bool(anti_hunting), gap_estimate=bool(gap_estimate),
     )  # fmt: skip
     certificate = servo_certificate(

@@ -1,4 +1,4 @@
-"""What is certified about the servo on the exact backlash plant.
+r"""What is certified about the servo on the exact backlash plant.
 
 The exact plant, seen from the servo's motor reference (which includes the
 backlash offset ``delta``), is the contact model (shaft torque ``ks
@@ -107,7 +107,7 @@ def contact_loop(params: Parameters, gain, Jl_range) -> tuple[list, np.ndarray]:
         p = params.replace(Jl=f * params.Jl)
         m = lpv_model(p, p_bounds=(-0.5, 0.0), formulation="tracking", integral=True)
         v = m.vertices[-1]  # p = 0: contact
-        B_td, B_tm = np.asarray(v.B[:, [0]]), np.asarray(v.B[:, [1]])
+        B_tm = np.asarray(v.B[:, [1]])
         As.append(np.asarray(v.A) - B_tm @ K)
         e_w = np.zeros((5, 1))
         e_w[1, 0], e_w[3, 0] = 1.0 / p.Jm, -1.0 / p.Jl

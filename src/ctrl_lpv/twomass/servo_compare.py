@@ -311,8 +311,10 @@ def comparison_controllers(
     """
     if design is None:
         design = servo_design(torque_limit=torque_limit)
-    kw = dict(torque_limit=torque_limit, alpha_max=design.alpha_max,
-              Jl_range=design.Jl_range, Td_max=design.Td_max, certify=False)  # fmt: skip
+    kw = dict(
+        torque_limit=torque_limit, alpha_max=design.alpha_max,
+        Jl_range=design.Jl_range, Td_max=design.Td_max, certify=False,
+    )  # fmt: skip
     plain = servo_design(design.params, anti_hunting=False, **kw)
     paper_ff = servo_design(
         design.params, gain=paper_gain(), anti_hunting=False, gap_estimate=False, **kw

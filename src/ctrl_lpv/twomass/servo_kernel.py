@@ -57,6 +57,8 @@ class ServoTuning:
     integral_leak: float
     observer_bandwidth: float
     rest_speed: float = 0.01
+    flank_lead: float = 0.0
+    integral_hold: float = 0.0
     goal_rate: float = 2000.0
     replan_rate: float = 1e4
     goal_tolerance: float = 1e-6
@@ -79,7 +81,7 @@ def servo_kernel(c: ServoTuning) -> BlockKernel:
     anti, estimate = c.anti_hunting, c.gap_estimate
     leak, gam, probe = c.integral_leak, c.estimate_rate, c.probe_rate
     ratio = ks / k1
-    rest_speed = c.rest_speed
+    rest_speed, lead, hold = c.rest_speed, c.flank_lead, c.integral_hold
 
     def core(x, u):
         r, v, a, j, g, h, xi, dah = x[:8]
@@ -94,7 +96,10 @@ def servo_kernel(c: ServoTuning) -> BlockKernel:
         el, dl = tl - r, wl - v
         # The shaft torque asked for (feedforward and load feedback) picks
         # the flank: the backlash offset in the motor reference.
-        tstar = F - ratio * (k3 * el + k4 * dl + k5 * xi) if anti else F
+        # The planned torque is taken `lead` seconds ahead, so that the motor
+        # crosses the gap before the load needs the other flank.
+        fpred = F + lead * F1
+        tstar = fpred - ratio * (k3 * el + k4 * dl + k5 * xi) if anti else fpred
         y = tstar / teps
         # psi: odd smoothstep, flat at 0 and at +-1 (C1).
         ya = y if y >= 0.0 else -y
@@ -120,8 +125,7 @@ def servo_kernel(c: ServoTuning) -> BlockKernel:
         dwh = (sat - cm * wm - tsh) / Jm + l1 * ew
         dtsh = -l2 * ew
         # Contact weight: 0 in the gap, 1 when clearly transmitting torque.
-        wc = (abs(tsh) - tc) / tc
-        wc = 0.0 if wc < 0.0 else (1.0 if wc > 1.0 else wc)
+        wc = _smoothstep((abs(tsh) - tc) / tc)
         ddah = 0.0
         if estimate:
             # In contact the flank is at theta_d - (Ts - cs omega_d) / ks.
@@ -131,11 +135,9 @@ def servo_kernel(c: ServoTuning) -> BlockKernel:
             if anti:
                 # Contact asked for (twice the contact torque) and not made:
                 # the gap is wider than estimated.
-                m = abs(tstar) / (2.0 * tc) - 1.0
-                m = 0.0 if m < 0.0 else (1.0 if m > 1.0 else m)
+                m = _smoothstep(abs(tstar) / (2.0 * tc) - 1.0)
                 # Only with the move ended and the load nearly at rest.
-                rest = 1.0 - (abs(v) + abs(wl)) / rest_speed
-                rest = 0.0 if rest < 0.0 else rest
+                rest = _smoothstep(1.0 - (abs(v) + abs(wl)) / rest_speed)
                 ddah += probe * (1.0 - wc) * m * rest * (1.0 if ah < amax else 0.0)
         # Integral action: conditional on saturation (anti-windup) and, with
         # anti-hunting, only in contact, fading out of contact.
@@ -145,6 +147,19 @@ def servo_kernel(c: ServoTuning) -> BlockKernel:
             dxi = wc * el - (1.0 - wc) * leak * xi
         else:
             dxi = el
+        if hold > 0.0:
+            # The integral is for the load torque at rest, not for tracking
+            # errors during the move (which would wind it up).
+            dxi *= _smoothstep(1.0 - abs(v) / hold)
         return (v, a, j, snap, dg, dh, dxi, ddah, dwh, dtsh)
 
     return BlockKernel(out=out, rhs=rhs)
+
+
+def _smoothstep(s: float) -> float:
+    """0 below 0, 1 above 1, ``s^2 (3 - 2 s)`` between (C1: no kinks)."""
+    if s <= 0.0:
+        return 0.0
+    if s >= 1.0:
+        return 1.0
+    return s * s * (3.0 - 2.0 * s)
