@@ -185,7 +185,10 @@ def test_ultimate_bound_along_a_trajectory():
     tt = t[window] - t[window][0]
     bound = ub.rho * W**2 + (V[0] - ub.rho * W**2) * np.exp(-ub.decay * tt)
     assert np.all(V <= bound * (1 + 1e-6) + 1e-12)
-    assert np.max(np.abs(x[2])) <= ub.bounds[0] * W + np.sqrt(V[0] * 2)
+    # Hence the load error stays within the ellipsoid's extent along e_l.
+    extent = np.sqrt(np.linalg.inv(ub.P)[2, 2])
+    assert np.all(np.abs(dx[2]) <= np.sqrt(bound) * extent * (1 + 1e-6) + 1e-12)
+    assert ub.bounds[0] == pytest.approx(np.sqrt(ub.rho) * extent, rel=1e-6)
 
 
 def test_bad_arguments():
