@@ -125,13 +125,14 @@ def test_paper_scenario_must_show(design):
 
 
 def test_no_hunting_without_load_torque(design):
-    resp = run(design.controller(), 0.06, Jl=1.0, Td=0.0, T=20.0)
+    # 10 s here (the slow grid runs the 20 s).
+    resp = run(design.controller(), 0.06, Jl=1.0, Td=0.0, T=10.0)
     t, y = resp.time, resp.outputs[0]
     settling, overshoot, e = step_numbers(t, y, 0.5)
     assert settling <= 0.4 and overshoot <= 2.0
     assert np.max(np.abs(e[t >= 3.0])) <= 2e-3
-    # No limit cycle: the torque is quiet over the last 10 s.
-    tail = t >= 10.0
+    # No limit cycle: the torque is quiet over the last 5 s.
+    tail = t >= 5.0
     assert np.ptp(resp.outputs[1][tail]) < 1.0
     assert np.max(np.abs(resp.outputs[1])) <= LIMIT
 
