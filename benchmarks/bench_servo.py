@@ -24,7 +24,7 @@ thresholds hold (paper: settling <= 0.25 s, overshoot <= 1 %, |e(5 s)| <=
 Usage::
 
     python benchmarks/bench_servo.py [--quick] [--limits 500 2000]
-        [--controllers servo ...] [--json PATH]
+        [--controllers servo ...] [--groups paper Td=8 Td=0] [--json PATH]
 
 ``--quick`` runs the servo alone at 500 Nm.
 """
@@ -110,6 +110,9 @@ def main(argv=None):
     ap.add_argument("--limits", type=float, nargs="+", default=[500.0, 2000.0])
     ap.add_argument("--controllers", nargs="+", default=None)
     ap.add_argument(
+        "--groups", nargs="+", default=None, help="scenario groups: paper Td=8 Td=0"
+    )
+    ap.add_argument(
         "--json",
         default=os.path.join(os.path.dirname(__file__), "results", "servo.json"),
     )
@@ -117,6 +120,8 @@ def main(argv=None):
     limits = [500.0] if args.quick else args.limits
     result = dict(python=sys.version.split()[0], machine=platform.machine(), limits={})
     scenarios = servo_scenarios()
+    if args.groups:
+        scenarios = [s for s in scenarios if s["group"] in args.groups]
     for limit in limits:
         t0 = time.perf_counter()
         design = servo_design(torque_limit=limit)
