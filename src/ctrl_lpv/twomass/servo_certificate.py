@@ -176,7 +176,8 @@ def servo_certificate(
             f"[{'verified' if ultimate.certificate.verified else 'NOT verified'}]"
         )
     lines.append(
-        "  not certified: the gap crossings, the planner, the flank choice and "
-        "the contact-aware integral (checked by simulation)"
+        "  not certified: the gap crossings, the planner, the flank choice, the "
+        "gap estimate and the contact-aware, held integral (checked by "
+        "simulation)"
     )
     return ServoCertificate(fb_cert, gamma, ultimate, w_max, "\n".join(lines))

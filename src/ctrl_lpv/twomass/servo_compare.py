@@ -330,7 +330,7 @@ def comparison_controllers(
         inplist=[["bs.theta_m"], ["bs.omega_m"], ["bs.theta_l"], ["bs.omega_l"],
                  ["planner.theta_r"]],
         inputs=CONTROLLER_INPUTS, outlist=["bs.Tm"], outputs=["Tm"],
-        name="bs_traj",
+        name="bs_traj", check_unused=False,
     )  # fmt: skip
     return {
         "servo": design.controller("servo"),
