@@ -203,7 +203,7 @@ def servo_design(
     gain=None,
     anti_hunting: bool = True,
     gap_estimate: bool = True,
-    flank_width: float = 2.0,
+    flank_width: float = 0.5,
     contact_torque: float = 1.5,
     estimate_rate: float = 50.0,
     probe_rate: float = 0.05,
@@ -251,7 +251,8 @@ def servo_design(
         ``alpha_max / 2``.
     flank_width : float, optional
         Shaft torque, Nm, over which the offset turns from one flank to the
-        other (default 2).
+        other (default 0.5; a steady asked torque inside this band makes a
+        steep flank choice, so it is kept small).
     contact_torque : float, optional
         Observed shaft torque, Nm, above which the drive counts as in
         contact (weight 1 from twice this value; default 1.5).  The gap
