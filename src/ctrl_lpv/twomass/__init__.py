@@ -11,7 +11,9 @@
 * `design`, `save_gains`, `load_gains`: certified designs in one call and
   their gain files (validated and re-checked on load);
 * `compare`, `reproduce`: the LPV vs backstepping comparison and the whole
-  reproduction of the paper (``ctrl-lpv reproduce``).
+  reproduction of the paper (``ctrl-lpv reproduce``);
+* `servo_design`: the torque-limited position servo (planner, feedforward,
+  certified feedback, no hunting) and its comparison (`servo_comparison`).
 
 The names are imported lazily, as in `ctrl_lpv`.
 """
@@ -47,6 +49,18 @@ _EXPORTS = {
     "lpv_spec": "batch",
     "backstepping_spec": "batch",
     "comparison_specs": "batch",
+    "servo_design": "servo",
+    "ServoDesign": "servo",
+    "servo_polytope": "servo",
+    "servo_loop": "servo_compare",
+    "run_servo_scenario": "servo_compare",
+    "servo_metrics": "servo_compare",
+    "servo_scenarios": "servo_compare",
+    "comparison_controllers": "servo_compare",
+    "servo_comparison": "servo_compare",
+    "move_duration": "trajectory",
+    "rest_to_rest": "trajectory",
+    "reference_generator": "trajectory",
 }
 
 __all__ = list(_EXPORTS)

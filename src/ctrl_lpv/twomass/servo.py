@@ -1,0 +1,366 @@
+"""A torque-limited position servo for the two-mass drive with backlash.
+
+`servo_design` builds what a drive engineer would deploy on the exact
+backlash plant, in four parts (details in ``docs/servo.rst``):
+
+1. an online rest-to-rest planner (`ctrl_lpv.twomass.trajectory`): a
+   minimum-snap move of the load whose duration keeps the feedforward torque
+   within a share of the limit for the heaviest load, re-planned from the
+   present state whenever the target ``theta_r`` changes;
+2. the flat feedforward of the contact model along that move, with the
+   backlash offset ``alpha_hat psi(T*/T_eps)`` in the motor reference: the
+   motor leads (or trails) the load by the estimated half-gap on the flank
+   that transmits the shaft torque ``T*`` asked for;
+3. certified state feedback on the tracking error (`ctrl_lpv.
+   hinf_state_feedback` on `lpv_model` with ``p`` and the load inertia as
+   polytope parameters), clipped at the torque limit, with conditional
+   integration (anti-windup);
+4. against hunting: the flank is chosen by the whole shaft torque asked for
+   (feedforward plus load feedback), so that a residual load error makes the
+   motor cross the gap and push (and a moving load is braked on the other
+   flank); the gap is estimated online from ``theta_m - theta_l`` at
+   contacts (shaft-torque observer on the motor side) and widened when a
+   contact asked for is not made; the integral of the load error runs only
+   in contact and fades out of it (at rest in the gap no torque reaches the
+   load, so there is no load torque to integrate).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import control as ct
+import numpy as np
+
+from ..interconnection import kernel_nlsys
+from ..synthesis import StateFeedbackDesign, hinf_state_feedback
+from ..systems import PolytopicStateSpace
+from .model import lpv_model
+from .parameters import Parameters
+from .servo_certificate import ServoCertificate, servo_certificate
+from .servo_kernel import INPUTS, STATES, ServoTuning, servo_kernel
+from .trajectory import PEAK_ACCEL, move_duration
+
+__all__ = ["ServoDesign", "servo_design", "servo_polytope"]
+
+
+def servo_polytope(
+    params: Parameters | None = None,
+    *,
+    p_bounds: tuple[float, float] = (-0.5, 0.0),
+    Jl_range: tuple[float, float] = (0.8, 1.2),
+    torque_weight: float = 5e-4,
+    integral_weight: float = 30.0,
+) -> PolytopicStateSpace:
+    """The tracking-error model with the load inertia as a second parameter.
+
+    The vertices of `lpv_model` (tracking formulation, integral of the
+    load-angle error) at ``Jl * Jl_range[0]`` and ``Jl * Jl_range[1]``.
+    ``A`` is affine in ``p`` and in ``1/Jl`` and bilinear in the pair, so
+    on the box ``p_bounds x [1/Jl_max, 1/Jl_min]`` it stays in the convex
+    hull of these four vertices: a common certificate covers every
+    ``(p, Jl)`` of the box, also time-varying.
+
+    Parameters
+    ----------
+    params : `Parameters`, optional
+        Nominal drive data.
+    p_bounds : (float, float), optional
+        Interval of the backlash parameter (see `lpv_model`).
+    Jl_range : (float, float), optional
+        Load inertia as multiples of ``params.Jl``.
+    torque_weight, integral_weight : float, optional
+        Weights of the performance outputs (see `lpv_model`).
+
+    Returns
+    -------
+    `ctrl_lpv.PolytopicStateSpace`
+        Four vertices, inputs ``["Td", "Tm"]``, outputs ``["e_l", "Tm_w",
+        "int_e_l_w"]``.
+    """
+    params = Parameters() if params is None else params
+    lo, hi = _range(Jl_range, "Jl_range")
+    vertices = []
+    for f in (lo, hi):
+        m = lpv_model(
+            params.replace(Jl=f * params.Jl), p_bounds=p_bounds,
+            formulation="tracking", integral=True,
+            torque_weight=torque_weight, integral_weight=integral_weight,
+        )  # fmt: skip
+        vertices += list(m.vertices)
+    return PolytopicStateSpace(
+        vertices, inputs=m.input_labels, outputs=m.output_labels,
+        states=m.state_labels, name="twomass_servo_error",
+    )  # fmt: skip
+
+
+@dataclass(frozen=True)
+class ServoDesign:
+    """A servo design: its tuning, feedback design and certificate.
+
+    Attributes
+    ----------
+    params : `Parameters`
+        Nominal drive data of the design (feedforward and models).
+    torque_limit : float
+        The motor torque limit, Nm; the controller never asks for more.
+    alpha_max : float
+        Largest half-gap the design allows for, rad.
+    Jl_range : (float, float)
+        Load inertias covered, as multiples of ``params.Jl``.
+    Td_max : float
+        Largest load torque allowed for in the torque budget, Nm.
+    gain : ndarray
+        ``1 x 5`` feedback gain on ``[e_m, omega_m err, e_l, omega_l err,
+        int e_l]`` (``u = -K x``).
+    feedback : `ctrl_lpv.StateFeedbackDesign` or None
+        The certified synthesis that gave `gain` (None for a given gain).
+    tuning : `ServoTuning`
+        Every number of the control law.
+    certificate : `ServoCertificate`
+        What is certified, with its float64 checks.
+    """
+
+    params: Parameters
+    torque_limit: float
+    alpha_max: float
+    Jl_range: tuple[float, float]
+    Td_max: float
+    gain: np.ndarray
+    feedback: StateFeedbackDesign | None
+    tuning: ServoTuning
+    certificate: ServoCertificate = field(repr=False)
+
+    @property
+    def accel_limit(self) -> float:
+        """Peak load acceleration of planned moves, rad/s^2."""
+        return self.tuning.accel_limit
+
+    def move_duration(self, distance) -> float:
+        """Duration of a planned rest-to-rest move of `distance` rad, s."""
+        return move_duration(distance, self.accel_limit, self.tuning.min_duration)
+
+    def controller(self, name: str = "servo") -> ct.NonlinearIOSystem:
+        """The servo as a python-control I/O system.
+
+        Parameters
+        ----------
+        name : str, optional
+            System name (default ``"servo"``).
+
+        Returns
+        -------
+        `control.NonlinearIOSystem`
+            Inputs ``["theta_m", "omega_m", "theta_l", "omega_l",
+            "theta_r"]`` (``theta_r`` the commanded target; it may step at
+            any time), output ``["Tm"]`` within ``+-torque_limit``; states
+            as in `ctrl_lpv.twomass.servo_kernel.STATES`, all zero at rest
+            at the origin.  The output does not feed through from
+            ``theta_r``.
+        """
+        if not isinstance(name, str):
+            raise TypeError(f"name: expected a string, got {type(name).__name__}")
+        return kernel_nlsys(
+            servo_kernel(self.tuning),
+            inputs=INPUTS,
+            outputs=["Tm"],
+            states=STATES,
+            feedthrough=[[True, True, True, True, False]],
+            name=name,
+        )
+
+    def __str__(self) -> str:
+        t = self.tuning
+        lines = [
+            f"ServoDesign: |Tm| <= {self.torque_limit:g} Nm, alpha <= "
+            f"{self.alpha_max:g} rad, Jl in [{self.Jl_range[0]:g}, "
+            f"{self.Jl_range[1]:g}] x {self.params.Jl:g} kg m^2, "
+            f"Td <= {self.Td_max:g} Nm",
+            f"  moves: minimum-snap, peak acceleration {t.accel_limit:.3g} rad/s^2 "
+            f"(0.5 rad in {self.move_duration(0.5):.3f} s, 1 rad in "
+            f"{self.move_duration(1.0):.3f} s)",
+            "  feedback K = " + np.array2string(self.gain, precision=4, separator=", "),
+            "  anti-hunting: "
+            + ("flank chosen by the asked shaft torque, gap estimate, contact-aware "
+               "integral" if t.anti_hunting else "off"),
+            str(self.certificate),
+        ]  # fmt: skip
+        return "\n".join(lines)
+
+
+def servo_design(
+    params: Parameters | None = None,
+    *,
+    torque_limit: float = 500.0,
+    alpha_max: float = 0.06,
+    Jl_range: tuple[float, float] = (0.8, 1.2),
+    Td_max: float = 10.0,
+    torque_reserve: float = 0.12,
+    min_duration: float = 0.2,
+    p_bounds: tuple[float, float] = (-0.5, 0.0),
+    torque_weight: float = 5e-4,
+    integral_weight: float = 30.0,
+    gain=None,
+    anti_hunting: bool = True,
+    gap_estimate: bool = True,
+    flank_width: float = 0.5,
+    contact_torque: float = 1.5,
+    estimate_rate: float = 50.0,
+    probe_rate: float = 0.05,
+    integral_leak: float = 2.0,
+    observer_bandwidth: float = 1000.0,
+    integral_hold: float = 0.05,
+    horizon_floor: float = 0.04,
+    certify: bool = True,
+) -> ServoDesign:
+    """Design the torque-limited position servo of the two-mass drive.
+
+    Parameters
+    ----------
+    params : `Parameters`, optional
+        Nominal drive data (default the paper's).  ``params.alpha`` is not
+        used: the gap is unknown in ``[0, alpha_max]``.
+    torque_limit : float, optional
+        Motor torque limit, Nm (default 500).
+    alpha_max : float, optional
+        Largest half-gap, rad (default 0.06).
+    Jl_range : (float, float), optional
+        Load inertia range as multiples of ``params.Jl`` (default 0.8-1.2).
+    Td_max : float, optional
+        Largest load torque, Nm, for the torque budget (default 10).
+    torque_reserve : float, optional
+        Share of the limit kept for the feedback: moves are planned so that
+        the rigid-body torque of the heaviest load plus `Td_max` stays below
+        ``(1 - torque_reserve) * torque_limit`` (default 0.12).
+    min_duration : float, optional
+        Shortest move, s (default 0.2: short moves excite the shaft mode
+        through the feedforward's inertia error).
+    p_bounds : (float, float), optional
+        Backlash parameter interval of the feedback synthesis.
+    torque_weight, integral_weight : float, optional
+        Weights of the synthesis (see `lpv_model`).
+    gain : array_like, optional
+        Use this ``1 x 4`` or ``1 x 5`` gain instead of the synthesis (for
+        comparisons, e.g. `paper_gain`); a 4-column gain gets no integral.
+    anti_hunting : bool, optional
+        Flank choice by the feedback, probing and contact-aware integral
+        (default True).  False: the backlash offset follows the feedforward
+        torque only and the integral always runs.
+    gap_estimate : bool, optional
+        Estimate the gap online (default True); otherwise the offset uses
+        ``alpha_max / 2``.
+    flank_width : float, optional
+        Shaft torque, Nm, over which the offset turns from one flank to the
+        other (default 0.5; a steady asked torque inside this band makes a
+        steep flank choice, so it is kept small).
+    contact_torque : float, optional
+        Observed shaft torque, Nm, above which the drive counts as in
+        contact (weight 1 from twice this value; default 1.5).  The gap
+        estimate widens when twice this torque is asked for and not seen.
+    estimate_rate, probe_rate : float, optional
+        Rate of the gap estimate in contact (1/s) and of its widening when a
+        contact asked for is not made (rad/s).
+    integral_leak : float, optional
+        Decay rate (1/s) of the integral out of contact.
+    observer_bandwidth : float, optional
+        Shaft-torque observer bandwidth, rad/s (default 1000).
+    integral_hold : float, optional
+        Planned speed, rad/s, above which the integral is held (default
+        0.05): it integrates at rest, for the load torque, not the tracking
+        error of a move (which would wind it up); 0 disables the hold.
+    horizon_floor : float, optional
+        Floor of the planner's time-to-go, s.
+    certify : bool, optional
+        Compute the ultimate bound of the certificate (default True).
+
+    Returns
+    -------
+    `ServoDesign`
+
+    Raises
+    ------
+    ValueError
+        For non-positive limits, reversed ranges, or a torque budget that
+        leaves no acceleration.
+    """
+    params = Parameters() if params is None else params
+    if not isinstance(params, Parameters):
+        raise TypeError(f"params: expected twomass.Parameters, got {type(params)!r}")
+    for label, value in (
+        ("torque_limit", torque_limit), ("alpha_max", alpha_max),
+        ("flank_width", flank_width), ("contact_torque", contact_torque),
+        ("observer_bandwidth", observer_bandwidth), ("horizon_floor", horizon_floor),
+        ("min_duration", min_duration),
+    ):  # fmt: skip
+        if not (np.isfinite(value) and value > 0):
+            raise ValueError(f"{label}: must be a positive number, got {value!r}")
+    for label, value in (
+        ("Td_max", Td_max), ("estimate_rate", estimate_rate),
+        ("probe_rate", probe_rate), ("integral_leak", integral_leak),
+        ("integral_hold", integral_hold),
+    ):  # fmt: skip
+        if not (np.isfinite(value) and value >= 0):
+            raise ValueError(f"{label}: must be >= 0, got {value!r}")
+    if not 0.0 <= torque_reserve < 1.0:
+        raise ValueError(f"torque_reserve: must be in [0, 1), got {torque_reserve!r}")
+    lo, hi = _range(Jl_range, "Jl_range")
+    budget = (1.0 - torque_reserve) * torque_limit - Td_max
+    if budget <= 0:
+        raise ValueError(
+            f"torque_limit: {torque_limit:g} Nm leaves no torque for motion after "
+            f"the reserve and Td_max = {Td_max:g} Nm"
+        )
+    accel_limit = budget / (params.Jm + hi * params.Jl)
+
+    feedback = None
+    if gain is None:
+        model = servo_polytope(
+            params, p_bounds=p_bounds, Jl_range=(lo, hi),
+            torque_weight=torque_weight, integral_weight=integral_weight,
+        )  # fmt: skip
+        feedback = hinf_state_feedback(model, w=["Td"], u=["Tm"])
+        K = np.asarray(feedback.gains[0], float).reshape(1, -1)
+    else:
+        K = np.atleast_2d(np.asarray(gain, float))
+        if K.shape not in ((1, 4), (1, 5)) or not np.all(np.isfinite(K)):
+            raise ValueError(
+                f"gain: expected a finite 1 x 4 or 1 x 5 gain, got {K.shape}"
+            )
+        if K.shape[1] == 4:
+            K = np.hstack([K, [[0.0]]])
+    tuning = ServoTuning(
+        Jm=params.Jm, Jl=params.Jl, cm=params.cm, cl=params.cl, ks=params.ks,
+        cs=params.cs, gain=tuple(float(k) for k in K[0]),
+        torque_limit=float(torque_limit), accel_limit=float(accel_limit),
+        min_duration=float(min_duration), horizon_floor=float(horizon_floor),
+        alpha_max=float(alpha_max), alpha_initial=0.5 * float(alpha_max),
+        flank_width=float(flank_width), contact_torque=float(contact_torque),
+        estimate_rate=float(estimate_rate), probe_rate=float(probe_rate),
+        integral_leak=float(integral_leak),
+        observer_bandwidth=float(observer_bandwidth),
+        integral_hold=float(integral_hold),
+        anti_hunting=bool(anti_hunting), gap_estimate=bool(gap_estimate),
+    )  # fmt: skip
+    certificate = servo_certificate(
+        params, K, feedback, alpha_max=alpha_max, Jl_range=(lo, hi),
+        Td_max=Td_max, torque_limit=torque_limit, bound=certify,
+    )  # fmt: skip
+    return ServoDesign(
+        params=params, torque_limit=float(torque_limit), alpha_max=float(alpha_max),
+        Jl_range=(lo, hi), Td_max=float(Td_max), gain=K, feedback=feedback,
+        tuning=tuning, certificate=certificate,
+    )  # fmt: skip
+
+
+def _range(value, label: str) -> tuple[float, float]:
+    try:
+        lo, hi = (float(v) for v in value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{label}: expected (low, high), got {value!r}") from None
+    if not (0 < lo <= hi < np.inf):
+        raise ValueError(f"{label}: need 0 < low <= high, got {value!r}")
+    return lo, hi
+
+
+# Keep the planner's constant visible for the docs and tests.
+PEAK_ACCEL = PEAK_ACCEL
