@@ -72,7 +72,7 @@ def summarize(records, seconds) -> str:
         f"{'  passing, but a proof step only up to rounding':44s} {len(soft):5d}",
         f"{'  returned on a proved-infeasible problem':44s} "
         f"{sum(r.get('design_on_proved_infeasible', False) for r in designs):5d}",
-        f"{'refusals (InfeasibleError family)':44s} {len(known):5d}",
+        f"{'refusals (SynthesisError: both classes)':44s} {len(known):5d}",
         f"{'  true (proved by construction)':44s} "
         f"{sum(r['verdict'] == 'true refusal (proved)' for r in refusals):5d}",
         f"{'  false (probe found a verified design)':44s} {len(false_ref):5d}",

@@ -1425,7 +1425,7 @@ def classify_refusal(case: Case, exc, probe: ProbeResult | None, lpv) -> dict:
     cls = type(exc).__name__
     kind = message_kind(exc)
     proof = proved_infeasible(case)
-    known = isinstance(exc, lpv.InfeasibleError)
+    known = isinstance(exc, lpv.SynthesisError)  # InfeasibleError or CertificationError
     out = {"class": cls, "kind": kind, "proof": proof, "message": str(exc)[:400]}
     if not known:
         out["verdict"] = "uncaught exception"
@@ -1533,9 +1533,7 @@ def run_case(case: Case, lpv, probe_budget=120.0, verbose=False, time_cap=None) 
         return rec
     rec["outcome"] = "refusal"
     rec["exception"] = type(exc).__name__
-    probe = None
-    if isinstance(exc, lpv.InfeasibleError) or True:
-        probe = probe_case(case, probe_budget, verbose=verbose)
+    probe = probe_case(case, probe_budget, verbose=verbose)
     cls = classify_refusal(case, exc, probe, lpv)
     rec.update(cls)
     rec["probe_found"] = bool(probe and probe.found)

@@ -33,8 +33,10 @@ __all__ = ["ModeResidual", "check_stabilizability"]
 
 _EPS = np.finfo(float).eps
 # Relative PBH residual below which a mode is uncontrollable: rounding of
-# the balanced data (the eigenvalue itself carries an error of that order).
-UNCONTROLLABLE_RTOL = 1e3 * _EPS
+# the balanced data, per state, with room for the eigenvalue's own error
+# (an exactly uncontrollable mode behind a random similarity of condition
+# 1e2 measured 5e-13 for n = 5).
+UNCONTROLLABLE_RTOL = 1e4 * _EPS
 # Below this the test is inconclusive: the mode is reported, the LMIs decide.
 SUSPECT_RTOL = 1e-8
 
