@@ -192,6 +192,42 @@ def test_ultimate_bound_along_a_trajectory():
     assert ub.bounds[0] == pytest.approx(np.sqrt(ub.rho) * extent, rel=1e-6)
 
 
+def test_saturation_region_holds_on_the_contact_loop(design):
+    # The certified ellipsoid, checked with a saturation written here: from
+    # points on its boundary the saturated contact loop (the LPV model at
+    # p = 0, both inertia vertices) stays inside and returns to rest.
+    from scipy.integrate import solve_ivp
+
+    region = design.certificate.region
+    assert region is not None and region.certificate.verified
+    P = region.ellipsoid.P / region.ellipsoid.level
+    K = np.asarray(design.gain).reshape(1, 5)
+    share = LIMIT - design.Td_max
+    rng = np.random.default_rng(5)
+    saturated = False
+    for f in (0.8, 1.2):
+        params = twomass.Parameters()
+        params = params.replace(Jl=f * params.Jl)
+        model = twomass.lpv_model(
+            params, p_bounds=(-0.5, 0.0), formulation="tracking", integral=True
+        )
+        A, B = model.vertices[-1].A, model.vertices[-1].B[:, [1]]
+        for _ in range(3):
+            x0 = rng.standard_normal(5)
+            x0 /= np.sqrt(x0 @ P @ x0)  # on the boundary
+
+            def rhs(t, x, A=A, B=B):
+                u = np.clip(-(K @ x)[0], -share, share)
+                return A @ x + B[:, 0] * u
+
+            sol = solve_ivp(rhs, (0, 8.0), x0, method="LSODA", rtol=1e-9, atol=1e-12)
+            V = np.einsum("it,ij,jt->t", sol.y, P, sol.y)
+            saturated |= bool(np.abs(K @ sol.y).max() > share)
+            assert V.max() <= 1 + 1e-6
+            assert V[-1] < 1e-3
+    assert saturated  # the region reaches into saturation
+
+
 def test_bad_arguments():
     with pytest.raises(ValueError, match="torque_limit"):
         servo_design(torque_limit=-1.0, certify=False)

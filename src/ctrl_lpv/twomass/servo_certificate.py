@@ -28,8 +28,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..exceptions import SynthesisError
 from ..reachability import UltimateBound, ultimate_bound
+from ..saturation import SaturatedDesign, saturation_region
 from ..synthesis import StateFeedbackDesign
+from ..systems import pss
 from .model import lpv_model
 from .parameters import Parameters
 
@@ -55,6 +58,11 @@ class ServoCertificate:
         The peak bound used, ``[1.0]``.
     statement : str
         The statements in words.
+    region : `ctrl_lpv.SaturatedDesign` or None
+        Region of attraction of the contact loop under the torque limit
+        (generalized sector condition, both inertia vertices), with the
+        feedback's share ``torque_limit - Td_max`` of the limit; None if it
+        was not computed or did not certify.
     """
 
     feedback: object | None
@@ -62,11 +70,13 @@ class ServoCertificate:
     ultimate: UltimateBound | None
     w_max: np.ndarray
     statement: str
+    region: SaturatedDesign | None = None
 
     @property
     def verified(self) -> bool:
         """Whether every float64 check passed."""
         ok = self.feedback is None or bool(self.feedback.verified)
+        ok = ok and (self.region is None or self.region.certificate.verified)
         return ok and (self.ultimate is None or self.ultimate.certificate.verified)
 
     @property
@@ -175,9 +185,40 @@ def servo_certificate(
             f"= {worst:.4g} Nm, so |theta_l - theta_r| <= {beta * worst:.4g} rad "
             f"[{'verified' if ultimate.certificate.verified else 'NOT verified'}]"
         )
+    region = None
+    if bound:
+        region, text = _saturation_region(params, K, Jl_range, torque_limit, Td_max)
+        lines.append(text)
     lines.append(
         "  not certified: the gap crossings, the planner, the flank choice, the "
         "gap estimate and the contact-aware, held integral (checked by "
         "simulation)"
     )
-    return ServoCertificate(fb_cert, gamma, ultimate, w_max, "\n".join(lines))
+    return ServoCertificate(fb_cert, gamma, ultimate, w_max, "\n".join(lines), region)
+
+
+def _saturation_region(params, K, Jl_range, torque_limit, Td_max):
+    """The contact loop's certified region under the torque limit."""
+    vertices = []
+    for f in Jl_range:
+        p = params.replace(Jl=f * params.Jl)
+        m = lpv_model(p, p_bounds=(-0.5, 0.0), formulation="tracking", integral=True)
+        vertices.append(m.vertices[-1])  # p = 0: contact
+    loop = pss(vertices, {"Jl": tuple(float(f) for f in Jl_range)})
+    share = torque_limit - Td_max  # the rest holds the load torque
+    # The reference set in the servo's units: 10 mrad, 1 rad/s, 1 mrad s.
+    axes = np.array([1e-2, 1.0, 1e-2, 1.0, 1e-3])
+    try:
+        region = saturation_region(loop, K, "Tm", share, shape=np.diag(axes**-2.0))
+    except SynthesisError as exc:
+        return None, f"  region under the torque limit: not certified ({exc})"
+    e_l, speed = region.ellipsoid.support(np.eye(5)[[2, 3]])
+    text = (
+        f"  region under the torque limit (contact loop, feedback share "
+        f"|K x| <= {share:g} Nm of {torque_limit:g} Nm, every Jl in the range, "
+        f"generalized sector condition): every tracking error in the ellipsoid "
+        f"x'Px <= 1 returns to rest, with |theta_l - r| up to {e_l:.3g} rad "
+        f"and |omega_l| up to {speed:.3g} rad/s in it "
+        f"[{'verified' if region.certificate.verified else 'NOT verified'}]"
+    )
+    return region, text
