@@ -130,7 +130,8 @@ def run_servo_scenario(
     Parameters
     ----------
     controller : `control.NonlinearIOSystem`
-        As in `servo_loop`.
+        Position controller with inputs ``theta_m, omega_m, theta_l,
+        omega_l, theta_r`` and output ``Tm`` (e.g. ``design.controller()``).
     params : `Parameters`, optional
         Nominal plant data; the load inertia is ``Jl * params.Jl``.
     alpha : float or callable, optional
