@@ -86,6 +86,9 @@ __all__ = [
     "gain_scheduled_hinf",
 ]
 
+# Rounding level below which the Jacobi-normalised inequality with the
+# returned P, in the model's units, must stay (a few eps times its size).
+ORIGINAL_UNITS_TOL = 1e-12
 # Number of random interior points at which closed loops are verified.
 _VERIFY_SAMPLES = 64
 # Convex-concave iterations of the gain minimisation, and the relative
@@ -133,6 +136,11 @@ class Certificate:
         divided by ``||W||`` (must be negative).
     npoints : int
         Number of parameter points checked (vertices plus samples).
+    max_original_eig : float
+        Largest eigenvalue, over the same points, of the Lyapunov (or
+        bounded-real, with `gamma`) inequality written with the returned
+        ``P`` and gains in the model's units, after a Jacobi normalisation
+        (must be below the rounding level `ORIGINAL_UNITS_TOL`).
     verified : bool
         True when every check passed. A design is only returned verified.
     """
@@ -142,6 +150,7 @@ class Certificate:
     max_closed_loop_real: float
     max_lyapunov_eig: float
     npoints: int
+    max_original_eig: float = -1.0
 
     @property
     def verified(self) -> bool:
@@ -150,6 +159,7 @@ class Certificate:
             all(c.passed for c in self.lmi_checks)
             and self.max_closed_loop_real < 0
             and self.max_lyapunov_eig < 0
+            and self.max_original_eig < ORIGINAL_UNITS_TOL
         )
 
     @property
@@ -783,6 +793,10 @@ class _Scaling:
 
     def unscale_W(self, Wt):
         return self.w_factor * (self.T[:, None] * Wt * self.T)
+
+    def unscale_P(self, Pt):
+        """``P = W^-1`` from ``P~ = W~^-1``."""
+        return Pt / (self.w_factor * self.T[:, None] * self.T)
 
     def unscale_K(self, Kt):
         # u = -K x with u = Su u~, x = T x~ and u~ = -K~ x~.
@@ -1435,16 +1449,19 @@ class _Job:
                 )
                 return None
         started = time.perf_counter()
+        # Inverted in scaled units, where W~ is well conditioned, then
+        # scaled back exactly (powers of two).
+        P = scaling.unscale_P(np.linalg.inv(sol.W))
         certificate = _verify(
-            self.original, self.data, sol, gains, self.lmi.margin, self.scheduled
-        )
+            self.original, self.data, sol, gains, self.lmi.margin, self.scheduled,
+            P, certified,
+        )  # fmt: skip
         self.verifying += time.perf_counter() - started
         if not certificate.verified:
             self.notes.append(
                 f"{label}: closed-loop verification failed ({certificate})"
             )
             return None
-        P = np.linalg.inv(scaling.unscale_W(sol.W))
         return _Point(sol, gains, certificate, certified, P)
 
     # -- stage sequences -------------------------------------------------
@@ -1620,7 +1637,7 @@ def _gain_tangent(lmi, scaling, W, Z, gain_bound):
     return kappa0
 
 
-def _verify(original, data, sol, gains, margin, scheduled) -> Certificate:
+def _verify(original, data, sol, gains, margin, scheduled, P, gamma) -> Certificate:
     """Independent float64 checks of the returned point (see module doc)."""
     N = len(original)
     rng = np.random.default_rng(12345)
@@ -1647,10 +1664,41 @@ def _verify(original, data, sol, gains, margin, scheduled) -> Certificate:
     Bt = at([v[2] for v in data])
     Acl_W = (At - Bt @ Kt) @ W
     lyap = np.linalg.eigvalsh(Acl_W + np.swapaxes(Acl_W, 1, 2))[:, -1]
+    Acl = A - B @ K
+    PA = P @ Acl
+    if gamma is None:
+        M = PA + np.swapaxes(PA, 1, 2)
+    else:
+        # The bounded-real inequality with the returned P and gamma, in the
+        # model's units: what a user can check with the design alone.
+        B1 = at([v[1] for v in original])
+        Ccl = at([v[3] for v in original]) - at([v[5] for v in original]) @ K
+        D1 = at([v[4] for v in original])
+        npts, nw, nz = len(deltas), B1.shape[2], Ccl.shape[1]
+        M = np.block([
+            [PA + np.swapaxes(PA, 1, 2), P @ B1, np.swapaxes(Ccl, 1, 2)],
+            [np.swapaxes(P @ B1, 1, 2), np.broadcast_to(-np.eye(nw), (npts, nw, nw)),
+             np.swapaxes(D1, 1, 2)],
+            [Ccl, D1, np.broadcast_to(-gamma**2 * np.eye(nz), (npts, nz, nz))],
+        ])  # fmt: skip
     return Certificate(
         lmi_checks=sol.checks,
         margin=margin,
         max_closed_loop_real=float(max_real),
         max_lyapunov_eig=float(lyap.max() / np.linalg.norm(W, 2)),
         npoints=len(deltas),
+        max_original_eig=_normalized_max_eig(M),
     )
+
+
+def _normalized_max_eig(M) -> float:
+    """Largest ``lambda_max(D M D)`` over a stack, ``D = |diag M|^-1/2``.
+
+    The Jacobi normalisation makes the test scale-free; a nonnegative
+    diagonal entry (no strict inequality possible) gives ``inf``.
+    """
+    diag = np.diagonal(M, axis1=1, axis2=2)
+    if not np.all(diag < 0):
+        return float("inf")
+    d = 1.0 / np.sqrt(-diag)
+    return float(np.linalg.eigvalsh(M * d[:, :, None] * d[:, None, :])[:, -1].max())
