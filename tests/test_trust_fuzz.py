@@ -30,7 +30,7 @@ from _independent import (
 )
 
 SEED = 2026
-NCASES = 40
+NCASES = 20  # more: benchmarks/fuzz_trust.py
 PROBE_BUDGET = 4.0  # CPU seconds per refusal
 
 
@@ -176,8 +176,8 @@ def test_generated_problem(records, index):
 
 def test_false_refusal_rate(records):
     # The bound is 1 % of the problems with a verified design; on a
-    # subset this small one refusal is already 2.5 %: at most one is allowed
-    # here, the rate is measured on 1000 problems by benchmarks/fuzz_trust.py.
+    # subset this small one refusal is already 5 %: at most one is allowed
+    # here, the rate is measured on larger runs by benchmarks/fuzz_trust.py.
     false = [
         case.describe()
         for case, rec in records.values()
