@@ -428,7 +428,8 @@ def _report(result: dict, formats) -> str:
         lines += [f"![{stem}]({stem}.{ext})", ""]
     from .servo_figures import servo_markdown_table
 
-    lines += ["## Servo (ours) under a torque limit, paper scenario", "",
-              servo_markdown_table(result["servo_rows"]), "",
-              f"![servo_500](servo_500.{ext})", "", f"![servo_2000](servo_2000.{ext})", ""]  # fmt: skip
+    lines += ["## Servo (ours) under a torque limit, paper scenario", ""]
+    lines += [servo_markdown_table(result["servo_rows"]), ""]
+    for stem in ("servo_500", "servo_2000"):
+        lines += [f"![{stem}]({stem}.{ext})", ""]
     return "\n".join(lines)

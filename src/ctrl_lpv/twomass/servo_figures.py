@@ -98,8 +98,8 @@ def servo_figure(responses, limit, alpha_initial, title=None):
     ax[1].axhline(0.0, color="k", ls=":", lw=1.0)
     for k in (2, 3):
         for sign in (1, -1):
-            ax[k].axhline(sign * limit, color="0.4", ls="--", lw=0.9,
-                          label=f"|Tm| <= {limit:g} Nm" if sign > 0 else None)  # fmt: skip
+            name = f"|Tm| <= {limit:g} Nm" if sign > 0 else None
+            ax[k].axhline(sign * limit, color="0.4", ls="--", lw=0.9, label=name)
     ax[3].axhline(8.0, color="k", ls=":", lw=0.8, label="Td = 8 Nm")
     ax[3].set_ylim(-20, 20)
     ax[4].plot(t, [step(s) for s in t], color="k", lw=1.2, label="plant alpha(t)")
