@@ -515,3 +515,21 @@ def test_gain_outside_the_interval_is_refused(gain_files):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         loaded.gain(0.0)
+
+
+def test_reproduce_servo_comparison(reproduction):
+    _, out, _ = reproduction
+    for stem in ("servo_500", "servo_2000"):
+        assert (out / f"{stem}.png").read_bytes()[:8] == PNG_MAGIC
+    rows = json.loads((out / "servo_comparison.json").read_text())
+    assert (out / "servo_comparison.md").stat().st_size > 0
+    by = {(r["torque_limit"], r["controller"]): r for r in rows}
+    for limit in (500.0, 2000.0):
+        servo = by[limit, "servo"]
+        assert servo["peak_torque"] <= limit + 1e-9
+        assert servo["peak_command"] <= limit + 1e-9
+        # The published K has no integral action: it rests off target under Td.
+        published = by[limit, "published K"]
+        assert servo["error_5s"] < 1e-5 < published["error_5s"]
+        settle = published["settling"]
+        assert servo["settling"] < (settle if settle is not None else np.inf)

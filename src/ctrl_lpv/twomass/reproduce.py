@@ -358,8 +358,15 @@ def _reproduce_into(out: Path, robustness, formats, progress, engine) -> dict:
         limits={"Tm": 500.0},
     )
 
+    say("servo comparison: servo, published K and backstepping at 500 and 2000 Nm")
+    from .servo_figures import write_servo
+
+    servo_rows, servo_files = write_servo(out, formats, say)
+    files += servo_files
+
     seconds = time.perf_counter() - start
     result = {
+        "servo_rows": servo_rows,
         "files": files,
         "errata": errata,
         "designs": summaries,
@@ -418,5 +425,11 @@ def _report(result: dict, formats) -> str:
         )
     lines += ["", "## Comparison", "", markdown_table(result["rows"]), ""]
     for stem in ("paper_gain", "designs", "alpha_step", "backstepping", "torque_limit"):
+        lines += [f"![{stem}]({stem}.{ext})", ""]
+    from .servo_figures import servo_markdown_table
+
+    lines += ["## Servo (ours) under a torque limit, paper scenario", ""]
+    lines += [servo_markdown_table(result["servo_rows"]), ""]
+    for stem in ("servo_500", "servo_2000"):
         lines += [f"![{stem}]({stem}.{ext})", ""]
     return "\n".join(lines)

@@ -1,0 +1,146 @@
+"""Servo comparison of `reproduce`: rows, Markdown table and figures."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..plotting import _pyplot, controller_style, save_figure
+
+__all__ = ["servo_rows", "servo_markdown_table", "servo_figure", "SERVO_LIMITS"]
+
+#: Torque limits of the servo comparison, Nm.
+SERVO_LIMITS = (500.0, 2000.0)
+
+_TARGET = 0.5
+
+
+def servo_rows(limits=SERVO_LIMITS, progress=None):
+    """Paper scenario for every comparison controller under each limit.
+
+    Returns
+    -------
+    rows : list of dict
+        ``torque_limit``, ``controller``, the `ServoMetrics` fields, ``success``.
+    responses : dict
+        ``{(limit, controller): response}`` and ``("alpha_initial", limit)``.
+    """
+    from .scenarios import alpha_step
+    from .servo import servo_design
+    from .servo_compare import comparison_controllers, run_servo_scenario, servo_metrics
+
+    rows, responses = [], {}
+    for limit in limits:
+        d = servo_design(torque_limit=limit)
+        responses["alpha_initial", limit] = float(d.tuning.alpha_initial)
+        for name, ctrl in comparison_controllers(d, torque_limit=limit).items():
+            r = run_servo_scenario(
+                ctrl, alpha=alpha_step(), Td=8.0, T=5.0, torque_limit=limit
+            )
+            row = {"torque_limit": limit, "controller": name}
+            row.update(servo_metrics(r).as_dict())
+            row["success"] = bool(r.success)
+            rows.append(row)
+            responses[limit, name] = r
+            if progress is not None:
+                progress(f"servo comparison |Tm| <= {limit:g} Nm: {name}")
+    return rows, responses
+
+
+def servo_markdown_table(rows) -> str:
+    """The servo rows as a Markdown table."""
+    lines = [
+        "| limit (Nm) | controller | settle 2% (s) | overshoot (%) | |e(5 s)| (rad) "
+        "| peak Tm (Nm) | peak command (Nm) |",
+        "|" + "---|" * 7,
+    ]
+    for r in rows:
+        s = r["settling"]
+        lines.append(
+            f"| {r['torque_limit']:g} | {r['controller']} | "
+            f"{'never' if not np.isfinite(s) else f'{s:.3f}'} | "
+            f"{r['overshoot']:.2f} | {r['error_5s']:.2e} | "
+            f"{r['peak_torque']:.4g} | {r['peak_command']:.4g} |"
+        )
+    return "\n".join(lines)
+
+
+def _series(response, name):
+    labels = list(response.output_labels)
+    if name in labels:
+        return np.asarray(response.outputs)[labels.index(name)]
+    for i, lab in enumerate(response.state_labels):
+        if lab.endswith(name):
+            return np.asarray(response.states)[i]
+    return None
+
+
+def servo_figure(responses, limit, alpha_initial, title=None):
+    """Load angle, zoom 2.5-5 s, torque (full and +-20 Nm), alpha and estimate."""
+    from .scenarios import alpha_step
+
+    plt = _pyplot()
+    fig, ax = plt.subplots(5, 1, figsize=(8.0, 13.0), sharex=False)
+    step = alpha_step()
+    for i, (name, r) in enumerate(responses.items()):
+        st = controller_style(i)
+        t = r.time
+        y, tm = _series(r, "theta_l"), _series(r, "Tm")
+        ax[0].plot(t, y, label=name, lw=1.3, **st)
+        zoom = t >= 2.5
+        ax[1].plot(t[zoom], y[zoom] - _TARGET, lw=1.3, **st)
+        ax[2].plot(t, tm, lw=1.3, **st)
+        ax[3].plot(t, tm, lw=1.3, **st)
+        a_hat = _series(r, "alpha_hat_dev")
+        if name == "servo" and a_hat is not None:
+            ax[4].plot(t, a_hat + alpha_initial, label="servo gap estimate", **st)
+    t = next(iter(responses.values())).time
+    ax[0].axhline(_TARGET, color="k", ls=":", lw=1.0, label="target 0.5 rad")
+    ax[1].axhline(0.0, color="k", ls=":", lw=1.0)
+    for k in (2, 3):
+        for sign in (1, -1):
+            name = f"|Tm| <= {limit:g} Nm" if sign > 0 else None
+            ax[k].axhline(sign * limit, color="0.4", ls="--", lw=0.9, label=name)
+    ax[3].axhline(8.0, color="k", ls=":", lw=0.8, label="Td = 8 Nm")
+    ax[3].set_ylim(-20, 20)
+    ax[4].plot(t, [step(s) for s in t], color="k", lw=1.2, label="plant alpha(t)")
+    ax[4].text(0.01, 0.05, "no controller here schedules on p (fixed gains)",
+               transform=ax[4].transAxes, fontsize="small")  # fmt: skip
+    names = ["load angle (rad)", "zoom 2.5-5 s: e_l (rad)", "motor torque Tm (Nm)",
+             "Tm, zoom +-20 Nm", "backlash alpha (rad)"]  # fmt: skip
+    for k, a in enumerate(ax):
+        a.axvline(2.5, color="r", lw=0.8, ls="-.",
+                  label="backlash step 0.03 -> 0.045" if k == 0 else None)  # fmt: skip
+        a.set_ylabel(names[k])
+        a.grid(True, lw=0.4, alpha=0.6)
+        if k != 1:
+            a.set_xlim(0, 5)
+    ax[1].set_xlim(2.5, 5)
+    ax[1].set_ylim(-0.06, 0.02)
+    ax[0].legend(fontsize="x-small", loc="lower right")
+    ax[2].legend(fontsize="x-small", loc="upper right")
+    ax[3].legend(fontsize="x-small", loc="upper right")
+    ax[4].legend(fontsize="x-small", loc="center right")
+    ax[-1].set_xlabel("time (s)")
+    ax[0].set_title(
+        title or f"Servo vs published K and backstepping, |Tm| <= {limit:g} Nm"
+    )
+    fig.tight_layout()
+    return fig
+
+
+def write_servo(out, formats, progress=None):
+    """Write servo_comparison.{md,json} and servo_<limit> figures into `out`."""
+    import json
+
+    rows, responses = servo_rows(progress=progress)
+    files = []
+    (out / "servo_comparison.md").write_text(servo_markdown_table(rows) + "\n")
+    (out / "servo_comparison.json").write_text(
+        json.dumps(rows, indent=2, default=lambda v: None) + "\n"
+    )
+    files += [out / "servo_comparison.md", out / "servo_comparison.json"]
+    for limit in SERVO_LIMITS:
+        pick = {n: r for (lim, n), r in responses.items() if lim == limit}
+        fig = servo_figure(pick, limit, responses["alpha_initial", limit])
+        files += save_figure(fig, out / f"servo_{limit:g}", formats)
+    return rows, files
