@@ -86,6 +86,7 @@ from .reachability import (
     _xp_diag,
     _xp_sum,
 )
+from .synthesis import StateFeedbackDesign
 from .systems import PolytopicStateSpace
 
 __all__ = ["SaturatedDesign", "saturated_state_feedback", "saturation_region"]
@@ -106,6 +107,9 @@ _RESCALES = 2
 @dataclass(frozen=True)
 class SaturatedDesign:
     """Certified state feedback (or analysis) under input saturation.
+
+    ``controller()`` gives ``u = -K x`` as for `StateFeedbackDesign`; its
+    output is not clipped (the saturation is the plant's).
 
     Attributes
     ----------
@@ -194,56 +198,10 @@ class SaturatedDesign:
             raise ValueError("p: a scheduled design needs the parameter value")
         return np.tensordot(self.system.weights(p), np.stack(self.gains), axes=1)
 
-    def controller(self, *args, **kwargs):
-        """Controller ``u = -K x`` as a python-control I/O system.
-
-        Calls `ctrl_lpv.controllers.state_feedback` on this design. Its
-        output is not clipped: the saturation ``sat_u0`` is the plant's (or a
-        saturation block placed before the plant input).
-
-        Parameters
-        ----------
-        scheduling : None, "inputs" or callable, optional
-            For vertex gains only (None for a common gain): where the
-            parameter comes from. ``"inputs"`` (the default for vertex
-            gains) adds one input per parameter, named after it; a callable
-            ``p = f(t, x)`` computes it from time and the design model's
-            state vector, returning an array or a dict ``{name: value}``.
-            The parameter is projected onto the domain.
-        reference : bool, optional, keyword-only
-            If True, add inputs ``<state>_d`` (desired states) and
-            ``<input>_d`` (feedforward): ``u = ud - K (x - xd)``. Default
-            False.
-        states : sequence of str or mapping, optional, keyword-only
-            Names of the measured-state inputs: one per measured state, or
-            ``{state label: input name}`` renaming some. Default: the design
-            model's state labels.
-        integrals : mapping of str to str, optional, keyword-only
-            ``{integral state label: integrated signal}`` integrated by the
-            controller itself; default those recorded by
-            `integral_augmentation` (``{}`` reads every state as an input).
-        name : str, optional, keyword-only
-            System name.
-
-        Returns
-        -------
-        `control.NonlinearIOSystem`
-            Inputs: the measured states (plus integrated outputs, references
-            and parameter inputs as requested); outputs: the control inputs
-            ``u``; states: the controller's integral states, if any.
-
-        Raises
-        ------
-        ValueError
-            For a `scheduling` that does not fit the design, `states` of the
-            wrong length or with unknown labels, or `integrals` naming
-            unknown states or signals.
-        TypeError
-            If `integrals` is not a mapping.
-        """
-        from .controllers import state_feedback
-
-        return state_feedback(self, *args, **kwargs)
+    # The same controller as for any state-feedback design. Its output is
+    # not clipped: the saturation ``sat_u0`` is the plant's (or a saturation
+    # block placed before the plant input).
+    controller = StateFeedbackDesign.controller
 
     def closed_loop_vertices(self) -> tuple[np.ndarray, ...]:
         """Linear closed loops ``A_j - B_j K_j`` (or the common ``K``).
