@@ -10,7 +10,8 @@ import pytest
 
 import ctrl_lpv as lpv
 from ctrl_lpv import twomass
-from ctrl_lpv.synthesis import _guard_size, _Structure
+from ctrl_lpv.synthesis.assembly import Structure as _Structure
+from ctrl_lpv.synthesis.options import guard_size as _guard_size
 
 
 def test_refusal_classes_are_distinct():

@@ -1,0 +1,434 @@
+"""The fallback ladder: solvers, prescalings, margins and the stages of each."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..exceptions import CertificationError, InfeasibleError
+from ..lmi import SolveAttempt, default_solvers
+from ..problem_cache import synthesis_cache
+from ..stabilizability import check_stabilizability
+from .assembly import Structure, build, load
+from .channels import resolve_channels, vertex_channels
+from .options import guard_size, validated_options
+from .results import Certificate, StateFeedbackDesign
+from .scaling import pow2, prescalings
+from .verification import verify
+
+# Convex-concave iterations of the gain minimisation, and the relative
+# decrease of the squared gain bound below which they stop.
+_GAIN_ITERATIONS = 4
+_GAIN_RTOL = 0.05
+# Bounds W <= w_max I (scaled units) tried in turn when gamma is given.
+_FIXED_GAMMA_W_MAX = (1e3, 1e6, 1e9)
+# Squared bounds ||Z|| <= sqrt(z_max) of the stabilization stage, in turn:
+# the LMIs are homogeneous, so a larger bound admits a smaller decay.
+_STABILIZE_Z_MAX = (1.0, 1e4, 1e8)
+# Margins tried in turn, relative to the given one.
+_MARGIN_FACTORS = (1.0, 1e-3)
+# A given gamma is posed as gamma^2 (1 - _GAMMA_SLACK) so that the
+# certified bound is met strictly.
+_GAMMA_SLACK = (1e-6, 1e-3)
+
+
+def run_ladder(
+    sys, w, u, z, method, scheduled, gamma, regions, backoff, gain_bound, margin,
+    solvers, time_limit=None, hinf=False,
+):  # fmt: skip
+    start = time.perf_counter()
+    iw, iu, iz = resolve_channels(sys, w, u, z, hinf)
+    regions, backoff, gamma, gain_bound, margin, chain, time_limit = validated_options(
+        regions, backoff, gamma, gain_bound, margin, solvers, time_limit
+    )
+    suspects = check_stabilizability(sys, iu)
+    deadline = None if time_limit is None else start + time_limit
+    original = vertex_channels(sys, iw, iu, iz)
+    guard_size(Structure.of(original, hinf, scheduled, regions, gain_bound), time_limit)
+
+    record: list[str] = []
+    attempts: list[SolveAttempt] = []
+    compiling = verifying = 0.0
+    built = time.perf_counter()
+    # The ladder: each solver in turn (the slow ones last), then the
+    # prescalings, then the margins; the stages have rungs of their own.
+    solver_rungs = [[entry] for entry in (chain or default_solvers())]
+    if not solver_rungs:
+        raise RuntimeError("no SDP solver installed: install clarabel or scs")
+    scalings = list(prescalings(original))
+    # The slower solvers after the first get the first prescaling and the
+    # nominal margin only (SCS to 1e-9 takes seconds where Clarabel takes
+    # milliseconds, and rarely certifies what Clarabel could not).
+    rungs = [
+        (solver_rungs[0], scaling, f) for scaling in scalings for f in _MARGIN_FACTORS
+    ]
+    rungs += [(one, scalings[0], _MARGIN_FACTORS[0]) for one in solver_rungs[1:]]
+    for one_solver, (scaling_name, scaling), factor in rungs:
+        rung = f"{one_solver[0][0]}, {scaling_name} scaling, margin {margin * factor:g}"
+        if deadline is not None and time.perf_counter() > deadline:
+            record.append(f"{rung}: not tried (time_limit {time_limit:g} s)")
+            continue
+        job = _Job(
+            original, scaling, regions, scheduled, hinf, gamma, backoff,
+            gain_bound, margin * factor, one_solver, deadline,
+        )  # fmt: skip
+        try:
+            found = job.run(attempts)
+        except InfeasibleError as exc:
+            raise InfeasibleError(f"{method}: {exc}", attempts, exc.farkas) from None
+        compiling += job.compiling
+        verifying += job.verifying
+        record.extend(f"{rung}: {note}" for note in job.notes)
+        if found is None:
+            continue
+        point, gamma_opt = found
+        solved = time.perf_counter()
+        labels = sys.physical_inputs
+        return StateFeedbackDesign(
+            system=sys,
+            method=method,
+            gains=point.gains,
+            P=point.P,
+            gamma=point.gamma,
+            gamma_opt=gamma_opt,
+            w=tuple(labels[i] for i in iw),
+            u=tuple(labels[i] for i in iu),
+            z=tuple(sys.output_labels[i] for i in iz),
+            certificate=point.certificate,
+            attempts=tuple(attempts),
+            timing={
+                "build": built - start,
+                "compile": compiling,
+                "solve": solved - built - compiling - verifying,
+                "verify": verifying,
+            },
+            backoff=backoff,
+            regions=regions,
+            ladder=tuple(record),
+        )
+    hint = "".join(f"; weakly controllable: {m}" for m in suspects)
+    raise CertificationError(
+        f"{method}: no certified solution found after {len(rungs)} rungs "
+        f"(solvers {[one[0][0] for one in solver_rungs]}, prescalings "
+        f"{[name for name, _ in scalings]}, margins "
+        f"{[margin * f for f in _MARGIN_FACTORS]}); what failed: "
+        + _summary(record)
+        + hint,
+        attempts,
+    )
+
+
+def _summary(record) -> str:
+    """The ladder's notes without repeats (rung prefix dropped), counted."""
+    counts: dict[str, int] = {}
+    for note in record:
+        reason = note.split(": ", 1)[-1]
+        counts[reason] = counts.get(reason, 0) + 1
+    return "; ".join(
+        f"{reason} (x{count})" if count > 1 else reason
+        for reason, count in counts.items()
+    )
+
+
+@dataclass(frozen=True)
+class _Point:
+    """A fully verified point, in the model's units."""
+
+    solution: object  # the LMISolution, in the scaled units of its job
+    gains: tuple
+    certificate: Certificate
+    gamma: float | None
+    P: np.ndarray
+
+
+class _Job:
+    """One rung of the ladder: a scaling and a margin, all stages.
+
+    `run` returns ``(point, gamma_opt)`` for the best certified `_Point` of
+    this rung, or None (`notes` says why); an
+    `InfeasibleError` escapes only with a proof that needs no normalisation.
+    """
+
+    def __init__(
+        self, original, scaling, regions, scheduled, hinf, gamma, backoff,
+        gain_bound, margin, chain, deadline,
+    ):  # fmt: skip
+        self.original = original
+        self.scaling = scaling
+        self.data = [scaling.apply(v) for v in original]
+        self.regions = tuple(r.time_scaled(scaling.a) for r in regions)
+        self.scheduled = scheduled
+        self.hinf = hinf
+        self.gamma = gamma
+        self.backoff = backoff
+        self.gain_bound = gain_bound
+        self.margin = margin
+        self.chain = chain
+        self.deadline = deadline
+        self.structure = Structure.of(self.data, hinf, scheduled, regions, gain_bound)
+        self.notes: list[str] = []
+        self.compiling = self.verifying = 0.0
+
+    def run(self, attempts):
+        s = self.structure
+        with synthesis_cache.checkout(s, build) as (compiled, _):
+            load(compiled, s, self.data, self.scaling, self.regions, self.margin)
+            self.compiled = compiled
+            self.lmi = compiled.lmi
+            self.attempts = attempts
+            if s.hinf:
+                return self._hinf()
+            return self._stabilize()
+
+    # -- one solve -----------------------------------------------------
+    def _solve(self, stage, objective, certify=True, proof=False):
+        """Solve a stage; None if it gave no certified point.
+
+        A verified infeasibility proof that needs no normalisation is
+        re-raised when `proof` is set (the stage poses the user's problem
+        itself, with its variables bounded by the data: a given gamma);
+        otherwise it only ends this branch, and the note says what it
+        proved.
+        """
+        lmi = self.lmi
+        first = self.chain[0][0] if self.chain else None
+        self.compiling += lmi.compile(stage, objective, first)
+        try:
+            sol = lmi.solve(
+                objective, stage=stage, solvers=self.chain, certify=certify,
+                deadline=self.deadline,
+            )  # fmt: skip
+        except InfeasibleError as exc:
+            self.attempts.extend(exc.attempts)
+            if proof and not exc.farkas.normalized:
+                raise
+            self.notes.append(f"{stage}: {exc.farkas}")
+            return None
+        except CertificationError as exc:
+            self.attempts.extend(exc.attempts)
+            self.notes.append(f"{stage}: {exc}")
+            return None
+        self.attempts.extend(sol.attempts)
+        return sol
+
+    def _accept(self, sol, label, bounded=False):
+        """Full verification of a point: a `_Point`, or None.
+
+        `bounded` also asks for the gain bound (met only after the gain
+        stage, in general).
+        """
+        if sol is None or not sol.certified:
+            return None
+        scaling = self.scaling
+        gains = tuple(
+            scaling.unscale_K(-getattr(sol, f"Z{k}") @ np.linalg.inv(sol.W))
+            for k in range(self.structure.nZ)
+        )
+        if bounded and self.gain_bound is not None:
+            worst = max(np.linalg.norm(K, 2) for K in gains)
+            if worst > self.gain_bound:
+                self.notes.append(
+                    f"{label}: gain norm {worst:.4g} above gain_bound "
+                    f"{self.gain_bound:g}"
+                )
+                return None
+        certified = (
+            float(np.sqrt(scaling.unscale_g(float(sol.g[0, 0])))) if self.hinf else None
+        )
+        if self.hinf and self.gamma is not None:
+            if not certified < self.gamma:
+                self.notes.append(
+                    f"{label}: certified gamma {certified:.8g} not below the "
+                    f"required {self.gamma:.8g}"
+                )
+                return None
+        started = time.perf_counter()
+        # Inverted in scaled units, where W~ is well conditioned, then
+        # scaled back exactly (powers of two).
+        P = scaling.unscale_P(np.linalg.inv(sol.W))
+        certificate = verify(
+            self.original, self.data, sol, gains, self.lmi.margin, self.scheduled,
+            P, certified,
+        )  # fmt: skip
+        self.verifying += time.perf_counter() - started
+        if not certificate.verified:
+            self.notes.append(
+                f"{label}: closed-loop verification failed ({certificate})"
+            )
+            return None
+        return _Point(sol, gains, certificate, certified, P)
+
+    # -- stage sequences -------------------------------------------------
+    def _stabilize(self):
+        lmi = self.lmi
+        lmi.set_parameter("w_max", 1.0)
+        best = None
+        for z_max in _STABILIZE_Z_MAX:
+            lmi.set_parameter("z_max", z_max)
+            sol = self._solve("stabilize", lambda v: -v.t[0, 0], proof=True)
+            best = self._accept(sol, f"stabilize (z_max {z_max:g})")
+            if best is not None:
+                break
+        if best is None:
+            return None
+        if self.gain_bound is None:
+            return best, None
+        return self._minimise_gain(best, None)
+
+    def _normalise_gamma(self, gamma) -> bool:
+        """Rescale z so that ``gamma^2`` is about 1 in scaled units.
+
+        A ``-g I`` block of 1e3 beside data of order one costs the solvers
+        three digits (measured: Clarabel's "optimal" points then miss the
+        H-infinity LMI by 1e-4). The scaling of z is exact (a power of two)
+        and leaves ``W`` and ``Z`` unchanged; it is only ever made larger.
+        Returns whether it changed.
+        """
+        sz = pow2(gamma * self.scaling.sw)
+        if sz <= self.scaling.sz:
+            # Only shrink z: a tiny gamma would blow its rows up instead.
+            return False
+        self.scaling = dataclasses.replace(self.scaling, sz=sz)
+        self.data = [self.scaling.apply(v) for v in self.original]
+        load(
+            self.compiled, self.structure, self.data, self.scaling, self.regions,
+            self.margin,
+        )  # fmt: skip
+        return True
+
+    def _hinf(self):
+        lmi = self.lmi
+        if self.gamma is not None:
+            # A required gamma, posed slightly below so it is met strictly.
+            self._normalise_gamma(self.gamma)
+            to_scaled = (self.scaling.sw / self.scaling.sz) ** 2
+            best = None
+            for slack in _GAMMA_SLACK:
+                lmi.set_parameter("g_max", self.gamma**2 * to_scaled * (1 - slack))
+                for w_max in _FIXED_GAMMA_W_MAX:
+                    lmi.set_parameter("w_max", w_max)
+                    sol = self._solve("center", lambda v: -v.t[0, 0], proof=True)
+                    best = self._accept(sol, f"gamma given (w_max {w_max:g})")
+                    if best is not None:
+                        break
+                if best is not None:
+                    break
+            if best is None:
+                return None
+            if self.backoff is None and self.gain_bound is None:
+                return best, None
+            return self._minimise_gain(best, None)
+
+        # Not a proof stage: gamma is free, so a certificate that excludes a
+        # ball of (W, Z, gamma^2) leaves designs with a huge gamma possible.
+        raw = self._solve("optimal", lambda v: v.g[0, 0], certify=False)
+        if raw is None:
+            return None
+        # gamma* from the nominal-margin point, even when the raw point only
+        # certified with a larger margin (and so a larger gamma).
+        g_opt = float((raw.nominal or raw).g[0, 0])
+        if not (np.isfinite(g_opt) and g_opt > 0):
+            self.notes.append(
+                f"optimal: the solver's gamma^2 = {g_opt:g} is not positive"
+            )
+            return None
+        if abs(np.log2(g_opt)) > 2:
+            # The stages after this one are posed with gamma^2 about 1. The
+            # raw point stays as it is: W and Z do not depend on z's scale.
+            old_sz = self.scaling.sz
+            self._normalise_gamma(float(np.sqrt(self.scaling.unscale_g(g_opt))))
+            rescale = (old_sz / self.scaling.sz) ** 2
+            g_opt *= rescale
+            raw.values["g"] = raw.values["g"] * rescale
+        gamma_opt = float(np.sqrt(self.scaling.unscale_g(g_opt)))
+        raw_design = self._accept(raw, "raw optimum")
+        if not self.backoff:
+            if raw_design is not None:
+                if self.gain_bound is None:
+                    return raw_design, gamma_opt
+                return self._minimise_gain(raw_design, gamma_opt)
+            self.notes.append("raw optimum: not certified; backing off")
+            factors = (1.001, 1.01, 1.05, 1.2)
+        else:
+            b = self.backoff
+            factors = (1 + b, 1 + b / 2, 1 + b / 8, 1 + 2 * b)
+        w_star = max(float(np.linalg.eigvalsh(raw.W)[-1]), 1e-12)
+        best = None
+        for factor in factors:
+            lmi.set_parameter("g_max", g_opt * factor**2)
+            for w_max in (w_star, 1e3 * w_star):
+                lmi.set_parameter("w_max", w_max)
+                sol = self._solve("center", lambda v: -v.t[0, 0])
+                best = self._accept(sol, f"back-off x{factor:g} (w_max {w_max:.3g})")
+                if best is not None:
+                    break
+            if best is not None:
+                break
+        if best is None:
+            if raw_design is None:
+                return None
+            self.notes.append("back-off: no certified point; the raw optimum is kept")
+            best = raw_design
+            lmi.set_parameter("g_max", g_opt * (1 + 1e-9))
+        if not self.backoff and self.gain_bound is None:
+            return best, gamma_opt
+        return self._minimise_gain(best, gamma_opt)
+
+    def _minimise_gain(self, best, gamma_opt):
+        """Convex-concave gain iterations from a certified point.
+
+        Returns the design tuple with `gamma_opt`, or None if a gain bound
+        is not met by any certified point.
+        """
+        s = self.structure
+        for _ in range(_GAIN_ITERATIONS):
+            sol = best.solution
+            Z = [getattr(sol, f"Z{k}") for k in range(s.nZ)]
+            _gain_tangent(self.lmi, self.scaling, sol.W, Z, self.gain_bound)
+            candidate = self._accept(
+                self._solve("gain", lambda v: v.kappa[0, 0]), "gain stage"
+            )
+            if candidate is None:
+                break  # the previous point is certified: keep it
+            best = candidate
+            # kappa is relative to the previous point's squared gain.
+            if float(candidate.solution.kappa[0, 0]) > 1 - _GAIN_RTOL:
+                break
+        if self._accept(best.solution, "final point", bounded=True) is None:
+            return None
+        return best, gamma_opt
+
+
+def _gain_tangent(lmi, scaling, W, Z, gain_bound):
+    """Linearise the gain bound at the scaled point ``(W, Z)``.
+
+    ``K = Su Z~ W~^-1 T^-1``, so ``||K||^2 <= kappa0 kappa`` iff
+    ``(Su Z~)'(Su Z~) <= kappa0 kappa (T W~)'(T W~)``. The right side is
+    bounded below by its tangent at ``G0 = T W~0``,
+    ``G0' T W~ + W~ T G0 - G0' G0``, linear in ``W~`` and exact at ``W~0``;
+    by a Schur complement the bound is then an LMI, sufficient everywhere
+    and tight at ``W~0``. The congruence with ``G0^-1`` makes it well
+    conditioned (the identity at ``W~0``) and ``kappa0``, the squared gain at
+    ``(W, Z)``, makes ``kappa`` of order one. Re-linearising at each new
+    point (a convex-concave iteration) lowers the gain monotonically.
+
+    Returns
+    -------
+    float
+        ``kappa0``.
+    """
+    Ginv = np.linalg.inv(scaling.T[:, None] * W)
+    Winv = np.linalg.inv(W)
+    kappa0 = max(
+        float(np.linalg.norm(scaling.unscale_K(Zk @ Winv), 2)) ** 2 for Zk in Z
+    )
+    lmi.set_parameter("gain_Ginv", Ginv)
+    lmi.set_parameter("gain_Ginv_K", Ginv / np.sqrt(kappa0))
+    if gain_bound is not None:
+        # A bound far above the current gain is inactive: cap it in float64.
+        ratio = min(gain_bound / np.sqrt(kappa0), 1e100)
+        lmi.set_parameter("kappa_max", ratio**2)
+    return kappa0

@@ -1,0 +1,93 @@
+"""Keyword options of the synthesis functions, and the size guard."""
+
+from __future__ import annotations
+
+import os
+import warnings
+
+from .._checks import real_number
+from ..exceptions import CertificationError, ProblemSizeWarning
+from ..lmi import solver_chain
+from ..problem_cache import synthesis_cache
+from ..regions import LMIRegion
+from .assembly import vertex_pairs
+
+# Compile-time and memory estimates of a problem (see `guard_size`): a
+# warning above _WARN_COMPILE_SECONDS, a refusal above the time limit or
+# half the memory.
+_COMPILE_SECONDS_PER_LMI = 0.05
+_COMPILE_SECONDS_PER_ENTRY = 1e-5
+_WARN_COMPILE_SECONDS = 30.0
+_BYTES_PER_ENTRY = 400  # cvxpy's compiled problem, measured order of magnitude
+
+
+def validated_options(regions, backoff, gamma, gain_bound, margin, solvers, time_limit):
+    """Check the keyword options of the four functions at their boundary."""
+    if isinstance(regions, LMIRegion):
+        regions = (regions,)
+    try:
+        regions = tuple(regions)
+    except TypeError:
+        raise TypeError(
+            f"regions: expected an LMIRegion or a sequence of them, got {regions!r}"
+        ) from None
+    for region in regions:
+        if not isinstance(region, LMIRegion):
+            raise TypeError(f"regions: expected LMIRegion objects, got {region!r}")
+    backoff = real_number(backoff, "backoff", allow_none=True, minimum=0.0)
+    # gamma^2 and gain_bound^2 must stay finite in float64.
+    gamma = real_number(gamma, "gamma", allow_none=True, positive=True, below=1e150)
+    gain_bound = real_number(gain_bound, "gain_bound", allow_none=True, positive=True)
+    margin = real_number(margin, "margin", positive=True, below=1.0)
+    time_limit = real_number(time_limit, "time_limit", allow_none=True, positive=True)
+    return (
+        regions,
+        backoff,
+        gamma,
+        gain_bound,
+        margin,
+        solver_chain(solvers),
+        time_limit,
+    )
+
+
+def guard_size(structure, time_limit=None) -> None:
+    """Warn about, or refuse, a problem too large for this machine or time.
+
+    cvxpy compiles each LMI in Python: measured here about 0.03-0.07 s per
+    LMI of a vertex pair and 1e-2 s per thousand matrix entries, all stages
+    together, so a scheduled design on 200 vertices (20,100 LMIs) takes
+    about a quarter of an hour before any solver runs.
+    """
+    entries = structure.entries
+    npairs = len(vertex_pairs(structure.N, structure.scheduled))
+    estimate = entries * _BYTES_PER_ENTRY
+    seconds = _COMPILE_SECONDS_PER_LMI * npairs + _COMPILE_SECONDS_PER_ENTRY * entries
+    text = (
+        f"{npairs} LMIs of size up to {structure.lmi_size}, about {entries:,} "
+        f"matrix entries, estimated {estimate / 2**30:.2g} GiB and "
+        f"{seconds:.3g} s to compile"
+    )
+    try:
+        memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):  # pragma: no cover
+        memory = None
+    if memory is not None and estimate > 0.5 * memory:
+        raise ValueError(
+            f"sys: the problem is too large for this machine ({text}, more than "
+            f"half of its {memory / 2**30:.3g} GiB); use fewer vertices or a "
+            "common gain"
+        )
+    if structure in synthesis_cache:
+        return  # compiled already: only the solver's time is left
+    if time_limit is not None and seconds > time_limit:
+        raise CertificationError(
+            f"time_limit: no design tried, the problem would not compile within "
+            f"{time_limit:g} s ({text})"
+        )
+    if seconds > _WARN_COMPILE_SECONDS:
+        warnings.warn(
+            f"large LMI problem: {text}; time_limit= bounds the whole call",
+            ProblemSizeWarning,
+            stacklevel=4,
+        )

@@ -1,0 +1,322 @@
+"""The paper's Lemma 1, Lemma 2, Theorem 1 and Theorem 2 (Section III)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from ..regions import LMIRegion
+from ..systems import PolytopicStateSpace
+from .ladder import run_ladder
+from .results import StateFeedbackDesign
+
+
+def quadratic_stabilization(
+    sys: PolytopicStateSpace,
+    u=None,
+    *,
+    regions: Sequence[LMIRegion] = (),
+    gain_bound: float | None = None,
+    margin: float = 1e-6,
+    solvers=None,
+    time_limit: float | None = None,
+) -> StateFeedbackDesign:
+    """Common state feedback that quadratically stabilizes the polytope.
+
+    Lemma 1 of the paper: find ``W > 0`` and ``Z`` with
+    ``A_j W + W A_j' + B_j Z + Z' B_j' < 0`` at every vertex; the gain is
+    ``K = -Z W^-1`` for ``u = -K x`` and ``P = W^-1``.
+
+    Parameters
+    ----------
+    sys : `PolytopicStateSpace`
+        The plant; all states are measured.
+    u : str, int or list
+        Control inputs (names or indices); required.
+    regions : LMIRegion or sequence of LMIRegion, optional
+        Pole regions (`halfplane`, `disk`, `sector`) that every frozen
+        closed loop must lie in; default none.
+    gain_bound : float, optional
+        Upper bound on the spectral norm of the gain, in the model's units.
+        The first point maximises ``t`` subject to ``t I <= W <= I``,
+        ``A_cl W + W A_cl' <= -t I`` and ``||Z|| <= 1`` (scaled units; the
+        bound on ``||Z||`` is relaxed to 100, then 1e4, if that gives no
+        certified point): a well-conditioned Lyapunov matrix with a decay
+        margin and moderate gains, returned as it is without `gain_bound`.
+        With it, the gain is then minimised under the bound by
+        convex-concave iterations (a sufficient condition, see the module
+        documentation), and a design whose gain still exceeds the bound is
+        not returned (`CertificationError`).
+    margin : float, optional
+        Margin of the strict LMIs, posed as ``F <= -margin I`` in the
+        prescaled units; positive and below 1, default 1e-6. When no point
+        certifies, the first solver is tried again with ``1e-3 * margin``.
+    solvers : str or sequence, optional
+        A solver name, or names or ``(name, options)`` pairs tried in turn
+        (``options``: keywords of that cvxpy solver); default Clarabel,
+        then SCS, then CVXOPT and MOSEK if installed. A solver that is not
+        installed is a `ValueError`.
+    time_limit : float, optional
+        Wall-time limit of the whole call, in seconds (default none):
+        solvers get the time left and no fallback is started after it; a
+        problem whose estimated compile time exceeds it is refused before
+        any solve. Both end in `CertificationError`.
+
+    Returns
+    -------
+    `StateFeedbackDesign`
+
+    Raises
+    ------
+    InfeasibleError
+        If a vertex is not stabilizable (the mode and its PBH residual).
+    CertificationError
+        If no certified design was found, with every fallback tried.
+
+    Examples
+    --------
+    >>> import control as ct
+    >>> v1 = ct.ss([[0.0, 1.0], [1.0, 0.0]], [[0.0], [1.0]], [[1.0, 0.0]], 0)
+    >>> v2 = ct.ss([[0.0, 1.0], [3.0, 0.0]], [[0.0], [1.0]], [[1.0, 0.0]], 0)
+    >>> design = quadratic_stabilization(PolytopicStateSpace([v1, v2]), u=0)
+    >>> design.certificate.verified
+    True
+    """
+    return run_ladder(
+        sys, None, u, None, "Lemma 1", False, None, regions, None, gain_bound,
+        margin, solvers, time_limit,
+    )  # fmt: skip
+
+
+def gain_scheduled_stabilization(
+    sys: PolytopicStateSpace,
+    u=None,
+    *,
+    regions: Sequence[LMIRegion] = (),
+    gain_bound: float | None = None,
+    margin: float = 1e-6,
+    solvers=None,
+    time_limit: float | None = None,
+) -> StateFeedbackDesign:
+    """Vertex gains that quadratically stabilize the polytope.
+
+    Theorem 1 of the paper: one ``Z_j`` per vertex with a common ``W``,
+    LMIs (20) at every vertex and (21) for every pair; the scheduled gain
+    is ``K(delta) = sum_j delta_j K_j`` with ``K_j = -Z_j W^-1``.
+
+    Parameters
+    ----------
+    sys : `PolytopicStateSpace`
+        The plant; all states are measured.
+    u : str, int or list
+        Control inputs (names or indices); required.
+    regions : LMIRegion or sequence of LMIRegion, optional
+        Pole regions (`halfplane`, `disk`, `sector`) that every frozen
+        closed loop must lie in; default none.
+    gain_bound : float, optional
+        Upper bound on the spectral norm of every vertex gain ``K_j``, in
+        the model's units. The first point maximises ``t`` subject to
+        ``t I <= W <= I``, ``A_cl W + W A_cl' <= -t I`` and ``||Z_j|| <= 1``
+        (scaled units; the bound on ``||Z_j||`` is relaxed to 100, then 1e4,
+        if that gives no certified point): a well-conditioned Lyapunov
+        matrix with a decay margin and moderate gains, returned as it is
+        without `gain_bound`. With it, the gain is then minimised under the
+        bound by convex-concave iterations (a sufficient condition, see the
+        module documentation), and a design whose gain still exceeds the
+        bound is not returned (`CertificationError`).
+    margin : float, optional
+        Margin of the strict LMIs, posed as ``F <= -margin I`` in the
+        prescaled units; positive and below 1, default 1e-6. When no point
+        certifies, the first solver is tried again with ``1e-3 * margin``.
+    solvers : str or sequence, optional
+        A solver name, or names or ``(name, options)`` pairs tried in turn
+        (``options``: keywords of that cvxpy solver); default Clarabel,
+        then SCS, then CVXOPT and MOSEK if installed. A solver that is not
+        installed is a `ValueError`.
+    time_limit : float, optional
+        Wall-time limit of the whole call, in seconds (default none):
+        solvers get the time left and no fallback is started after it; a
+        problem whose estimated compile time exceeds it is refused before
+        any solve. Both end in `CertificationError`.
+
+    Returns
+    -------
+    `StateFeedbackDesign`
+        With one gain per vertex.
+
+    Raises
+    ------
+    InfeasibleError
+        If a vertex is not stabilizable (the mode and its PBH residual).
+    CertificationError
+        If no certified design was found, with every fallback tried.
+    """
+    return run_ladder(
+        sys, None, u, None, "Theorem 1", True, None, regions, None, gain_bound,
+        margin, solvers, time_limit,
+    )  # fmt: skip
+
+
+def hinf_state_feedback(
+    sys: PolytopicStateSpace,
+    w=None,
+    u=None,
+    z=None,
+    *,
+    gamma: float | None = None,
+    regions: Sequence[LMIRegion] = (),
+    backoff: float | None = 0.2,
+    gain_bound: float | None = None,
+    margin: float = 1e-6,
+    solvers=None,
+    time_limit: float | None = None,
+) -> StateFeedbackDesign:
+    """Common state feedback with a certified H-infinity bound.
+
+    Lemma 2 of the paper: LMI (19) at every vertex, in ``W``, ``Z`` and
+    ``g = gamma^2``; ``||z||_2 < gamma ||w||_2`` for every admissible
+    parameter trajectory (quadratic H-infinity performance).
+
+    Parameters
+    ----------
+    sys : `PolytopicStateSpace`
+        The plant, with the exogenous inputs `w` and control inputs `u`
+        among its inputs and the performance outputs `z` among its outputs.
+    w : str, int or list, optional
+        Exogenous inputs; default every physical input not in `u`.
+    u : str, int or list
+        Control inputs.
+    z : str, int or list, optional
+        Performance outputs; default all outputs.
+    gamma : float, optional
+        Required bound, met strictly; if given the LMIs are solved for
+        feasibility at this gamma instead of minimising it.
+    regions : LMIRegion or sequence of LMIRegion, optional
+        Pole regions (`halfplane`, `disk`, `sector`) that every frozen
+        closed loop must lie in; default none.
+    backoff : float or None, optional
+        Relax the minimum gamma by this fraction (default 0.2), then
+        re-solve for a well-conditioned ``W`` and the smallest gain norm.
+        None (or 0) returns the raw minimum-gamma point, whose gains are
+        often very large.
+    gain_bound : float, optional
+        Upper bound on the spectral norm of the gain, in the model's units,
+        imposed in the gain-minimisation stage (convex-concave iterations, a
+        sufficient condition, see the module documentation) that follows the
+        back-off or a given `gamma`; a design whose gain still exceeds it is
+        not returned (`CertificationError`); with ``backoff=None`` the
+        gain stage starts from the raw minimum-gamma point.
+    margin : float, optional
+        Margin of the strict LMIs, posed as ``F <= -margin I`` in the
+        prescaled units; positive and below 1, default 1e-6. When no point
+        certifies, the first solver is tried again with ``1e-3 * margin``.
+    solvers : str or sequence, optional
+        A solver name, or names or ``(name, options)`` pairs tried in turn
+        (``options``: keywords of that cvxpy solver); default Clarabel,
+        then SCS, then CVXOPT and MOSEK if installed. A solver that is not
+        installed is a `ValueError`.
+    time_limit : float, optional
+        Wall-time limit of the whole call, in seconds (default none):
+        solvers get the time left and no fallback is started after it; a
+        problem whose estimated compile time exceeds it is refused before
+        any solve. Both end in `CertificationError`.
+
+    Returns
+    -------
+    `StateFeedbackDesign`
+        With `gamma` the certified bound and `gamma_opt` the minimum.
+
+    Raises
+    ------
+    InfeasibleError
+        If a vertex is not stabilizable or, for a given `gamma`, a dual
+        certificate proves the LMIs infeasible.
+    CertificationError
+        If no certified design was found (with what was tried).
+    """
+    return run_ladder(
+        sys, w, u, z, "Lemma 2", False, gamma, regions, backoff, gain_bound,
+        margin, solvers, time_limit, hinf=True,
+    )  # fmt: skip
+
+
+def gain_scheduled_hinf(
+    sys: PolytopicStateSpace,
+    w=None,
+    u=None,
+    z=None,
+    *,
+    gamma: float | None = None,
+    regions: Sequence[LMIRegion] = (),
+    backoff: float | None = 0.2,
+    gain_bound: float | None = None,
+    margin: float = 1e-6,
+    solvers=None,
+    time_limit: float | None = None,
+) -> StateFeedbackDesign:
+    """Vertex gains with a certified H-infinity bound.
+
+    Theorem 2 of the paper: LMIs (24) at every vertex and (25) for every
+    pair of vertices, with a common ``W`` and one ``Z_j`` per vertex.
+
+    Parameters
+    ----------
+    sys : `PolytopicStateSpace`
+        The plant, with `w` and `u` among its inputs and `z` among its
+        outputs.
+    w : str, int or list, optional
+        Exogenous inputs; default every physical input not in `u`.
+    u : str, int or list
+        Control inputs.
+    z : str, int or list, optional
+        Performance outputs; default all outputs.
+    gamma : float, optional
+        Required bound, met strictly; if given the LMIs are solved for
+        feasibility at this gamma instead of minimising it.
+    regions : LMIRegion or sequence of LMIRegion, optional
+        Pole regions (`halfplane`, `disk`, `sector`) that every frozen
+        closed loop must lie in; default none.
+    backoff : float or None, optional
+        Relax the minimum gamma by this fraction (default 0.2), then
+        re-solve for a well-conditioned ``W`` and small vertex gains; None
+        or 0 returns the raw minimum-gamma point.
+    gain_bound : float, optional
+        Upper bound on the spectral norm of every vertex gain ``K_j``, in
+        the model's units, imposed in the gain-minimisation stage
+        (convex-concave iterations, a sufficient condition, see the module
+        documentation) that follows the back-off or a given `gamma`; a
+        design whose gain still exceeds it is not returned
+        (`CertificationError`); with ``backoff=None`` the gain stage starts
+        from the raw minimum-gamma point.
+    margin : float, optional
+        Margin of the strict LMIs, posed as ``F <= -margin I`` in the
+        prescaled units; positive and below 1, default 1e-6. When no point
+        certifies, the first solver is tried again with ``1e-3 * margin``.
+    solvers : str or sequence, optional
+        A solver name, or names or ``(name, options)`` pairs tried in turn
+        (``options``: keywords of that cvxpy solver); default Clarabel,
+        then SCS, then CVXOPT and MOSEK if installed. A solver that is not
+        installed is a `ValueError`.
+    time_limit : float, optional
+        Wall-time limit of the whole call, in seconds (default none):
+        solvers get the time left and no fallback is started after it; a
+        problem whose estimated compile time exceeds it is refused before
+        any solve. Both end in `CertificationError`.
+
+    Returns
+    -------
+    `StateFeedbackDesign`
+        With one gain per vertex, `gamma` the certified bound and
+        `gamma_opt` the minimum.
+
+    Raises
+    ------
+    InfeasibleError
+        If a vertex is not stabilizable or, for a given `gamma`, a dual
+        certificate proves the LMIs infeasible.
+    CertificationError
+        If no certified design was found (with what was tried).
+    """
+    return run_ladder(
+        sys, w, u, z, "Theorem 2", True, gamma, regions, backoff, gain_bound,
+        margin, solvers, time_limit, hinf=True,
+    )  # fmt: skip

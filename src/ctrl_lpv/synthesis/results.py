@@ -1,0 +1,266 @@
+"""Results of a synthesis: the design and its certificate."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..lmi import LMICheck, SolveAttempt
+from ..regions import LMIRegion
+from ..systems import PolytopicStateSpace
+from .channels import channel_indices
+
+# Rounding level below which the Jacobi-normalised inequality with the
+# returned P, in the model's units, must stay (a few eps times its size).
+ORIGINAL_UNITS_TOL = 1e-12
+
+
+@dataclass(frozen=True)
+class Certificate:
+    """Independent float64 verification of a design.
+
+    Attributes
+    ----------
+    lmi_checks : tuple of `ctrl_lpv.lmi.LMICheck`
+        Largest eigenvalue of every LMI at the returned point (scaled units,
+        exactly congruent to the original LMIs).
+    margin : float
+        Margin the strict LMIs were posed with (scaled units).
+    max_closed_loop_real : float
+        Largest real part of the closed-loop eigenvalues over the vertices
+        and the sampled interior points (original units).
+    max_lyapunov_eig : float
+        Largest eigenvalue of ``A_cl W + W A_cl'`` over the same points,
+        divided by ``||W||`` (must be negative).
+    npoints : int
+        Number of parameter points checked (vertices plus samples).
+    max_original_eig : float
+        Largest eigenvalue, over the same points, of the Lyapunov (or
+        bounded-real, with `gamma`) inequality written with the returned
+        ``P`` and gains in the model's units, after a Jacobi normalisation
+        (must be below the rounding level `ORIGINAL_UNITS_TOL`).
+    verified : bool
+        True when every check passed. A design is only returned verified.
+    """
+
+    lmi_checks: tuple[LMICheck, ...]
+    margin: float
+    max_closed_loop_real: float
+    max_lyapunov_eig: float
+    npoints: int
+    max_original_eig: float = -1.0
+
+    @property
+    def verified(self) -> bool:
+        """Whether every LMI and closed-loop check passed."""
+        return (
+            all(c.passed for c in self.lmi_checks)
+            and self.max_closed_loop_real < 0
+            and self.max_lyapunov_eig < 0
+            and self.max_original_eig < ORIGINAL_UNITS_TOL
+        )
+
+    @property
+    def worst_lmi(self) -> LMICheck:
+        """The strict LMI with the smallest distance to its bound."""
+        strict = [c for c in self.lmi_checks if c.strict]
+        return max(strict, key=lambda c: c.max_eig)
+
+    def __str__(self) -> str:
+        worst = self.worst_lmi
+        return (
+            f"{'verified' if self.verified else 'NOT verified'}: "
+            f"{len(self.lmi_checks)} LMIs, worst {worst.name} "
+            f"lambda_max = {worst.max_eig:.3g} (margin {self.margin:.1g}); "
+            f"closed loop max Re = {self.max_closed_loop_real:.4g} "
+            f"over {self.npoints} points"
+        )
+
+
+@dataclass(frozen=True)
+class StateFeedbackDesign:
+    """A certified state-feedback design for a polytopic system.
+
+    Attributes
+    ----------
+    system : `PolytopicStateSpace`
+        The design model.
+    method : str
+        Which result was used ("Lemma 1", "Lemma 2", "Theorem 1",
+        "Theorem 2").
+    gains : tuple of ndarray
+        ``m x n`` gains for ``u = -K x``: one common gain, or one per vertex.
+    P : ndarray
+        Lyapunov matrix ``P = W^-1`` of ``V(x) = x' P x`` (original units).
+    gamma : float or None
+        Certified bound on the L2 gain from `w` to `z` (None without a
+        performance channel).
+    gamma_opt : float or None
+        The minimum ``gamma*`` the solver found before back-off (None if not
+        computed). With back-off it is an estimate whose point need not pass
+        the certificate; only `gamma` is certified.
+    w, u, z : tuple of str
+        Exogenous inputs, control inputs and performance outputs.
+    certificate : `Certificate`
+        The float64 verification.
+    attempts : tuple of `ctrl_lpv.lmi.SolveAttempt`
+        Every solver attempt of every stage.
+    timing : dict
+        Seconds spent: "build" (checks and the stabilizability test),
+        "compile" (building and compiling the cvxpy problems; 0 when they
+        were reused from `synthesis_cache`), "solve" (solver calls,
+        parameter application and certificates) and "verify" (closed
+        loops).
+    backoff : float or None
+        Back-off used.
+    regions : tuple of `LMIRegion`
+        Pole regions the design was constrained to.
+    ladder : tuple of str
+        What the fallback ladder tried before this design certified (empty
+        when the first point did): each rung (prescaling, margin, stage
+        bound) and why it was passed over.
+    """
+
+    system: PolytopicStateSpace
+    method: str
+    gains: tuple[np.ndarray, ...]
+    P: np.ndarray
+    gamma: float | None
+    gamma_opt: float | None
+    w: tuple[str, ...]
+    u: tuple[str, ...]
+    z: tuple[str, ...]
+    certificate: Certificate
+    attempts: tuple[SolveAttempt, ...]
+    timing: dict = field(default_factory=dict)
+    backoff: float | None = None
+    regions: tuple[LMIRegion, ...] = ()
+    ladder: tuple[str, ...] = ()
+
+    @property
+    def scheduled(self) -> bool:
+        """Whether the design has one gain per vertex."""
+        return len(self.gains) > 1
+
+    @property
+    def states(self) -> tuple[str, ...]:
+        """State labels (the measured signals of the controller)."""
+        return tuple(self.system.state_labels)
+
+    def gain(self, p=None) -> np.ndarray:
+        """Gain ``K(delta(p)) = sum_j delta_j K_j`` at parameter value `p`.
+
+        Parameters
+        ----------
+        p : array_like or mapping, optional
+            Parameter value; ignored (may be omitted) for a common gain.
+
+        Returns
+        -------
+        ndarray
+            ``m x n`` gain for ``u = -K x``.
+        """
+        if not self.scheduled:
+            return self.gains[0].copy()
+        if p is None:
+            raise ValueError("p: a scheduled design needs the parameter value")
+        delta = self.system.weights(p)
+        return np.tensordot(delta, np.stack(self.gains), axes=1)
+
+    def closed_loop(self, p) -> tuple[np.ndarray, ...]:
+        """Closed-loop ``(A, B_w, C_z, D_zw)`` matrices at `p`."""
+        frozen = self.system.at(p)
+        iw, iu, iz = channel_indices(self.system, self.w, self.u, self.z)
+        K = self.gain(p)
+        A = frozen.A - frozen.B[:, iu] @ K
+        C = frozen.C[iz] - frozen.D[np.ix_(iz, iu)] @ K
+        return A, frozen.B[:, iw], C, frozen.D[np.ix_(iz, iw)]
+
+    def controller(self, *args, **kwargs):
+        """State-feedback controller ``u = -K x`` as a python-control I/O system.
+
+        Calls `ctrl_lpv.controllers.state_feedback` on this design; its
+        inputs are named after the design model's states, so that
+        `control.interconnect` connects it to the plant by name.
+
+        Parameters
+        ----------
+        scheduling : None, "inputs" or callable, optional
+            For vertex gains only (None for a common gain): where the
+            parameter comes from. ``"inputs"`` (the default for vertex
+            gains) adds one input per parameter, named after it; a callable
+            ``p = f(t, x)`` computes it from time and the design model's
+            state vector, returning an array or a dict ``{name: value}``.
+            The parameter is projected onto the domain.
+        reference : bool, optional, keyword-only
+            If True, add inputs ``<state>_d`` (desired states) and
+            ``<input>_d`` (feedforward): ``u = ud - K (x - xd)``. Default
+            False.
+        states : sequence of str or mapping, optional, keyword-only
+            Names of the measured-state inputs: one per measured state, or
+            ``{state label: input name}`` renaming some. Default: the design
+            model's state labels.
+        integrals : mapping of str to str, optional, keyword-only
+            ``{integral state label: integrated signal}`` integrated by the
+            controller itself; default those recorded by
+            `integral_augmentation` (``{}`` reads every state as an input).
+        name : str, optional, keyword-only
+            System name.
+
+        Returns
+        -------
+        `control.NonlinearIOSystem`
+            Inputs: the measured states (plus integrated outputs, references
+            and parameter inputs as requested); outputs: the control inputs
+            ``u``; states: the controller's integral states, if any.
+
+        Raises
+        ------
+        ValueError
+            For a `scheduling` that does not fit the design, `states` of the
+            wrong length or with unknown labels, or `integrals` naming
+            unknown states or signals.
+        TypeError
+            If `integrals` is not a mapping.
+        """
+        from .controllers import state_feedback
+
+        return state_feedback(self, *args, **kwargs)
+
+    def __str__(self) -> str:
+        lines = [
+            f"StateFeedbackDesign ({self.method}, "
+            f"{'vertex gains' if self.scheduled else 'common gain'}, u = -K x)",
+            f"  system: {self.system.name}, {self.system.nvertices} vertices, "
+            f"{self.system.nstates} states",
+            f"  w = {list(self.w)}, u = {list(self.u)}, z = {list(self.z)}",
+        ]
+        if self.gamma is not None:
+            opt = f"{self.gamma_opt:.5g}" if self.gamma_opt is not None else "n/a"
+            backoff = "off" if self.backoff is None else f"{self.backoff:g}"
+            lines.append(
+                f"  gamma = {self.gamma:.5g} certified (gamma* = {opt}, "
+                f"back-off {backoff})"
+            )
+        if self.regions:
+            lines.append(f"  pole regions: {', '.join(map(str, self.regions))}")
+        with np.printoptions(precision=5, suppress=False, linewidth=100):
+            for j, K in enumerate(self.gains):
+                label = f"K[{j}]" if self.scheduled else "K"
+                lines.append(f"  {label} = {np.array2string(K, prefix='  K = ')}")
+        lines.append(f"  certificate: {self.certificate}")
+        solved = [a for a in self.attempts if a.certified]
+        solver = solved[-1].solver if solved else "none"
+        lines.append(
+            f"  solver: {solver}, {len(self.attempts)} attempt(s); time "
+            + ", ".join(f"{k} {v:.3f} s" for k, v in self.timing.items())
+        )
+        return "\n".join(lines)
+
+    def __repr__(self) -> str:
+        gamma = "" if self.gamma is None else f", gamma={self.gamma:.5g}"
+        return (
+            f"<StateFeedbackDesign {self.method}: {len(self.gains)} gain(s)"
+            f"{gamma}, verified={self.certificate.verified}>"
+        )

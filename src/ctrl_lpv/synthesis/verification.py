@@ -1,0 +1,80 @@
+"""Independent float64 verification of a returned point."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .assembly import vertex_pairs
+from .results import Certificate
+
+# Number of random interior points at which closed loops are verified.
+_VERIFY_SAMPLES = 64
+
+
+def verify(original, data, sol, gains, margin, scheduled, P, gamma) -> Certificate:
+    """Independent float64 checks of the returned point (see module doc)."""
+    N = len(original)
+    rng = np.random.default_rng(12345)
+    deltas = list(np.eye(N))
+    if N > 1:
+        deltas += list(rng.dirichlet(np.ones(N), size=_VERIFY_SAMPLES))
+        deltas += [
+            0.5 * (np.eye(N)[j] + np.eye(N)[k]) for j, k in vertex_pairs(N, True)[N:]
+        ]
+    deltas = np.array(deltas)
+    W = sol.W
+    Winv = np.linalg.inv(W)
+    Kstack = np.stack(gains)
+    Ktilde = np.stack([-getattr(sol, f"Z{k}") @ Winv for k in range(len(gains))])
+
+    def at(stack):
+        # Frozen matrices at every point at once: shape (points, rows, cols).
+        return np.einsum("pj,jab->pab", deltas, np.stack(stack))
+
+    K = at(Kstack) if scheduled else Kstack[0]
+    A = at([v[0] for v in original])
+    B = at([v[2] for v in original])
+    max_real = np.linalg.eigvals(A - B @ K).real.max()
+    Kt = at(Ktilde) if scheduled else Ktilde[0]
+    At = at([v[0] for v in data])
+    Bt = at([v[2] for v in data])
+    Acl_W = (At - Bt @ Kt) @ W
+    lyap = np.linalg.eigvalsh(Acl_W + np.swapaxes(Acl_W, 1, 2))[:, -1]
+    Acl = A - B @ K
+    PA = P @ Acl
+    if gamma is None:
+        M = PA + np.swapaxes(PA, 1, 2)
+    else:
+        # The bounded-real inequality with the returned P and gamma, in the
+        # model's units: what a user can check with the design alone.
+        B1 = at([v[1] for v in original])
+        Ccl = at([v[3] for v in original]) - at([v[5] for v in original]) @ K
+        D1 = at([v[4] for v in original])
+        npts, nw, nz = len(deltas), B1.shape[2], Ccl.shape[1]
+        M = np.block([
+            [PA + np.swapaxes(PA, 1, 2), P @ B1, np.swapaxes(Ccl, 1, 2)],
+            [np.swapaxes(P @ B1, 1, 2), np.broadcast_to(-np.eye(nw), (npts, nw, nw)),
+             np.swapaxes(D1, 1, 2)],
+            [Ccl, D1, np.broadcast_to(-gamma**2 * np.eye(nz), (npts, nz, nz))],
+        ])  # fmt: skip
+    return Certificate(
+        lmi_checks=sol.checks,
+        margin=margin,
+        max_closed_loop_real=float(max_real),
+        max_lyapunov_eig=float(lyap.max() / np.linalg.norm(W, 2)),
+        npoints=len(deltas),
+        max_original_eig=normalized_max_eig(M),
+    )
+
+
+def normalized_max_eig(M) -> float:
+    """Largest ``lambda_max(D M D)`` over a stack, ``D = |diag M|^-1/2``.
+
+    The Jacobi normalisation makes the test scale-free; a nonnegative
+    diagonal entry (no strict inequality possible) gives ``inf``.
+    """
+    diag = np.diagonal(M, axis1=1, axis2=2)
+    if not np.all(diag < 0):
+        return float("inf")
+    d = 1.0 / np.sqrt(-diag)
+    return float(np.linalg.eigvalsh(M * d[:, :, None] * d[:, None, :])[:, -1].max())
