@@ -224,7 +224,7 @@ class StateFeedbackDesign:
         TypeError
             If `integrals` is not a mapping.
         """
-        from .controllers import state_feedback
+        from ..controllers import state_feedback
 
         return state_feedback(self, *args, **kwargs)
 
