@@ -50,6 +50,7 @@ _EXPORTS = {
     "integral_augmentation": "controllers",
     "quadratic_stability": "analysis",
     "l2_gain_bound": "analysis",
+    "h2_bound": "analysis",
     "frozen_sweep": "analysis",
     "saturated_state_feedback": "saturation",
     "saturation_region": "saturation",

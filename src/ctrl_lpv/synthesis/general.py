@@ -174,6 +174,12 @@ class _Job:
         self.rates = [r / base.a for r in lyap.rates]
         self.index = {spec: i for i, spec in enumerate(specs)}
 
+    def _nZ(self) -> int:
+        """Number of ``Z`` variables (none for an analysis, without inputs)."""
+        if self.original[0]["B2"].shape[1] == 0:
+            return 0
+        return self.sys.nvertices if self.scheduled else 1
+
     # -- units -----------------------------------------------------------
     def _to_model(self, i) -> float:
         """Factor from a spec's scaled squared bound to the model's units.
@@ -221,7 +227,7 @@ class _Job:
         data = self._scaled_data()
         rho = self._rho()
         n, m = data[0]["A"].shape[0], data[0]["B2"].shape[1]
-        nZ = self.sys.nvertices if self.scheduled else 1
+        nZ = self._nZ()
         lmi = LMIProblem(margin=self.margin)
         for ell in range(self.lyap.count):
             lmi.variable(f"W{ell}", (n, n), symmetric=True)
@@ -449,7 +455,7 @@ class _Job:
             return None
         sc = self.scaling
         Ws = [getattr(sol, f"W{e}") for e in range(self.lyap.count)]
-        nZ = self.sys.nvertices if self.scheduled else 1
+        nZ = self._nZ()
         Zs = [getattr(sol, f"Z{k}") for k in range(nZ)]
         vertex_W = [Ws[self.lyap.index[j if self.scheduled else 0]] for j in range(nZ)]
         gains = tuple(sc.unscale_K(-Z @ np.linalg.inv(W)) for Z, W in zip(Zs, vertex_W))
@@ -462,7 +468,7 @@ class _Job:
                 self.notes.append(f"{label}: {spec} certified {value:.8g}, not below")
                 return None
         rational = None
-        if not self.lyap.constant:
+        if not self.lyap.constant and Zs:
             factor = sc.w_factor
             rational = (
                 tuple(factor * (sc.Su[:, None] * Z * sc.T) for Z in Zs),
@@ -516,7 +522,9 @@ class _Job:
 
             A = mix([v["A"] for v in self.original])
             B2 = mix([v["B2"] for v in self.original])
-            if self.scheduled and not lyap.constant:
+            if not Zs:
+                K = np.zeros((0, A.shape[0]))
+            elif self.scheduled and not lyap.constant:
                 Wt = mix([Ws[lyap.index[j]] for j in range(len(delta))])
                 K = sc.unscale_K(-mix(Zs) @ np.linalg.inv(Wt))
             elif self.scheduled:
