@@ -161,8 +161,9 @@ def state_feedback(
     )
     gains = np.stack(design.gains)  # (N, m, n)
     kernel = _feedback_kernel(
-        gains, sys.domain, scheduling if design.scheduled else None, layout
-    )
+        gains, sys.domain, scheduling if design.scheduled else None, layout,
+        getattr(design, "rational", None),
+    )  # fmt: skip
     # u depends on the measured states, references and parameters, not on
     # the integrated outputs (they enter through the integrators).
     through = np.ones((len(outputs), len(inputs)), dtype=bool)
@@ -221,13 +222,17 @@ class _Layout:
     nref: int
 
 
-def _feedback_kernel(gains, domain, scheduling, layout: _Layout) -> BlockKernel:
+def _feedback_kernel(
+    gains, domain, scheduling, layout: _Layout, rational=None
+) -> BlockKernel:
     """Scalar and vectorized functions of `state_feedback`.
 
     ``u = ud - K(delta) (x - xd)`` on Python floats (the gains are small),
     ``x`` the design state (measured states and integral states); the
     scheduled gain ``sum_j delta_j K_j`` comes from the domain's convex
-    coordinates of the projected parameter.
+    coordinates of the projected parameter, or is ``-Z(delta) W(delta)^-1``
+    for the `rational` vertex matrices ``(Z_j, W_j)`` of a design with a
+    parameter-dependent Lyapunov function.
     """
     N, m, n = gains.shape
     flat_gains = gains.reshape(N, m * n)
@@ -269,7 +274,11 @@ def _feedback_kernel(gains, domain, scheduling, layout: _Layout) -> BlockKernel:
             p = asarray(u[nref:], dtype=float)
         else:
             p = parameter(scheduling(t, asarray(design_state(x, u), dtype=float)))
-        flat = (weights(p) @ flat_gains).tolist()
+        delta = weights(p)
+        if rational is not None:
+            Z, W = (np.tensordot(delta, np.stack(M), axes=1) for M in rational)
+            return (-np.linalg.solve(W.T, Z.T).T).tolist()
+        flat = (delta @ flat_gains).tolist()
         return [flat[i * n : (i + 1) * n] for i in range(m)]
 
     def out(t, x, u):
