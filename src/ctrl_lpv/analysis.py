@@ -90,18 +90,38 @@ class FrozenSweep:
     points : ndarray
         Parameter values, shape ``(M, k)``.
     poles : ndarray
-        Closed-loop eigenvalues, shape ``(M, n)``.
+        Closed-loop eigenvalues, shape ``(M, n)`` (z-plane in discrete
+        time).
     max_real : ndarray
-        Largest real part per point, shape ``(M,)``.
+        Largest real part per point, shape ``(M,)``: the stability test in
+        continuous time (``< 0``); in discrete time it is still the largest
+        real part of the z-plane eigenvalues, which does not decide
+        stability (use `spectral_radius`).
     hinf : ndarray or None
         H-infinity norm from `w` to `z` per point (``inf`` where unstable),
-        None if no channels were given.
+        None if no channels were given. In discrete time the norm of the
+        discrete closed loop (``sup`` over the unit circle, with the
+        system's ``dt``).
+    spectral_radius : ndarray
+        Largest eigenvalue modulus per point, shape ``(M,)``: the stability
+        test in discrete time (``< 1``).
+    dt : 0, True or float
+        Timebase of the system.
     """
 
     points: np.ndarray
     poles: np.ndarray
     max_real: np.ndarray
     hinf: np.ndarray | None
+    spectral_radius: np.ndarray | None = None
+    dt: float | bool = 0
+
+    @property
+    def stable(self) -> np.ndarray:
+        """Whether each frozen closed loop is stable (Hurwitz or Schur)."""
+        if self.dt:
+            return self.spectral_radius < 1.0
+        return self.max_real < 0.0
 
 
 def _as_closed_loop_data(sys, gains, u):
@@ -431,11 +451,15 @@ def frozen_sweep(
         call).
     w, z : str, int or list, optional
         If given, the H-infinity norm from `w` to `z` is computed with
-        `control.linfnorm`.
+        `control.linfnorm` (of the discrete closed loop for a
+        discrete-time `sys`).
 
     Returns
     -------
     `FrozenSweep`
+        For a discrete-time `sys` (``dt > 0`` or True), stability is read
+        from ``spectral_radius < 1`` (``max_real`` keeps its meaning, the
+        largest real part); ``stable`` answers for either timebase.
     """
 
     def sample(domain, count: int) -> np.ndarray:
@@ -476,6 +500,7 @@ def frozen_sweep(
     iw = signal_indices(w, sys.physical_inputs, "w") if w is not None else None
     iz = signal_indices(z, sys.output_labels, "z") if z is not None else None
     Kstack = np.stack(gains)
+    discrete = sys.isdtime(strict=True)
     poles, hinf = [], []
     for p in points:
         delta = sys.weights(p)
@@ -485,11 +510,14 @@ def frozen_sweep(
         eig = np.linalg.eigvals(Acl)
         poles.append(np.sort_complex(eig))
         if iw is not None and iz is not None:
-            if eig.real.max() >= 0:
+            unstable = np.abs(eig).max() >= 1.0 if discrete else eig.real.max() >= 0
+            if unstable:
                 hinf.append(np.inf)
             else:
                 Ccl = frozen.C[iz] - frozen.D[np.ix_(iz, iu)] @ K
-                cl = ct.ss(Acl, frozen.B[:, iw], Ccl, frozen.D[np.ix_(iz, iw)])
+                cl = ct.ss(
+                    Acl, frozen.B[:, iw], Ccl, frozen.D[np.ix_(iz, iw)], dt=sys.dt
+                )
                 hinf.append(float(ct.linfnorm(cl)[0]))
     poles = np.array(poles)
     return FrozenSweep(
@@ -497,4 +525,6 @@ def frozen_sweep(
         poles=poles,
         max_real=poles.real.max(axis=1),
         hinf=np.array(hinf) if hinf else None,
+        spectral_radius=np.abs(poles).max(axis=1),
+        dt=sys.dt,
     )
