@@ -20,6 +20,7 @@ from ..exceptions import CertificationError, InfeasibleError
 from ..lmi import LMIProblem
 from .assembly import region_block
 from .ladder import (
+    ESTIMATE_MARGIN,
     GAIN_ITERATIONS,
     GAIN_RTOL,
     MARGIN_FACTORS,
@@ -391,6 +392,14 @@ class _Job:
             if raw is None:
                 return None
             g_opt = float((raw.nominal or raw).g0[0, 0])
+        # The estimate with a margin far below the data (see the ladder's).
+        self.lmi.margin = self.margin * ESTIMATE_MARGIN
+        estimate = self._solve("optimal", lambda v: v.g0[0, 0], certify=False)
+        self.lmi.margin = self.margin
+        if estimate is not None:
+            g_est = float((estimate.nominal or estimate).g0[0, 0])
+            if np.isfinite(g_est) and 0 < g_est < g_opt:
+                g_opt = g_est
         gamma_opt = float(np.sqrt(g_opt * self._to_model(0)))
         raw_design = self.accept(raw, "raw optimum")
         if not self.backoff:
