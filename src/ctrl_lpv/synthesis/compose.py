@@ -163,11 +163,11 @@ def synthesize(
     specs = ([objective] if objective is not None else []) + performance
     _, iu, _ = resolve_channels(sys, None, u, None, hinf=False)
     channels = [resolve_channels(sys, s.w, u, s.z, hinf=True) for s in specs]
-    if not lyap.constant and not scheduled:
+    if not lyap.constant and not scheduled and regions:
         raise ValueError(
-            "gains: a common gain with lyapunov='affine' needs slack-variable "
-            "LMIs, which are not implemented yet; use gains='scheduled' or a "
-            "constant Lyapunov matrix"
+            "constraints: pole regions with a common gain and lyapunov='affine' "
+            "are not implemented (the extended LMIs have no region form here); "
+            "use gains='scheduled' or a constant Lyapunov matrix"
         )
     if gain_bound is not None and not lyap.constant:
         raise ValueError(

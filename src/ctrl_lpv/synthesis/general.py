@@ -38,6 +38,9 @@ _GIVEN_W_MAX = (1e3, 1e6, 1e9)
 # A given bound is posed as bound^2 (1 - _BOUND_SLACK), met strictly.
 _BOUND_SLACK = 1e-6
 _VERIFY_SAMPLES = 64
+# The scalar of the continuous-time extended LMIs (prescaled time units,
+# where the data are of order one), tried in turn.
+_EPSILONS = (1.0, 0.1, 0.01, 0.001)
 
 
 def run_general(
@@ -174,6 +177,8 @@ class _Job:
         self.coefficients = coefficients(sys.domain, sys.nvertices)
         self.rates = [r / base.a for r in lyap.rates]
         self.index = {spec: i for i, spec in enumerate(specs)}
+        # A common gain with a parameter-dependent W: the extended LMIs.
+        self.slack = not (lyap.constant or scheduled) and self._nZ() > 0
 
     def _nZ(self) -> int:
         """Number of ``Z`` variables (none for an analysis, without inputs)."""
@@ -242,6 +247,9 @@ class _Job:
                 lmi.variable(f"Y{i}", (nw, nw), symmetric=True)
         for name in ("t", "kappa"):
             lmi.variable(name, (1, 1))
+        if self.slack:
+            lmi.variable("G", (n, n))
+            lmi.parameter("eps", nonneg=True, value=_EPSILONS[0])
         lmi.parameter("g_max", (1, 1), nonneg=True, value=np.ones((1, 1)))
         lmi.parameter("w_max", nonneg=True, value=1.0)
         lmi.parameter("z_max", nonneg=True, value=1.0)
@@ -250,9 +258,10 @@ class _Job:
             return Terms(v, c, r, self.lyap, data, self.index, rho, self.scheduled,
                          self.continuous)  # fmt: skip
 
-        zero = SimpleNamespace(
-            **{name: np.zeros(var.shape) for name, var in lmi._vars.items()}
-        )
+        zero = SimpleNamespace(**{
+            name: np.zeros(item.shape)
+            for name, item in (*lmi._vars.items(), *lmi._params.items())
+        })  # fmt: skip
         performance = self.specs or [Stability()]
         for c in self.coefficients:
             for r in self.rates:
@@ -326,6 +335,25 @@ class _Job:
     # -- stages ----------------------------------------------------------
     def run(self):
         self.build()
+        if not (self.slack and self.continuous):
+            return self._stages()
+        # The extended LMIs hold for each fixed eps; none is best for every
+        # problem: a feasibility problem takes the first that certifies, a
+        # minimisation the smallest certified bound.
+        best = None
+        for eps in _EPSILONS:
+            self.lmi.set_parameter("eps", eps)
+            found = self._stages()
+            if found is None:
+                self.notes.append(f"extended LMIs, eps = {eps:g}: no certified point")
+                continue
+            if self.objective is None or self.objective.bound is not None:
+                return found
+            if best is None or found[0].values[0] < best[0].values[0]:
+                best = found
+        return best
+
+    def _stages(self):
         if self.objective is None:
             return self._stabilize()
         if self.objective.bound is not None:
@@ -466,7 +494,12 @@ class _Job:
         Ws = [getattr(sol, f"W{e}") for e in range(self.lyap.count)]
         nZ = self._nZ()
         Zs = [getattr(sol, f"Z{k}") for k in range(nZ)]
-        vertex_W = [Ws[self.lyap.index[j if self.scheduled else 0]] for j in range(nZ)]
+        if self.slack:
+            vertex_W = [sol.G]
+        else:
+            vertex_W = [
+                Ws[self.lyap.index[j if self.scheduled else 0]] for j in range(nZ)
+            ]
         gains = tuple(sc.unscale_K(-Z @ np.linalg.inv(W)) for Z, W in zip(Zs, vertex_W))
         values = tuple(
             float(np.sqrt(float(getattr(sol, f"g{i}")[0, 0]) * self._to_model(i)))
@@ -477,7 +510,7 @@ class _Job:
                 self.notes.append(f"{label}: {spec} certified {value:.8g}, not below")
                 return None
         rational = None
-        if not self.lyap.constant and Zs:
+        if not self.lyap.constant and Zs and not self.slack:
             factor = sc.w_factor
             rational = (
                 tuple(factor * (sc.Su[:, None] * Z * sc.T) for Z in Zs),

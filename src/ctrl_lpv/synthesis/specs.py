@@ -23,6 +23,13 @@ primal bounded-real inequality ``M' diag(P+, I) M < diag(P, g I)``) and
 ``[[-Y, *, *], [Bw, -W+, *], [Dzw, 0, -I]] < 0`` (H2). The certified bound
 is ``sqrt(g)`` or ``sqrt(h)``.
 
+With a common gain and a parameter-dependent ``W`` the blocks are the
+extended ones (see `_extended`): ``A_cl W`` becomes ``A_cl G`` with a
+constant slack ``G`` and ``K = -Z G^-1``, which keeps them affine in the
+parameter. Discrete time: ``[[W - G - G', *], [A_cl G, -W+]] < 0``
+(de Oliveira, Bernussou and Geromel 1999; Daafouz and Bernussou 2001),
+and likewise in the H-infinity and H2 blocks.
+
 For time-varying parameters the H-infinity bound bounds the L2 gain over
 every admissible parameter trajectory; the H2 bound the output energy of
 every impulse (the energy of ``z`` for ``w = e_i delta(t)``, summed over
@@ -104,6 +111,20 @@ class Hinf(_Performance):
         nw, nz = t.nw(self), t.nz(self)
         Bw, Dzw, CW = t.data(self, "Bw"), t.data(self, "Dzw"), t.CW(self)
         g = t.const(t.g(self)[0, 0] * np.eye(nz))
+        if t.slack:
+            AG, CG = t.AG(), t.CG(self)
+            if continuous:
+                return [("H-infinity", [
+                    *_extended(t),
+                    [Bw.T, 0, -t.rho(self, "w") * t.identity(nw)],
+                    [CG, t.eps() * CG, Dzw, -g],
+                ])]  # fmt: skip
+            return [("H-infinity", [
+                [t.W() - 2 * t.G()],
+                [0, -t.const(t.g(self)[0, 0] * np.eye(nw))],
+                [AG, Bw, -t.W_moved()],
+                [CG, Dzw, 0, -t.rho(self, "z") * t.identity(nz)],
+            ])]  # fmt: skip
         if continuous:
             blocks = [
                 [2 * t.AW() - t.W_moved()],
@@ -170,6 +191,19 @@ class H2(_Performance):
         """The LMI blocks at one coefficient (see the module docstring)."""
         nz, rho = t.nz(self), t.rho(self, "z")
         Bw, CW, Y = t.data(self, "Bw"), t.CW(self), t.const(t.Y(self))
+        if t.slack:
+            CG = t.CG(self)
+            if continuous:
+                return [
+                    ("H2 Lyapunov", [*_extended(t), [CG, t.eps() * CG, -rho * t.identity(nz)]]),
+                    ("H2 trace", [[-Y], [Bw, -t.W()]]),
+                ]  # fmt: skip
+            Dzw = t.data(self, "Dzw")
+            return [
+                ("H2 Lyapunov", [[t.W() - 2 * t.G()], [t.AG(), -t.W_moved()],
+                                 [CG, 0, -rho * t.identity(nz)]]),
+                ("H2 trace", [[-Y], [Bw, -t.W_moved()], [Dzw, 0, -rho * t.identity(nz)]]),
+            ]  # fmt: skip
         if continuous:
             return [
                 (
@@ -244,6 +278,10 @@ class Stability:
 
     def lmis(self, t, continuous):
         """The LMI blocks at one coefficient."""
+        if t.slack:
+            if continuous:
+                return [("Lyapunov", _extended(t))]
+            return [("Lyapunov", [[t.W() - 2 * t.G()], [t.AG(), -t.W_moved()]])]
         if continuous:
             return [("Lyapunov", [[2 * t.AW() - t.W_moved()]])]
         return [("Lyapunov", [[-t.W()], [t.AW(), -t.W_moved()]])]
@@ -256,3 +294,16 @@ class Stability:
         else:
             M = A.T @ P_moved @ A - P
         return normalized_max_eig(M[None])
+
+
+def _extended(t):
+    """The first two block rows of the continuous-time extended LMIs.
+
+    ``[[sym(A_cl G) - dW/dt, *], [W - G + eps (A_cl G)', -eps sym(G)]]``:
+    with the slack ``G`` and a fixed ``eps > 0`` this is the projection of
+    the dual inequality (Pipeleers, Demeulenaere, Swevers and Vandenberghe
+    2009; Apkarian, Tuan and Bernussou 2001), which lets a common gain
+    ``K = -Z G^-1`` go with a parameter-dependent ``W``.
+    """
+    AG, eps = t.AG(), t.eps()
+    return [[2 * AG - t.W_moved()], [t.W() - t.G() + eps * AG.T, -2 * eps * t.G()]]

@@ -96,6 +96,34 @@ class Terms:
         """``A(delta) W(delta) + B2(delta) Z(delta)``, i.e. ``A_cl W``."""
         return self._product("A", "B2")
 
+    @property
+    def slack(self) -> bool:
+        """Whether the LMIs are the extended ones, with the slack ``G``."""
+        return hasattr(self.v, "G")
+
+    def G(self):
+        """The slack matrix (parameter-independent)."""
+        return self.c.const * self.v.G
+
+    def eps(self):
+        """The scalar of the continuous-time extended LMIs."""
+        return self.v.eps
+
+    def _slack_product(self, left, right):
+        out = 0
+        for j, k in self.c.bilinear:
+            out = out + self.d[j][left] @ self.v.G + self.d[j][right] @ self._Z(k)
+        return out
+
+    def AG(self):
+        """``A(delta) G + B2(delta) Z``, i.e. ``A_cl G`` (common gain)."""
+        return self._slack_product("A", "B2")
+
+    def CG(self, spec):
+        """``Cz(delta) G + Dzu(delta) Z``, i.e. ``C_cl G``."""
+        i = self.specs[spec]
+        return self._slack_product((i, "Cz"), (i, "Dzu"))
+
     def CW(self, spec):
         """``Cz(delta) W(delta) + Dzu(delta) Z(delta)``, i.e. ``C_cl W``."""
         i = self.specs[spec]
