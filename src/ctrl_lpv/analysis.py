@@ -373,8 +373,9 @@ def _require_stable_vertices(sys, As) -> None:
 
 
 def _autonomous(sys, As):
+    # One zero input and output: python-control refuses systems without.
     n = sys.nstates
-    vertices = [(A, np.zeros((n, 0)), np.zeros((0, n)), np.zeros((0, 0))) for A in As]
+    vertices = [(A, np.zeros((n, 1)), np.zeros((1, n)), np.zeros((1, 1))) for A in As]
     return PolytopicStateSpace(vertices, domain=sys.domain, dt=sys.dt)
 
 

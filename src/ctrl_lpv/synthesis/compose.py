@@ -23,6 +23,7 @@ from ..regions import LMIRegion
 from ..stabilizability import check_stabilizability
 from ..systems import PolytopicStateSpace
 from .channels import require_pss, resolve_channels
+from .general import run_general
 from .ladder import run_ladder
 from .options import validated_options
 from .parametric import lyapunov_structure
@@ -150,8 +151,6 @@ def synthesize(
         )  # fmt: skip
         bounds = {objective: design.gamma} if hinf else {}
         return dataclasses.replace(design, bounds=bounds)
-
-    from .general import run_general
 
     lyap = lyapunov_structure(sys, lyapunov, rate_bounds)
     regions, backoff, _, gain_bound, margin, chain, time_limit = validated_options(

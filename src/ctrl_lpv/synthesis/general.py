@@ -195,21 +195,15 @@ class _Job:
         model's when the identity block of a channel is weighted by `_rho`
         (derivations in the module docstring of `ctrl_lpv.synthesis.specs`).
         """
-        sw, sz = self.channel[i]
+        _, sz = self.channel[i]
         a, kappa = self.scaling.a, self.scaling.w_factor
-        if isinstance(self.specs[i], H2) or not self.continuous:
-            return a**2 / (sw**2 * kappa)
+        if isinstance(self.specs[i], H2):
+            return kappa * sz**2
         return kappa * sz**2 / a
 
     def _rho(self):
         a, kappa = self.scaling.a, self.scaling.w_factor
-        rho = {}
-        for i, (sw, sz) in enumerate(self.channel):
-            rho[(i, "w")] = sw**2 * kappa / a if self.continuous else 1.0
-            rho[(i, "z")] = a / (kappa * sz**2)
-            if self.continuous and not isinstance(self.specs[i], H2):
-                rho[(i, "z")] = 1.0
-        return rho
+        return {i: sw**2 * kappa / a for i, (sw, _) in enumerate(self.channel)}
 
     def _scaled_data(self):
         T, Su, a = self.scaling.T, self.scaling.Su, self.scaling.a
@@ -243,8 +237,8 @@ class _Job:
         for i, spec in enumerate(self.specs):
             lmi.variable(f"g{i}", (1, 1))
             if isinstance(spec, H2):
-                nw = data[0][(i, "Bw")].shape[1]
-                lmi.variable(f"Y{i}", (nw, nw), symmetric=True)
+                nz = data[0][(i, "Cz")].shape[0]
+                lmi.variable(f"Y{i}", (nz, nz), symmetric=True)
         for name in ("t", "kappa"):
             lmi.variable(name, (1, 1))
         if self.slack:
@@ -293,7 +287,7 @@ class _Job:
         for i, spec in enumerate(self.specs):
             g = f"g{i}"
             if isinstance(spec, H2):
-                nw = data[0][(i, "Bw")].shape[1]
+                nw = data[0][(i, "Cz")].shape[0]
                 lmi.add(f"trace Y{i} < h{i}", lambda v, i=i, nw=nw, g=g: [[
                     sum(getattr(v, f"Y{i}")[k : k + 1, k : k + 1] for k in range(nw))
                     - getattr(v, g)
@@ -323,12 +317,21 @@ class _Job:
             lmi.parameter("gain_Ginv", (n, n), value=np.eye(n))
             lmi.parameter("gain_Ginv_K", (n, n), value=np.eye(n))
             lmi.parameter("kappa_max", nonneg=True, value=1.0)
+            # As in the paper's engine (see `gain_tangent`).
             for k in range(nZ):
-                lmi.add(f"||K{k}||^2 <= kappa", lambda v, k=k: [
-                    [-(T @ v.W0 @ v.gain_Ginv + v.gain_Ginv.T @ v.W0 @ T - np.eye(n))],
-                    [Su @ getattr(v, f"Z{k}") @ v.gain_Ginv_K, -v.kappa[0, 0] * np.eye(m)],
-                ], strict=False, stages=("gain",))  # fmt: skip
-            lmi.add("kappa <= kappa_max", lambda v: [[v.kappa - v.kappa_max * np.eye(1)]],
+
+                def gain_lmi(v, k=k):
+                    G = v.gain_Ginv
+                    return [
+                        [-(T @ v.W0 @ G + G.T @ v.W0 @ T - np.eye(n))],
+                        [Su @ getattr(v, f"Z{k}") @ v.gain_Ginv_K,
+                         -v.kappa[0, 0] * np.eye(m)],
+                    ]  # fmt: skip
+
+                lmi.add(f"||K{k}||^2 <= kappa", gain_lmi, strict=False,
+                        stages=("gain",))  # fmt: skip
+            lmi.add("kappa <= kappa_max",
+                    lambda v: [[v.kappa - v.kappa_max * np.eye(1)]],
                     strict=False, stages=("gain",))  # fmt: skip
         self.lmi = lmi
 
@@ -410,11 +413,8 @@ class _Job:
         if g_opt > 4:
             # Pose the later stages with a bound of order one (see the ladder
             # of the paper's functions) by a power-of-two channel scaling:
-            # of z where the bound sits on z's block, else of w.
-            if self.continuous and not isinstance(self.objective, H2):
-                self.channel[0][1] *= pow2(np.sqrt(g_opt))
-            else:
-                self.channel[0][0] /= pow2(np.sqrt(g_opt))
+            # of z, whose block the bound sits on.
+            self.channel[0][1] *= pow2(np.sqrt(g_opt))
             self.build()
             raw = self._solve("optimal", lambda v: v.g0[0, 0], certify=False)
             if raw is None:
@@ -480,7 +480,8 @@ class _Job:
         worst = max(np.linalg.norm(K, 2) for K in best.gains)
         if worst > self.gain_bound:
             self.notes.append(
-                f"final point: gain norm {worst:.4g} above gain_bound {self.gain_bound:g}"
+                f"final point: gain norm {worst:.4g} above gain_bound "
+                f"{self.gain_bound:g}"
             )
             return None
         return best, gamma_opt
@@ -550,6 +551,24 @@ class _Job:
             deltas += list(rng.dirichlet(np.ones(N), size=_VERIFY_SAMPLES))
         return [(d, None) for d in deltas]
 
+    def _moved(self, Ws, delta, p, rate):
+        """``dW/dt`` (continuous) or ``W`` at the next sample, model units."""
+        lyap, sc = self.lyap, self.scaling
+        N = len(delta)
+        if self.continuous:
+            dW = np.zeros_like(Ws[0])
+            for j in range(N):
+                for w, f in step_terms(lyap, j, rate, True):
+                    dW = dW + delta[j] * f * Ws[w]
+            return sc.unscale_W(dW)
+        nxt = delta
+        if p is not None and not lyap.constant:
+            domain = self.sys.domain
+            nxt = domain._weights(np.clip(p + rate, domain.lower, domain.upper))
+        return sc.unscale_W(
+            np.tensordot(nxt, np.stack([Ws[lyap.index[j]] for j in range(N)]), axes=1)
+        )
+
     def verify(self, sol, gains, values, Ws, Zs) -> Certificate:
         """Frozen closed loops in the model's units at vertices and samples."""
         sc, lyap = self.scaling, self.lyap
@@ -559,7 +578,7 @@ class _Job:
         bounds = values or (None,)
         for delta, p in self._points():
 
-            def mix(items):
+            def mix(items, delta=delta):
                 return np.tensordot(delta, np.stack(items), axes=1)
 
             A = mix([v["A"] for v in self.original])
@@ -584,46 +603,29 @@ class _Job:
                     worst_spec = max(worst_spec, float(np.linalg.eigvalsh(F)[-1]))
             W_here = mix([Ws[lyap.index[j]] for j in range(len(delta))])
             P = sc.unscale_P(np.linalg.inv(W_here))
+            W = sc.unscale_W(W_here)
             for rate in lyap.rates:
+                W_moved = self._moved(Ws, delta, p, rate)
                 if self.continuous:
-                    dW = sum(
-                        delta[j] * f * Ws[w]
-                        for j in range(len(delta))
-                        for w, f in step_terms(lyap, j, rate, True)
-                    )
-                    moved = -P @ sc.unscale_W(np.asarray(dW + 0 * W_here)) @ P
+                    # d(W^-1)/dt = -W^-1 (dW/dt) W^-1.
+                    P_moved = -P @ W_moved @ P
                 else:
-                    if p is not None:
-                        nxt = np.clip(
-                            p + rate, self.sys.domain.lower, self.sys.domain.upper
-                        )
-                        delta_next = self.sys.domain._weights(nxt)
-                    else:
-                        delta_next = delta
-                    W_next = np.tensordot(
-                        delta_next,
-                        np.stack([Ws[lyap.index[j]] for j in range(len(delta))]),
-                        axes=1,
-                    )
-                    moved = sc.unscale_P(np.linalg.inv(W_next))
+                    P_moved = np.linalg.inv(W_moved) if not lyap.constant else P
                 npoints += 1
+                loop = (Acl, None, None, None, P, P_moved, W, W_moved)
                 for i, (spec, bound) in enumerate(zip(performance, bounds)):
-                    if isinstance(spec, Stability):
-                        frozen = (Acl, None, None, None, P, moved)
-                    else:
-                        Bw = mix([v[(i, "Bw")] for v in self.original])
-                        Cz = mix([v[(i, "Cz")] for v in self.original])
-                        Dzu = mix([v[(i, "Dzu")] for v in self.original])
-                        Dzw = mix([v[(i, "Dzw")] for v in self.original])
-                        frozen = (Acl, Bw, Cz - Dzu @ K, Dzw, P, moved)
+                    frozen = loop
+                    if not isinstance(spec, Stability):
+                        Bw, Cz, Dzu, Dzw = (
+                            mix([v[(i, key)] for v in self.original])
+                            for key in ("Bw", "Cz", "Dzu", "Dzw")
+                        )
+                        frozen = (Acl, Bw, Cz - Dzu @ K, Dzw, P, P_moved, W, W_moved)
                     worst_spec = max(
                         worst_spec, spec.residual(frozen, bound, self.continuous)
                     )
                 worst_lyap = max(
-                    worst_lyap,
-                    Stability().residual(
-                        (Acl, None, None, None, P, moved), None, self.continuous
-                    ),
+                    worst_lyap, Stability().residual(loop, None, self.continuous)
                 )
         return Certificate(
             lmi_checks=sol.checks,
