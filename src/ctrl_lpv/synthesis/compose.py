@@ -77,8 +77,9 @@ def synthesize(
     lyapunov : {"constant", "affine"}, optional
         A constant Lyapunov matrix (quadratic stability and performance,
         valid for arbitrarily fast parameters), or one multi-affine in the
-        box parameters (needs `rate_bounds`). With "affine" the scheduled
-        gain is ``K(p) = -Z(p) W(p)^-1``, rational in ``p``.
+        box parameters (needs `rate_bounds`). With "affine" a scheduled
+        gain is ``K(p) = -Z(p) W(p)^-1``, rational in ``p``; a common gain
+        comes from the extended (slack-variable) LMIs, ``K = -Z G^-1``.
     rate_bounds : mapping of str to float, optional
         ``{name: nu}``: ``|dp/dt| <= nu`` (continuous) or
         ``|p[k+1] - p[k]| <= nu`` (discrete); ``nu = 0`` for a

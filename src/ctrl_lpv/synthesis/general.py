@@ -6,6 +6,20 @@ objective, its back-off to a well-conditioned point, and the gain
 iterations when a `GainBound` is set. Each point is checked by
 `ctrl_lpv.lmi.LMIProblem` (every LMI at its coefficient, in float64) and by
 `_Job.verify` (the frozen closed loops in the model's units).
+
+Prescaling
+----------
+The state, input and time scalings ``x = T x~``, ``u = Su u~``,
+``t~ = a t`` (``a = 1`` in discrete time) are those of the paper's engine;
+each spec ``i`` adds powers of two ``w = sw_i w~`` and ``z = sz_i z~``.
+With one ``W = kappa T W~ T`` for every spec (``kappa = a / sw^2`` of the
+base scaling), the prescaled LMIs are congruent to the model's when the
+identity block of spec ``i``'s ``w`` is weighted by ``rho_i =
+sw_i^2 kappa / a`` (congruence by ``diag(T^-1 / sqrt(a kappa), sw_i
+sqrt(kappa / a), ...)``), and the squared bounds map back as
+``gamma^2 = g~ kappa sz_i^2 / a`` (H-infinity) and ``h = h~ kappa sz_i^2``
+(H2, where ``Y`` scales like ``C W C'``). All factors are powers of two, so
+the congruence is exact in floating point.
 """
 
 from __future__ import annotations
@@ -193,7 +207,7 @@ class _Job:
         With ``W = kappa T W~ T`` for every spec (``kappa`` the base
         scaling's `w_factor`), the prescaled LMIs are congruent to the
         model's when the identity block of a channel is weighted by `_rho`
-        (derivations in the module docstring of `ctrl_lpv.synthesis.specs`).
+        (see the module docstring).
         """
         _, sz = self.channel[i]
         a, kappa = self.scaling.a, self.scaling.w_factor
