@@ -173,6 +173,7 @@ def state_feedback(
         sys.domain,
         scheduling if design.scheduled else None,
         layout,
+        getattr(design, "rational", None),
         discrete=discrete,
     )
     # u depends on the measured states, references and parameters, not on
@@ -235,14 +236,16 @@ class _Layout:
 
 
 def _feedback_kernel(
-    gains, domain, scheduling, layout: _Layout, *, discrete: bool = False
+    gains, domain, scheduling, layout: _Layout, rational=None, *, discrete=False
 ) -> BlockKernel:
     """Scalar and vectorized functions of `state_feedback`.
 
     ``u = ud - K(delta) (x - xd)`` on Python floats (the gains are small),
     ``x`` the design state (measured states and integral states); the
     scheduled gain ``sum_j delta_j K_j`` comes from the domain's convex
-    coordinates of the projected parameter. The integrators return
+    coordinates of the projected parameter, or is ``-Z(delta) W(delta)^-1``
+    for the `rational` vertex matrices ``(Z_j, W_j)`` of a design with a
+    parameter-dependent Lyapunov function. The integrators return
     ``dq/dt = e`` (continuous) or the next state ``q + e`` (`discrete`).
     """
     N, m, n = gains.shape
@@ -285,7 +288,11 @@ def _feedback_kernel(
             p = asarray(u[nref:], dtype=float)
         else:
             p = parameter(scheduling(t, asarray(design_state(x, u), dtype=float)))
-        flat = (weights(p) @ flat_gains).tolist()
+        delta = weights(p)
+        if rational is not None:
+            Z, W = (np.tensordot(delta, np.stack(M), axes=1) for M in rational)
+            return (-np.linalg.solve(W.T, Z.T).T).tolist()
+        flat = (delta @ flat_gains).tolist()
         return [flat[i * n : (i + 1) * n] for i in range(m)]
 
     def out(t, x, u):
