@@ -465,3 +465,38 @@ def test_frozen_sweep_reports_spectral_radius_and_dt_hinf(dsys):
     # a_of(4) has |eig| > 1 (det = 1 - 0.02 + 0.04 > 1): unstable open loop.
     assert unstable.spectral_radius[0] > 1 and not unstable.stable[0]
     assert unstable.hinf[0] == np.inf
+
+
+def test_sampled_plant_designed_and_simulated_end_to_end():
+    """sample -> synthesize (DT H-infinity) -> controller -> closed loop."""
+    base = ct.ss(
+        [[0.0, 1.0], [-1.0, -0.5]], [[0.0, 0.0], [1.0, 1.0]],
+        [[1.0, 0.0], [0.0, 0.0]], [[0.0, 0.0], [0.0, 1.0]],
+        inputs=["w", "u"], outputs=["z", "uz"], states=["x", "v"], name="msd",
+    )  # fmt: skip
+    term = ([[0.0, 0.0], [-3.0, 0.0]], 0, 0, 0)
+    sysd = lpv.PolytopicStateSpace.from_affine(base, {"k": term}, {"k": (0, 1)})
+    sysd = sysd.sample(0.1)
+    design = lpv.synthesize(sysd, "u", objective=lpv.Hinf(w="w", z=["z", "uz"]))
+    K = design.gains[0]
+    sweep = lpv.frozen_sweep(sysd, K, "u", points=11, w="w", z=["z", "uz"])
+    assert sweep.stable.all() and sweep.hinf.max() <= design.gamma
+    ctrl = lpv.state_feedback(design)
+    assert ctrl.dt == 0.1
+    meas = lpv.pss(
+        [(A, B, np.eye(2), np.zeros((2, 2))) for A, B, _, _ in sysd.vertex_data()],
+        sysd.domain, inputs=["w", "u"], outputs=["x", "v"], states=["x", "v"],
+        dt=0.1,
+    )  # fmt: skip
+    loop = ct.interconnect([meas, ctrl], inputs=["w"], outputs=["x", "v", "u"])
+    T = np.arange(80) * 0.1
+    w = np.sin(T)
+    res = ct.input_output_response(loop, T, w, X0=[1.0, 0.0], params={"k": 0.4})
+    (A0, B0, _, _), (A1, B1, _, _) = sysd.vertex_data()
+    A, B = 0.6 * A0 + 0.4 * A1, 0.6 * B0 + 0.4 * B1
+    x, rows = np.array([1.0, 0.0]), []
+    for wk in w:
+        u = -(K @ x)[0]
+        rows.append([x[0], x[1], u])
+        x = A @ x + B @ [wk, u]
+    np.testing.assert_allclose(res.outputs, np.array(rows).T, atol=1e-12)
