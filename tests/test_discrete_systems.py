@@ -500,3 +500,41 @@ def test_sampled_plant_designed_and_simulated_end_to_end():
         rows.append([x[0], x[1], u])
         x = A @ x + B @ [wk, u]
     np.testing.assert_allclose(res.outputs, np.array(rows).T, atol=1e-12)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_zoh_bound_holds_on_random_boxes(seed):
+    """Random affine and multilinear boxes of 1 to 3 parameters."""
+    rng = np.random.default_rng(seed)
+    k, n, m = (int(v) for v in rng.integers(1, 4, size=3))
+    bounds = {f"p{i}": tuple(np.sort(rng.normal(size=2) * 2)) for i in range(k)}
+    box = lpv.ParameterBox(bounds)
+    vertices = [
+        (rng.normal(size=(n, n)), rng.normal(size=(n, m)), np.eye(n), 0)
+        for _ in range(2**k)
+    ]
+    sys = lpv.pss(vertices, box)
+    Ts = float(rng.choice([0.01, 0.1, 0.5, 1.0]))
+    sysd = sys.sample(Ts)
+    points = box.lower + rng.random((300, k)) * (box.upper - box.lower)
+    weights = np.array([box.weights(p) for p in points])
+    # multilinear weights written here: product over coordinates
+    lam = (points - box.lower) / (box.upper - box.lower)
+    corners = np.array(list(itertools.product((0, 1), repeat=k)))
+    mine = np.prod(np.where(corners[None], lam[:, None], 1 - lam[:, None]), axis=2)
+    np.testing.assert_allclose(weights, mine, atol=1e-14)
+
+    def combine(data, index):
+        return np.einsum("pj,jab->pab", mine, np.stack([d[index] for d in data]))
+
+    A, B = combine(sys.vertex_data(), 0), combine(sys.vertex_data(), 1)
+    M = np.zeros((len(points), n + m, n + m))
+    M[:, :n, :n], M[:, :n, n:] = A, B
+    E = stacked_expm(Ts * M)
+    phi = np.linalg.norm(E[:, :n, :n] - combine(sysd.vertex_data(), 0), 2, axis=(1, 2))
+    gamma = np.linalg.norm(
+        E[:, :n, n:] - combine(sysd.vertex_data(), 1), 2, axis=(1, 2)
+    )
+    bound = sysd.discretization_error
+    assert phi.max() <= bound.phi * (1 + 1e-9) + 1e-14
+    assert gamma.max() <= bound.gamma * (1 + 1e-9) + 1e-14
