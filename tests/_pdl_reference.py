@@ -41,12 +41,12 @@ Parts
 from __future__ import annotations
 
 import itertools
+import warnings
 from dataclasses import dataclass
 
 import control as ct
 import cvxpy as cp
 import numpy as np
-from scipy import linalg as sla
 
 INF = float("inf")
 
@@ -297,10 +297,14 @@ def _solve(prob, strict):
     status = "not solved"
     for solver in ("CLARABEL", "SCS"):
         try:
-            if solver == "SCS":
-                prob.solve(solver=solver, eps=1e-8, max_iters=50000)
-            else:
-                prob.solve(solver=solver)
+            with warnings.catch_warnings():
+                warnings.simplefilter(
+                    "ignore", UserWarning
+                )  # inaccurate: checked below
+                if solver == "SCS":
+                    prob.solve(solver=solver, eps=1e-8, max_iters=50000)
+                else:
+                    prob.solve(solver=solver)
         except cp.SolverError:
             continue
         status = prob.status
@@ -431,10 +435,12 @@ def _two_stage(build, rel=(1e-4, 1e-3, 1e-2, 1e-1)):
     vars_, cons, _ = build(None)
     g = vars_[1]
     prob = cp.Problem(cp.Minimize(g), cons)
-    try:
-        prob.solve(solver="CLARABEL")
-    except cp.SolverError:
-        prob.solve(solver="SCS", eps=1e-8, max_iters=50000)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # the bound is re-certified below
+        try:
+            prob.solve(solver="CLARABEL")
+        except cp.SolverError:
+            prob.solve(solver="SCS", eps=1e-8, max_iters=50000)
     if prob.status not in ("optimal", "optimal_inaccurate"):
         return None, INF, prob.status
     gstar = float(g.value)
@@ -536,7 +542,9 @@ class SFResult:
         return np.linalg.solve(X.T, np.asarray(Y).T).T
 
 
-def pdl_sf_hinf(sys: AffineBox, iw, iu, iz, rate_bounds=None, margin=1e-7) -> SFResult:
+def pdl_sf_hinf(
+    sys: AffineBox, iw, iu, iz, rate_bounds=None, scheduled=True, margin=1e-7
+) -> SFResult:
     """Minimum gamma of scheduled state feedback with ``V = x' X(p)^{-1} x``.
 
     Dual bounded-real matrix with ``Acl = A - B_u K``, ``Y = K X``::
@@ -545,13 +553,19 @@ def pdl_sf_hinf(sys: AffineBox, iw, iu, iz, rate_bounds=None, margin=1e-7) -> SF
          [B_w', -g I, D_zw'],
          [C_z X - D_zu Y, D_zw, -g I]]  < 0
 
-    ``X``, ``Y`` multi-affine in the parameters with a finite rate bound, and
-    constant (Y: scheduled on the same parameters as X; with every rate
-    infinite X and Y are constant, a robust common gain with a quadratic
-    Lyapunov function). Same multi-convexity relaxation as the analysis.
+    ``X`` multi-affine in the parameters with a finite rate bound (constant
+    in the others); ``Y`` multi-affine in every parameter (``scheduled=True``)
+    or constant (``scheduled=False``: a robust common gain, which needs a
+    constant X here, i.e. every rate infinite). Same multi-convexity
+    relaxation as the analysis.
     """
     nu = _rates(sys, rate_bounds)
     dep = [i for i in range(sys.k) if np.isfinite(nu[i])]
+    ydep = list(range(sys.k)) if scheduled else []
+    if not scheduled and dep:
+        raise ValueError(
+            "scheduled: a common gain needs every rate bound infinite here"
+        )
     n = sys.n
     nw, nu_, nz = len(iw), len(iu), len(iz)
     N = n + nw + nz
@@ -565,18 +579,21 @@ def pdl_sf_hinf(sys: AffineBox, iw, iu, iz, rate_bounds=None, margin=1e-7) -> SF
 
     def build(gam):
         X = _MultiAffine((n, n), sys, dep, True, "X")
-        Y = _MultiAffine((nu_, n), sys, dep, False, "Y")
+        Y = _MultiAffine((nu_, n), sys, ydep, False, "Y")
         g = cp.Variable(name="gamma") if gam is None else gam
-        lam = {i: cp.Variable((N, N), symmetric=True, name=f"Lam{i}") for i in dep}
+        cvx = sorted(set(dep) | set(ydep))  # parameters with a multi-convexity term
+        lam = {i: cp.Variable((N, N), symmetric=True, name=f"Lam{i}") for i in cvx}
         cons, strict = [], []
         for v in sys.vertices():
             Xv, Yv = X.at_vertex(v), Y.at_vertex(v)
             cons.append(Xv >> eps * np.eye(n))
             strict.append((cons[-1], eps))
             A, B1, B2, C1, D11, D12 = parts(sys.at(v))
-            for i in dep:
+            for i in cvx:
                 Ai, _, B2i, C1i, _, D12i = parts(sys.terms[i])
                 dX, dY = X.d_at_vertex(i, v), Y.d_at_vertex(i, v)
+                dX = np.zeros((n, n)) if dX is None else dX
+                dY = np.zeros((nu_, n)) if dY is None else dY
                 M11 = Ai @ dX + dX @ Ai.T - B2i @ dY - dY.T @ B2i.T
                 M31 = C1i @ dX - D12i @ dY
                 M = cp.bmat(
@@ -600,11 +617,11 @@ def pdl_sf_hinf(sys: AffineBox, iw, iu, iz, rate_bounds=None, margin=1e-7) -> SF
                         [C, D11, -g * np.eye(nz)],
                     ]
                 )
-                for i in dep:
+                for i in cvx:
                     blk = blk + h2[i] * lam[i]
                 cons.append(_sym(blk) << -eps * np.eye(N))
                 strict.append((cons[-1], eps))
-        for i in dep:
+        for i in cvx:
             cons.append(lam[i] >> 0)
         return (X, g, Y), cons, strict
 
