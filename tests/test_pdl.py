@@ -100,7 +100,12 @@ def twomass_box(kb=(0.2, 5.0), c=0.05):
 
 
 def lyapunov_at(result, sys, p):
-    """The library's Lyapunov matrix at ``p`` (contract: lyapunov_matrix or P)."""
+    """The Lyapunov matrix ``P(p)`` of a result.
+
+    ``result.lyapunov_matrix(p)`` where it exists (the contract's
+    `StateFeedbackDesign`); otherwise the issue's statement
+    ``P(delta) = sum_j delta_j P_j`` over the vertex matrices ``result.P``.
+    """
     if hasattr(result, "lyapunov_matrix"):
         return np.asarray(result.lyapunov_matrix(p), float)
     P = result.P
@@ -108,6 +113,41 @@ def lyapunov_at(result, sys, p):
         w = sys.weights(p)
         return sum(wj * np.asarray(Pj, float) for wj, Pj in zip(w, P))
     return np.asarray(P, float)
+
+
+def _derivative(f, p, h, lo, hi):
+    """Second-order finite difference of `f` at `p`, one-sided at the bounds."""
+    if p - h < lo:
+        return (-3 * f(p) + 4 * f(p + h) - f(p + 2 * h)) / (2 * h)
+    if p + h > hi:
+        return (3 * f(p) - 4 * f(p - h) + f(p - 2 * h)) / (2 * h)
+    return (f(p + h) - f(p - h)) / (2 * h)
+
+
+def lyapunov_derivative_worst(result, sys, box, nu, count=201, A_of=None):
+    """Worst decrease of ``V = x' P(p) x`` on a grid of one parameter.
+
+    ``max_p max eig`` of ``S^-1 (A'P + PA +- nu dP/dp) S^-1`` with ``S = P^(1/2)``
+    (congruent to the Lyapunov matrix, scale invariant and free of the
+    rounding of an ill-conditioned ``P``); ``A = A_of(p)`` (default:
+    ``box.at(p)[0]``), ``dP/dp`` by finite differences of `lyapunov_at`.
+    Also returns ``min_p min eig P(p)``.
+    """
+    lo, hi = float(box.lo[0]), float(box.hi[0])
+    h = 1e-6 * (hi - lo)
+    worst, low = -np.inf, np.inf
+    for p in np.linspace(lo, hi, count):
+        A = box.at([p])[0] if A_of is None else A_of(p)
+        P = lyapunov_at(result, sys, [p])
+        dP = _derivative(lambda q: lyapunov_at(result, sys, [q]), p, h, lo, hi)
+        lam, U = np.linalg.eigh(P)
+        low = min(low, lam.min())
+        S = U @ np.diag(np.sqrt(np.abs(lam))) @ U.T
+        Si = U @ np.diag(1 / np.sqrt(np.abs(lam))) @ U.T
+        for r in (-nu, nu):
+            M = Si @ A.T @ S + S @ A @ Si + r * (Si @ dP @ Si)
+            worst = max(worst, np.linalg.eigvalsh((M + M.T) / 2).max())
+    return worst, low
 
 
 def shorten_narendra(A1, A2):
@@ -164,13 +204,13 @@ def test_constant_lyapunov_stops_at_the_quadratic_limit():
 def test_affine_lyapunov_time_invariant_far_beyond_quadratic():
     kmax = 50.0  # 13x the quadratic limit; the reference certifies kmax = 100
     sys = osc_sys(kmax)
-    box = osc_box(kmax)
     res = lpv.quadratic_stability(sys, lyapunov="affine", rate_bounds={"p": 0.0})
-    for p in np.linspace(0.0, kmax, 101):
-        A = box.at([p])[0]
-        P = lyapunov_at(res, sys, [p])
-        assert np.linalg.eigvalsh(P).min() > 0
-        assert np.linalg.eigvalsh(A.T @ P + P @ A).max() < 0
+    worst, low = lyapunov_derivative_worst(res, sys, osc_box(kmax), 0.0)
+    assert low > 0
+    assert worst < 0, (
+        "the returned P does not certify A'P + PA < 0 on the grid when read "
+        "as documented, P(p) = sum_j delta_j(p) P_j (multi-affine)"
+    )
 
 
 def test_affine_lyapunov_requires_rate_bounds():
@@ -183,14 +223,18 @@ def test_stability_certificate_shrinks_with_the_rate_bound():
     # Reference (multi-convexity, affine P): kmax >= 100 for nu <= 3; 43.6 at
     # nu = 5, 5.80 at 10, 3.94 at 30, 3.827 at 1000 (-> 1 + 2 sqrt 2).
     kmax = 10.0
-    sys = osc_sys(kmax)
+    sys, box = osc_sys(kmax), osc_box(kmax)
     outcomes = []
-    for nu in (0.0, 1.0, 3.0, 10.0, 30.0, 1e4):
+    for nu in (0.0, 1.0, 5.0, 1e4):
         try:
-            lpv.quadratic_stability(sys, lyapunov="affine", rate_bounds={"p": nu})
-            outcomes.append(True)
+            res = lpv.quadratic_stability(sys, lyapunov="affine", rate_bounds={"p": nu})
         except REFUSED:
             outcomes.append(False)
+            continue
+        outcomes.append(True)
+        # the certificate itself, rate term included
+        worst, low = lyapunov_derivative_worst(res, sys, box, nu)
+        assert low > 0 and worst < 0
     assert outcomes[0] and outcomes[1]
     # nondecreasing bound: once refused, refused for every faster parameter
     assert outcomes == sorted(outcomes, reverse=True)
@@ -220,7 +264,6 @@ def test_l2_gain_affine_time_invariant(mass_spring):
     assert res.gamma <= 1.1 * bf
 
 
-@pytest.mark.slow
 def test_l2_gain_nondecreasing_in_the_rate_bound(mass_spring):
     # Reference: 0.7560 (nu=0), 0.7728 (0.1), 0.8064 (0.3), 0.9194 (1),
     # 1.2229 (3), 2.3291 (10), 3.2864 (100), 3.3031 (1e4); quadratic 3.3031.
@@ -245,7 +288,6 @@ def test_l2_gain_nondecreasing_in_the_rate_bound(mass_spring):
     assert gammas[-1] >= 0.95 * quad
 
 
-@pytest.mark.slow
 def test_l2_gain_two_parameters_multi_affine():
     # k in [1, 9] and c in [0.2, 1]; w -> x. Frozen worst case at (1, 0.2):
     # 1/|0.2 j sqrt(0.99) ...| = 5.0252; reference PDL (nu = 0): 5.0257.
@@ -312,6 +354,16 @@ def test_scheduled_affine_synthesis_time_invariant():
         A, Bw, Cz, Dzw = design.closed_loop([k])
         assert np.linalg.eigvals(A).real.max() < 0
         assert ct.linfnorm(ct.ss(A, Bw, Cz, Dzw))[0] <= design.gamma * (1 + 1e-9)
+    # V = x' P(k) x decreases along every frozen closed loop
+    worst, low = lyapunov_derivative_worst(
+        design,
+        sys,
+        twomass_box(),
+        0.0,
+        count=51,
+        A_of=lambda k: design.closed_loop([k])[0],
+    )
+    assert low > 0 and worst < 0
 
 
 def test_paper_common_gain_is_not_below_the_exact_optimum():
@@ -323,7 +375,6 @@ def test_paper_common_gain_is_not_below_the_exact_optimum():
     assert design.gamma >= common / (1 + 1e-4) * (1 - 1e-4)
 
 
-@pytest.mark.slow
 def test_common_gain_constant_lyapunov_is_not_below_the_exact_optimum():
     _, common = twomass_facts()
     sys = to_pss(twomass_box(), **TWOMASS)
@@ -331,7 +382,6 @@ def test_common_gain_constant_lyapunov_is_not_below_the_exact_optimum():
     assert design.gamma >= common / (1 + 1e-4) * (1 - 1e-4)
 
 
-@pytest.mark.slow
 def test_scheduled_affine_synthesis_nondecreasing_in_the_rate_bound():
     # Reference: 4.256 (nu = 0), 15.38 (nu = 1).
     lb, common = twomass_facts()
@@ -349,6 +399,16 @@ def test_scheduled_affine_synthesis_nondecreasing_in_the_rate_bound():
         for k in (0.2, 1.0, 5.0):
             A, Bw, Cz, Dzw = design.closed_loop([k])
             assert ct.linfnorm(ct.ss(A, Bw, Cz, Dzw))[0] <= design.gamma * (1 + 1e-9)
+        # V = x' P(k) x decreases for every |dk/dt| <= nu (rational gain K(k))
+        worst, low = lyapunov_derivative_worst(
+            design,
+            sys,
+            twomass_box(),
+            nu,
+            count=41,
+            A_of=lambda k, d=design: d.closed_loop([k])[0],
+        )
+        assert low > 0 and worst < 0
     assert min(raw) >= lb * (1 - ROUND)
     for a, b in zip(raw, raw[1:]):
         assert b >= a * (1 - 1e-3)
