@@ -25,7 +25,7 @@ from .terms import Terms
 BOUND_SLACK = 1e-6
 # The scalar of the continuous-time extended LMIs (prescaled time units,
 # where the data are of order one), tried in turn.
-EPSILONS = (1.0, 0.1, 0.01, 0.001)
+EPSILONS = (100.0, 30.0, 10.0, 3.0, 1.0, 0.1, 0.01)
 
 
 def _rho(job):
@@ -73,7 +73,7 @@ def build_problem(job) -> LMIProblem:
         lmi.variable(name, (1, 1))
     if job.slack:
         lmi.variable("G", (n, n))
-        lmi.parameter("eps", nonneg=True, value=EPSILONS[0])
+        lmi.parameter("eps", nonneg=True, value=job.eps)
     lmi.parameter("g_max", (1, 1), nonneg=True, value=np.ones((1, 1)))
     lmi.parameter("w_max", nonneg=True, value=1.0)
     lmi.parameter("z_max", nonneg=True, value=1.0)
