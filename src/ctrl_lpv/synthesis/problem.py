@@ -92,13 +92,15 @@ def build_problem(job) -> LMIProblem:
             at = c.label + (f", rate {np.round(r * job.scaling.a, 12).tolist()}"
                             if len(job.rates) > 1 else "")  # fmt: skip
             for spec in performance:
+                # Specs of one kind (two Hinf channels) are told apart.
+                tag = f" [{spec}]" if len(performance) > 1 else ""
                 named = spec.lmis(terms(zero, c, r), job.continuous)
                 for q, (name, _) in enumerate(named):
 
                     def blocks(v, spec=spec, q=q, c=c, r=r):
                         return spec.lmis(terms(v, c, r), job.continuous)[q][1]
 
-                    lmi.add(f"{name} {at}", blocks)
+                    lmi.add(f"{name}{tag} {at}", blocks)
             if not job.specs:
                 # The decay of the stabilization stage, as in Lemma 1.
                 def decay(v, c=c, r=r):
