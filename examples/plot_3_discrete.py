@@ -50,15 +50,13 @@ design = lpv.synthesize(
 )
 print(f"certified gamma = {design.gamma:.3f}, verified: {design.certificate.verified}")
 ctrl = design.controller(name="ctrl")
-print(
-    f"controller: dt = {ctrl.dt}, inputs {ctrl.input_labels}, outputs {ctrl.output_labels}"
-)
+print(f"controller: dt = {ctrl.dt}, inputs {ctrl.input_labels}")
 
 # %%
 # Step response of the discrete closed loop
 # -----------------------------------------
-# A unit step of ``w`` at ``t = 0``; ``k`` is held at three values. The
-# loop is an ordinary python-control interconnection, by signal names.
+# Left: a unit step of ``w`` at ``t = 0``, with ``k`` held at three values.
+# The loop is an ordinary python-control interconnection, by signal names.
 T = np.arange(0.0, 8.0 + Ts / 2, Ts)
 fig, (ax_t, ax_z) = plt.subplots(1, 2, figsize=(9.5, 3.8))
 for k, color in zip((0.5, 2.0, 8.0), ("C0", "C1", "C2")):
@@ -69,9 +67,8 @@ for k, color in zip((0.5, 2.0, 8.0), ("C0", "C1", "C2")):
     resp = ct.input_output_response(loop, T, [np.ones_like(T), np.full_like(T, k)])
     ax_t.step(resp.time, resp.outputs[0], where="post", color=color, label=f"k = {k}")
 
-# %%
-# Closed-loop eigenvalues of the sampled frozen plants on a grid of ``k``,
-# with the unit circle and the design disk.
+# Right: closed-loop eigenvalues of the sampled frozen plants on a grid of
+# ``k``, with the unit circle and the design disk.
 for k in np.linspace(0.5, 8.0, 40):
     frozen = ct.sample_system(plant.at({"k": k}), Ts)
     Bu = frozen.B[:, [1]]
