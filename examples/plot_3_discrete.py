@@ -37,7 +37,7 @@ plant = lpv.PolytopicStateSpace.from_affine(
 # -------------------
 # The vertices are sampled exactly; between them the ZOH of the frozen
 # plant differs from the interpolated vertices by at most the stated bound.
-Ts = 0.1
+Ts = 0.05
 plant_d = plant.sample(Ts)
 print(f"dt = {plant_d.dt}, interpolation error bound: {plant_d.discretization_error}")
 
