@@ -62,7 +62,7 @@ fig, (ax_t, ax_z) = plt.subplots(1, 2, figsize=(9.5, 3.8))
 for k, color in zip((0.5, 2.0, 8.0), ("C0", "C1", "C2")):
     frozen = ct.sample_system(plant.at({"k": k}), Ts, name="frozen")
     loop = ct.interconnect(
-        [frozen, ctrl], inputs=["w", "k"], outputs=["q", "u"], name="loop"
+        [frozen, ctrl], inputs=["w", "k"], outputs=["q", "effort"], name="loop"
     )
     resp = ct.input_output_response(loop, T, [np.ones_like(T), np.full_like(T, k)])
     ax_t.step(resp.time, resp.outputs[0], where="post", color=color, label=f"k = {k}")
