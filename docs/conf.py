@@ -99,12 +99,6 @@ sphinx_gallery_conf = {
     "image_scrapers": ("matplotlib",),
     "reset_modules": ("matplotlib",),
     "plot_gallery": "True",
-    # Examples that must fail (the build errs if one of them passes, so this
-    # list cannot go stale). plot_1: the mixed H2/H-infinity design is
-    # refused by the engine of 2026-12-02 (its H-infinity block shares W with
-    # the H2 block under a normalisation that makes them jointly infeasible
-    # on polytopes for every bound; see the report on issue 13).
-    "expected_failing_examples": ["../examples/plot_1_objectives.py"],
 }
 
 # -- HTML --------------------------------------------------------------------
