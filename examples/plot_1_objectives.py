@@ -107,11 +107,13 @@ d_mixed = lpv.synthesize(
 plot({"H-infinity": d_hinf, "H2": d_h2, "mixed": d_mixed})
 
 # %%
-# The H2 design has the smallest H2 norms and the H-infinity design the
-# smallest peak gain. Each dashed line is above its curves: for the
-# H-infinity bounds this is the frozen case of the L2-gain certificate; for
-# the H2 bounds it is because the bound covers the worst impulse response
-# over all trajectories of ``k``, of which the frozen ones are a part. The
-# mixed design is certified for both specs by one Lyapunov matrix: a convex
+# Each design has the smallest certified value of its own objective (dashed
+# lines), and each dashed line is above its curves: for the H-infinity
+# bounds this is the frozen case of the L2-gain certificate; for the H2
+# bounds it is because the bound covers the worst impulse response over all
+# trajectories of ``k``, of which the frozen ones are a part. The frozen
+# norms themselves need not follow the same order, since the designs
+# minimise certificates for time-varying ``k``, not frozen norms. The mixed
+# design is certified for both specs by one Lyapunov matrix: a convex
 # problem, but a conservative one (each certified bound is at least what the
 # spec alone would give).
