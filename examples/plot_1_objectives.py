@@ -8,8 +8,8 @@ Three state-feedback designs for one polytopic plant, each a call of
 * ``objective=Hinf(...)``: the smallest certified L2 gain from ``w`` to
   ``z``;
 * ``objective=H2(...)``: the smallest certified H2 bound (for a
-  time-varying ``k``, a bound on the worst-case energy of the impulse
-  response);
+  time-varying ``k``, a bound on the output variance under white noise,
+  for every trajectory of ``k``);
 * mixed: the H2 objective with an H-infinity constraint,
   ``constraints=[Hinf(..., bound=...)]``.
 
@@ -110,8 +110,8 @@ plot({"H-infinity": d_hinf, "H2": d_h2, "mixed": d_mixed})
 # Each design has the smallest certified value of its own objective (dashed
 # lines), and each dashed line is above its curves: for the H-infinity
 # bounds this is the frozen case of the L2-gain certificate; for the H2
-# bounds it is because the bound covers the worst impulse response over all
-# trajectories of ``k``, of which the frozen ones are a part. The frozen
+# bounds it is because the bound covers the output variance along every
+# trajectory of ``k``, of which the frozen ones are a part. The frozen
 # norms themselves need not follow the same order, since the designs
 # minimise certificates for time-varying ``k``, not frozen norms. The mixed
 # design is certified for both specs by one Lyapunov matrix: a convex
