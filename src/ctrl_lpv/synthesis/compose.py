@@ -25,7 +25,7 @@ from ..systems import PolytopicStateSpace
 from .channels import require_pss, resolve_channels
 from .general import run_general
 from .ladder import run_ladder
-from .options import validated_options
+from .options import validated_options, validated_regions
 from .parametric import lyapunov_structure
 from .results import StateFeedbackDesign
 from .specs import H2, PERFORMANCE, GainBound
@@ -307,17 +307,8 @@ def h2_state_feedback(
     CertificationError
         If no certified design was found.
     """
-    if isinstance(regions, LMIRegion):
-        regions = (regions,)
-    try:
-        regions = tuple(regions)
-    except TypeError:
-        raise TypeError(
-            f"regions: expected an LMIRegion or a sequence of them, got {regions!r}"
-        ) from None
-    if any(not isinstance(r, LMIRegion) for r in regions):
-        raise TypeError(f"regions: expected LMIRegion objects, got {regions!r}")
-    constraints = regions + ((GainBound(gain_bound),) if gain_bound is not None else ())
+    bound = (GainBound(gain_bound),) if gain_bound is not None else ()
+    constraints = validated_regions(regions) + bound
     return synthesize(
         sys, u, objective=H2(w, z, bound=gamma), constraints=constraints, gains=gains,
         backoff=backoff, margin=margin, solvers=solvers, time_limit=time_limit,

@@ -38,6 +38,7 @@ from .ladder import (
     MARGIN_FACTORS,
     STABILIZE_Z_MAX,
     gain_tangent,
+    solve_stage,
 )
 from .parametric import coefficients
 from .problem import EPSILONS, build_problem
@@ -235,21 +236,7 @@ class _Job:
         return self._optimal()
 
     def _solve(self, stage, objective, certify=True, proof=False):
-        try:
-            sol = self.lmi.solve(objective, stage=stage, solvers=self.chain,
-                                 certify=certify, deadline=self.deadline)  # fmt: skip
-        except InfeasibleError as exc:
-            self.attempts.extend(exc.attempts)
-            if proof and not exc.farkas.normalized:
-                raise
-            self.notes.append(f"{stage}: {exc.farkas}")
-            return None
-        except CertificationError as exc:
-            self.attempts.extend(exc.attempts)
-            self.notes.append(f"{stage}: {exc}")
-            return None
-        self.attempts.extend(sol.attempts)
-        return sol
+        return solve_stage(self, stage, objective, certify, proof)
 
     def _stabilize(self):
         best = None

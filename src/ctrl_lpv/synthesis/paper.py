@@ -8,6 +8,7 @@ from ..regions import LMIRegion
 from ..systems import PolytopicStateSpace
 from .compose import synthesize
 from .ladder import run_ladder
+from .options import validated_regions
 from .results import StateFeedbackDesign
 from .specs import GainBound, Hinf
 
@@ -334,7 +335,7 @@ def _paper(
             sys, w, u, z, method, scheduled, gamma, regions, backoff, gain_bound,
             margin, solvers, time_limit, hinf=hinf,
         )  # fmt: skip
-    regions = (regions,) if isinstance(regions, LMIRegion) else tuple(regions)
+    regions = validated_regions(regions)
     bound = (GainBound(gain_bound),) if gain_bound is not None else ()
     return synthesize(
         sys, u, objective=Hinf(w, z, bound=gamma) if hinf else None,
