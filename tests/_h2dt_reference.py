@@ -305,9 +305,9 @@ def affine_system(lpv, M0, terms, F=None, dt=0, name="h2dt"):
 def channels(nw, m, p):
     """``(w, u, z)`` signal names of the systems built here."""
     return (
-        [f"w{i}" for i in range(nw)],
-        [f"u{i}" for i in range(m)],
-        [f"y{i}" for i in range(p)] + [f"v{i}" for i in range(m)],
+        tuple(f"w{i}" for i in range(nw)),
+        tuple(f"u{i}" for i in range(m)),
+        tuple(f"y{i}" for i in range(p)) + tuple(f"v{i}" for i in range(m)),
     )
 
 
