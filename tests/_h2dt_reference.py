@@ -104,14 +104,14 @@ def spectral_abscissa(Acl, dt=0):
 # ----------------------------------------------------------------------
 # Discrete-time H-infinity state feedback
 # ----------------------------------------------------------------------
-def dt_hinf_riccati_at(A, B1, B2, C, gamma):
+def dt_hinf_riccati_at(A, B1, B2, C, gamma, check=True):
     """Game DARE at `gamma` (Basar and Bernhard, ch. 3); ``(X, K)`` or None.
 
     ``z = [C x; u]``. Returns the stabilizing ``X >= 0`` with
     ``gamma^2 I - B1'XB1 > 0`` and the state-feedback gain ``u = -K x`` of
-    the saddle point, after checking that ``A - B2 K`` is Schur and that
-    ``control.linfnorm`` of its closed loop is below `gamma` (so a returned
-    level is achieved, not only predicted).
+    the saddle point, after checking that ``A - B2 K`` is Schur and (with
+    `check`) that ``control.linfnorm`` of its closed loop is below `gamma`
+    (so a returned level is achieved, not only predicted).
     """
     n, m = B2.shape
     nw = B1.shape[1]
@@ -131,6 +131,8 @@ def dt_hinf_riccati_at(A, B1, B2, C, gamma):
     K = G[:m]
     if not is_stable(A - B2 @ K, dt=1):
         return None
+    if not check:
+        return X, K
     norm = ct.linfnorm(closed_loop(A, B1, B2, C, K, dt=1))[0]
     if not norm < gamma * (1 + 1e-9):
         return None
@@ -138,26 +140,37 @@ def dt_hinf_riccati_at(A, B1, B2, C, gamma):
 
 
 def dt_hinf_riccati(A, B1, B2, C, rtol=1e-7):
-    """Infimum of the achievable DT H-infinity level (bisection); ``(gamma, K)``."""
+    """Infimum of the achievable DT H-infinity level (bisection); ``(gamma, K)``.
+
+    The returned level is checked with ``control.linfnorm`` of the closed
+    loop with the returned gain (RuntimeError if it is not achieved).
+    """
+
+    def ok(gamma):
+        return dt_hinf_riccati_at(A, B1, B2, C, gamma, check=False) is not None
+
     hi = 1.0
     for _ in range(100):
-        if dt_hinf_riccati_at(A, B1, B2, C, hi) is not None:
+        if ok(hi):
             break
         hi *= 2.0
     else:
         raise RuntimeError("no feasible gamma found")
     lo = hi / 2.0
-    while dt_hinf_riccati_at(A, B1, B2, C, lo) is not None:
+    while ok(lo):
         hi, lo = lo, lo / 2.0
         if lo < 1e-9:
             break
     while hi / lo - 1 > rtol:
         mid = np.sqrt(hi * lo)
-        if dt_hinf_riccati_at(A, B1, B2, C, mid) is not None:
+        if ok(mid):
             hi = mid
         else:
             lo = mid
-    return hi, dt_hinf_riccati_at(A, B1, B2, C, hi)[1]
+    found = dt_hinf_riccati_at(A, B1, B2, C, hi)
+    if found is None:
+        raise RuntimeError(f"level {hi} predicted but not achieved")
+    return hi, found[1]
 
 
 def dt_hinf_lmi(A, B1, B2, C, K=None):
