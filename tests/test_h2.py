@@ -110,6 +110,7 @@ def test_reference_scalar_discrete_closed_form(a, b1, b2, c):
     assert np.all(np.abs(poles) < 1)
     norms = abs(b1) * np.sqrt((c**2 + gains**2) / (1 - poles**2))
     assert min(norms) >= h2 * (1 - 1e-12)
+    assert norms[20] == pytest.approx(h2, rel=1e-9)  # attained at K itself
 
 
 @pytest.mark.parametrize("dt", [0, DT])
