@@ -361,31 +361,42 @@ def box_corners(nparams):
     return [np.array(c, float) for c in itertools.product((-1.0, 1.0), repeat=nparams)]
 
 
-def quadratically_stabilizable(vertices, dt=0):
+def quadratically_stabilizable(vertices, dt=0, disk=None):
     """Own LMI: a common ``W > 0`` and gain ``K = Z W^-1`` for all vertices.
 
-    Continuous: ``A_j W - B_j Z + (.)' < 0``; discrete:
-    ``[[W, (A_j W - B_j Z)'], [A_j W - B_j Z, W]] > 0`` (Schur complement of
-    ``A_cl W A_cl' - W < 0``). `vertices` are ``(A, B1, B2, C)`` tuples.
-    Returns the common gain ``K`` (checked: every vertex closed loop
-    stable) or None.
+    Continuous: ``A_j W - B_j Z + (.)' < 0``; discrete (or `disk` ``(r,
+    c)``: eigenvalues in ``|z - c| < r``, the unit disk by default):
+    ``[[r W, (A_cl - c I) W], [., r W]] > 0`` with ``A_cl W = A_j W - B_j Z``
+    (Schur complement of ``(A_cl - cI) W (A_cl - cI)' < r^2 W``).
+    `vertices` are ``(A, B1, B2, C)`` tuples. Returns the common gain ``K``
+    (checked: every vertex closed loop stable, or in the disk) or None.
     """
     n, m = vertices[0][2].shape
     W = cp.Variable((n, n), symmetric=True)
     Z = cp.Variable((m, n))
     cons = [W >> np.eye(n)]
+    r, c = (1.0, 0.0) if disk is None else disk
     for A, _, B2, _ in vertices:
         AW = A @ W - B2 @ Z
-        if dt:
-            M = cp.bmat([[W, AW.T], [AW, W]])
+        if dt or disk is not None:
+            S = AW - c * W
+            M = cp.bmat([[r * W, S.T], [S, r * W]])
             cons.append(0.5 * (M + M.T) >> 1e-6 * np.eye(2 * n))
         else:
             cons.append(AW + AW.T << -1e-6 * np.eye(n))
     prob = cp.Problem(cp.Minimize(0), cons)
-    prob.solve(solver=cp.CLARABEL)
+    try:
+        prob.solve(solver=cp.CLARABEL)
+    except cp.SolverError:
+        return None
     if W.value is None:
         return None
     K = Z.value @ np.linalg.inv(W.value)
-    if all(is_stable(A - B2 @ K, dt) for A, _, B2, _ in vertices):
-        return K
-    return None
+    for A, _, B2, _ in vertices:
+        ev = np.linalg.eigvals(A - B2 @ K)
+        if disk is not None:
+            if not np.all(np.abs(ev - c) < r):
+                return None
+        elif not is_stable(A - B2 @ K, dt):
+            return None
+    return K

@@ -263,9 +263,10 @@ def test_dt_gain_bounds_analysis_of_a_fixed_gain():
 # ----------------------------------------------------------------------
 # Pole regions in the z-plane
 # ----------------------------------------------------------------------
-@pytest.mark.parametrize("r, c", [(0.6, 0.0), (0.4, 0.3)])
+@pytest.mark.parametrize("r, c", [(0.6, 0.0), (0.5, 0.4)])
 def test_dt_disk_region(r, c):
     sys, frozen, points, verts = _box_case(1, 1, seed=0, spread=0.15)
+    assert quadratically_stabilizable(verts, 1, disk=(r, c)) is not None  # own LMI
     w, u, z = channels(1, 1, verts[0][3].shape[0])
     for objective in (None, lpv.Hinf(w, z)):
         design = lpv.synthesize(
@@ -278,10 +279,13 @@ def test_dt_disk_region(r, c):
 
 
 def test_dt_disk_region_scheduled():
-    sys, frozen, points, verts = _box_case(2, 1, seed=0, spread=0.15)
+    sys, frozen, points, verts = _box_case(1, 1, seed=0, spread=0.15)
+    # A common gain exists (own LMI), so vertex gains do too.
+    assert quadratically_stabilizable(verts, 1, disk=(0.5, 0.1)) is not None
     design = lpv.synthesize(
         sys, ("u0",), gains="scheduled", constraints=[lpv.disk(0.5, 0.1)]
     )
+    assert design.scheduled
     for p in points:
         A, _, B2, _ = frozen(p)
         ev = np.linalg.eigvals(A - B2 @ design.gain(p))
