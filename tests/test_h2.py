@@ -76,6 +76,7 @@ def _check_lti(problem, dt):
 
     design = _h2_design(problem, dt)  # default options (back-off 0.2)
     assert design.certificate.verified
+    assert design.gamma_opt == pytest.approx(h2, rel=RTOL_OPT)  # raw optimum
     K = design.gain()
     assert is_stable(A - B2 @ K, dt), spectral_abscissa(A - B2 @ K, dt)
     true = ct.norm(closed_loop(A, B1, B2, C, K, F, dt), 2)
@@ -193,6 +194,29 @@ def test_h2_bound_analysis_of_lqr_gain(dt):
     result = lpv.h2_bound(sys, [K], w, u, z)
     assert result.gamma >= h2 * (1 - RTOL_NORM)
     assert result.gamma == pytest.approx(h2, rel=RTOL_OPT)
+
+
+def test_h2_state_feedback_required_gamma_region_and_gain_bound():
+    A, B1, B2, C, F, _ = problem = _problem(3, 4, 2, False, 0)
+    h2, _, K_lqr = h2_riccati(A, B1, B2, C, F)
+    # A required bound: met, no optimum reported.
+    design = _h2_design(problem, 0, gamma=1.3 * h2)
+    assert design.gamma <= 1.3 * h2 and design.gamma_opt is None
+    cl = closed_loop(A, B1, B2, C, design.gain(), F)
+    assert ct.norm(cl, 2) <= design.gamma * (1 + RTOL_NORM)
+    # A decay rate beyond the LQR loop's and a gain bound below its gain.
+    decay = 1.0 - spectral_abscissa(A - B2 @ K_lqr)
+    limit = 0.9 * np.linalg.norm(K_lqr, 2)  # 0.9 K_lqr stabilizes (LQR margin)
+    for kwargs in ({"regions": [lpv.halfplane(decay)]}, {"gain_bound": limit}):
+        design = _h2_design(problem, 0, **kwargs)
+        K = design.gain()
+        if "regions" in kwargs:
+            assert spectral_abscissa(A - B2 @ K) < -decay
+        else:
+            assert np.linalg.norm(K, 2) <= limit * (1 + 1e-9)
+        cl = closed_loop(A, B1, B2, C, K, F)
+        assert design.gamma >= ct.norm(cl, 2) * (1 - RTOL_NORM)
+        assert ct.norm(cl, 2) > h2 * (1 + 1e-6)  # the LQR gain is excluded
 
 
 # ----------------------------------------------------------------------
