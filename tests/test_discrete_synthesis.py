@@ -232,14 +232,27 @@ def test_dt_stabilization_with_dt_true():
     assert ctrl.isdtime(strict=True)
 
 
+def _autonomous(A, dt=DT):
+    n = A.shape[0]
+    return lti_system(lpv, A, np.eye(n), np.eye(n), np.eye(n), dt=dt)
+
+
 def test_dt_quadratic_stability_analysis():
     # Schur, not Hurwitz: stable in DT; P satisfies A'PA - P < 0.
-    stable = lpv.quadratic_stability(_scalar(0.5))
-    P = np.atleast_2d(stable.P)
-    assert P[0, 0] > 0 and 0.25 * P[0, 0] - P[0, 0] < 0
+    A = np.array([[0.5, 0.3], [0.0, -0.3]])
+    P = np.asarray(lpv.quadratic_stability(_autonomous(A)).P)
+    assert np.linalg.eigvalsh(P).min() > 0
+    assert np.linalg.eigvalsh(A.T @ P @ A - P).max() < 0
     # Hurwitz, not Schur: unstable in DT.
     with pytest.raises(lpv.SynthesisError):
-        lpv.quadratic_stability(_scalar(-1.5))
+        lpv.quadratic_stability(_autonomous(np.diag([-1.5, -0.2])))
+
+
+def test_quadratic_stability_one_state():
+    P = np.atleast_2d(lpv.quadratic_stability(_autonomous(np.array([[0.5]]))).P)
+    assert P[0, 0] > 0
+    with pytest.raises(lpv.SynthesisError):
+        lpv.quadratic_stability(_autonomous(np.array([[-1.5]])))
 
 
 def test_dt_gain_bounds_analysis_of_a_fixed_gain():
