@@ -75,7 +75,9 @@ def test_dt_from_keyword_and_from_affine():
     data = (a_of(0.0), B_DT, [[1.0, 0.0]], 0)
     term = (a_of(1.0) - a_of(0.0), 0, 0, 0)
     for dt in (DT, True):
-        sys = lpv.PolytopicStateSpace.from_affine(data, {"p": term}, {"p": (1, 4)}, dt=dt)
+        sys = lpv.PolytopicStateSpace.from_affine(
+            data, {"p": term}, {"p": (1, 4)}, dt=dt
+        )
         assert sys.dt is dt or sys.dt == dt
         assert sys.isdtime(strict=True) and sys.at(2.0).dt == sys.dt
         np.testing.assert_allclose(sys.at(2.0).A, a_of(2.0), atol=1e-15)
@@ -169,24 +171,70 @@ def msd():
     return lpv.PolytopicStateSpace.from_affine(base, terms, {"k": (0, 2), "c": (0, 1)})
 
 
-def true_errors(sys, sysd, Ts, points):
-    """Largest ||Phi(p) - Phi_model(p)|| and the same for Gamma, by expm."""
-    n, m = sys.nstates, len(sys.physical_inputs)
-    worst = np.zeros(2)
-    for p in points:
-        frozen = sys.at(p)
-        M = np.zeros((n + m, n + m))
-        M[:n, :n], M[:n, n:] = frozen.A, frozen.B
-        E = scipy.linalg.expm(Ts * M)
-        model = sysd.at(p)
-        worst = np.maximum(
-            worst,
-            [
-                np.linalg.norm(E[:n, :n] - model.A, 2),
-                np.linalg.norm(E[:n, n:] - model.B, 2),
-            ],
-        )
-    return worst
+def stacked_expm(X):
+    """``expm`` of stacked small matrices: Taylor series with squaring.
+
+    Written here (einsum, no BLAS) as an independent check of the library's
+    ``scipy.linalg.expm``; scaled to norm <= 1/2, 30 terms reach rounding.
+    """
+    norm = np.abs(X).sum(axis=2).max()
+    squarings = max(0, int(np.ceil(np.log2(max(norm, 1e-300) / 0.5))))
+    Y = X / 2.0**squarings
+    E = term = np.broadcast_to(np.eye(X.shape[1]), X.shape).copy()
+    for k in range(1, 30):
+        term = np.einsum("pij,pjk->pik", term, Y) / k
+        E = E + term
+    for _ in range(squarings):
+        E = np.einsum("pij,pjk->pik", E, E)
+    return E
+
+
+def test_stacked_expm_agrees_with_scipy():
+    X = np.array([[[0.0, 1.0], [-2.0, -0.3]], [[0.1, 0.0], [0.0, -3.0]]])
+    for Xi, Ei in zip(X, stacked_expm(X)):
+        np.testing.assert_allclose(Ei, scipy.linalg.expm(Xi), rtol=1e-13, atol=1e-14)
+
+
+def true_errors(frozen, model, Ts, points):
+    """Largest ||Phi(p) - Phi_model(p)|| and the same for Gamma, by expm.
+
+    ``frozen(p) -> (A, B)`` is the continuous-time system at ``p`` and
+    ``model(p) -> (Phi, Gamma)`` the polytopic discrete model there.
+    """
+    points = list(points)
+    AB = [frozen(p) for p in points]
+    n, m = AB[0][1].shape
+    M = np.zeros((len(points), n + m, n + m))
+    for i, (A, B) in enumerate(AB):
+        M[i, :n, :n], M[i, :n, n:] = A, B
+    E = stacked_expm(Ts * M)
+    models = [model(p) for p in points]
+    Phi = np.stack([pm[0] for pm in models])
+    Gamma = np.stack([pm[1] for pm in models])
+    return (
+        np.linalg.norm(E[:, :n, :n] - Phi, 2, axis=(1, 2)).max(),
+        np.linalg.norm(E[:, :n, n:] - Gamma, 2, axis=(1, 2)).max(),
+    )
+
+
+def msd_frozen(p):
+    """The mass-spring-damper at (k, c), from its affine formula."""
+    k, c = p
+    return np.array([[0.0, 1.0], [-1.0 - k, -0.5 - c]]), np.array(
+        [[0.0], [1.0 + 0.5 * c]]
+    )
+
+
+def box_model(sysd):
+    """Bilinear interpolation of the sampled vertices over [0, 2] x [0, 1]."""
+    data = [(v.A, v.B) for v in sysd.vertices]  # order (0,0), (0,1), (2,0), (2,1)
+
+    def model(p):
+        a, b = p[0] / 2.0, p[1]
+        w = [(1 - a) * (1 - b), (1 - a) * b, a * (1 - b), a * b]
+        return tuple(sum(wj * d[i] for wj, d in zip(w, data)) for i in (0, 1))
+
+    return model
 
 
 def test_sample_is_exact_at_the_vertices(msd):
@@ -208,7 +256,7 @@ def test_zoh_bound_covers_a_dense_sweep(msd, Ts):
     assert isinstance(bound, DiscretizationBound) and bound.Ts == Ts
     assert not bound.exact
     grid = itertools.product(np.linspace(0, 2, 25), np.linspace(0, 1, 25))
-    phi, gamma = true_errors(msd, sysd, Ts, grid)
+    phi, gamma = true_errors(msd_frozen, box_model(sysd), Ts, grid)
     assert phi > 0 and gamma > 0  # the vertexwise ZOH is not exact inside
     assert phi <= bound.phi and gamma <= bound.gamma
     # Not absurdly loose on this example (measured: 5.5 to 11 for Phi,
@@ -222,10 +270,21 @@ def test_zoh_bound_on_a_simplex_domain():
         (rng.normal(size=(3, 3)) - 2 * np.eye(3), rng.normal(size=(3, 2)), np.eye(3), 0)
         for _ in range(3)
     ]
-    sys = lpv.pss(vertices)
-    sysd = sys.sample(0.1)
+    sysd = lpv.pss(vertices).sample(0.1)
     points = rng.dirichlet(np.ones(3), size=300)
-    phi, gamma = true_errors(sys, sysd, 0.1, points)
+
+    def frozen(w):
+        return tuple(
+            sum(wj * np.asarray(v[i], float) for wj, v in zip(w, vertices))
+            for i in (0, 1)
+        )
+
+    def model(w):
+        return tuple(
+            sum(wj * d[i] for wj, d in zip(w, sysd.vertex_data())) for i in (0, 1)
+        )
+
+    phi, gamma = true_errors(frozen, model, 0.1, points)
     bound = sysd.discretization_error
     assert 0 < phi <= bound.phi and 0 < gamma <= bound.gamma
 
@@ -315,9 +374,7 @@ def test_scheduled_controller_is_discrete(dsys):
     T = np.arange(40) * DT
     p = 2.5 + 1.5 * np.cos(T)
     plant = dsys.scheduled("inputs")
-    loop = ct.interconnect(
-        [plant, ctrl], inputs=["p"], outputs=["x", "v"], name="loop"
-    )
+    loop = ct.interconnect([plant, ctrl], inputs=["p"], outputs=["x", "v"], name="loop")
     res = ct.input_output_response(loop, T, p, X0=[1.0, 0.0])
     x, expected = np.array([1.0, 0.0]), []
     for k in range(len(T)):
@@ -388,21 +445,96 @@ def test_frozen_sweep_reports_spectral_radius_and_dt_hinf(dsys):
     K = ct.dlqr(dsys.at(2.5), np.eye(2), np.eye(1))[0]
     sweep = lpv.frozen_sweep(plant, K, "u", points=[[1.0], [2.5], [4.0]], w="w", z="z")
     assert sweep.dt == DT
-    theta = np.linspace(0, np.pi, 20001)
+    z = np.exp(1j * np.linspace(0, np.pi, 20001))
     for i, p in enumerate((1.0, 2.5, 4.0)):
         Acl = a_of(p) - B_DT @ K
         eig = np.linalg.eigvals(Acl)
         assert sweep.spectral_radius[i] == pytest.approx(np.abs(eig).max(), rel=1e-12)
         assert sweep.max_real[i] == pytest.approx(eig.real.max(), rel=1e-12)
         # H-infinity norm on the unit circle by brute force.
-        gains = [
-            abs((np.array([[1.0, 0.0]]) @ np.linalg.solve(z * np.eye(2) - Acl, B_DT))[0, 0])
-            for z in np.exp(1j * theta)
-        ]
-        assert sweep.hinf[i] >= max(gains) * (1 - 1e-9)
-        assert sweep.hinf[i] == pytest.approx(max(gains), rel=1e-4)
+        # 2x2 resolvent by hand: C (zI - A)^-1 B with C = [1, 0], B = B_DT.
+        (a, b), (c, d) = Acl
+        det = (z - a) * (z - d) - b * c
+        peak = np.abs(b * B_DT[1, 0] / det).max()
+        assert sweep.hinf[i] >= peak * (1 - 1e-9)
+        assert sweep.hinf[i] == pytest.approx(peak, rel=1e-4)
     assert sweep.stable.all()
-    unstable = lpv.frozen_sweep(plant, np.zeros((1, 2)), "u", points=[[4.0]], w="w", z="z")
+    unstable = lpv.frozen_sweep(
+        plant, np.zeros((1, 2)), "u", points=[[4.0]], w="w", z="z"
+    )
     # a_of(4) has |eig| > 1 (det = 1 - 0.02 + 0.04 > 1): unstable open loop.
     assert unstable.spectral_radius[0] > 1 and not unstable.stable[0]
     assert unstable.hinf[0] == np.inf
+
+
+def test_sampled_plant_designed_and_simulated_end_to_end():
+    """sample -> synthesize (DT H-infinity) -> controller -> closed loop."""
+    base = ct.ss(
+        [[0.0, 1.0], [-1.0, -0.5]], [[0.0, 0.0], [1.0, 1.0]],
+        [[1.0, 0.0], [0.0, 0.0]], [[0.0, 0.0], [0.0, 1.0]],
+        inputs=["w", "u"], outputs=["z", "uz"], states=["x", "v"], name="msd",
+    )  # fmt: skip
+    term = ([[0.0, 0.0], [-3.0, 0.0]], 0, 0, 0)
+    sysd = lpv.PolytopicStateSpace.from_affine(base, {"k": term}, {"k": (0, 1)})
+    sysd = sysd.sample(0.1)
+    design = lpv.synthesize(sysd, "u", objective=lpv.Hinf(w="w", z=["z", "uz"]))
+    K = design.gains[0]
+    sweep = lpv.frozen_sweep(sysd, K, "u", points=11, w="w", z=["z", "uz"])
+    assert sweep.stable.all() and sweep.hinf.max() <= design.gamma
+    ctrl = lpv.state_feedback(design)
+    assert ctrl.dt == 0.1
+    meas = lpv.pss(
+        [(A, B, np.eye(2), np.zeros((2, 2))) for A, B, _, _ in sysd.vertex_data()],
+        sysd.domain, inputs=["w", "u"], outputs=["x", "v"], states=["x", "v"],
+        dt=0.1,
+    )  # fmt: skip
+    loop = ct.interconnect([meas, ctrl], inputs=["w"], outputs=["x", "v", "u"])
+    T = np.arange(80) * 0.1
+    w = np.sin(T)
+    res = ct.input_output_response(loop, T, w, X0=[1.0, 0.0], params={"k": 0.4})
+    (A0, B0, _, _), (A1, B1, _, _) = sysd.vertex_data()
+    A, B = 0.6 * A0 + 0.4 * A1, 0.6 * B0 + 0.4 * B1
+    x, rows = np.array([1.0, 0.0]), []
+    for wk in w:
+        u = -(K @ x)[0]
+        rows.append([x[0], x[1], u])
+        x = A @ x + B @ [wk, u]
+    np.testing.assert_allclose(res.outputs, np.array(rows).T, atol=1e-12)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_zoh_bound_holds_on_random_boxes(seed):
+    """Random affine and multilinear boxes of 1 to 3 parameters."""
+    rng = np.random.default_rng(seed)
+    k, n, m = (int(v) for v in rng.integers(1, 4, size=3))
+    bounds = {f"p{i}": tuple(np.sort(rng.normal(size=2) * 2)) for i in range(k)}
+    box = lpv.ParameterBox(bounds)
+    vertices = [
+        (rng.normal(size=(n, n)), rng.normal(size=(n, m)), np.eye(n), 0)
+        for _ in range(2**k)
+    ]
+    sys = lpv.pss(vertices, box)
+    Ts = float(rng.choice([0.01, 0.1, 0.5, 1.0]))
+    sysd = sys.sample(Ts)
+    points = box.lower + rng.random((300, k)) * (box.upper - box.lower)
+    weights = np.array([box.weights(p) for p in points])
+    # multilinear weights written here: product over coordinates
+    lam = (points - box.lower) / (box.upper - box.lower)
+    corners = np.array(list(itertools.product((0, 1), repeat=k)))
+    mine = np.prod(np.where(corners[None], lam[:, None], 1 - lam[:, None]), axis=2)
+    np.testing.assert_allclose(weights, mine, atol=1e-14)
+
+    def combine(data, index):
+        return np.einsum("pj,jab->pab", mine, np.stack([d[index] for d in data]))
+
+    A, B = combine(sys.vertex_data(), 0), combine(sys.vertex_data(), 1)
+    M = np.zeros((len(points), n + m, n + m))
+    M[:, :n, :n], M[:, :n, n:] = A, B
+    E = stacked_expm(Ts * M)
+    phi = np.linalg.norm(E[:, :n, :n] - combine(sysd.vertex_data(), 0), 2, axis=(1, 2))
+    gamma = np.linalg.norm(
+        E[:, :n, n:] - combine(sysd.vertex_data(), 1), 2, axis=(1, 2)
+    )
+    bound = sysd.discretization_error
+    assert phi.max() <= bound.phi * (1 + 1e-9) + 1e-14
+    assert gamma.max() <= bound.gamma * (1 + 1e-9) + 1e-14

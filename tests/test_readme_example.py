@@ -84,3 +84,32 @@ def test_connected_by_name_matches_the_frozen_closed_loop(example, k):
     norms = np.linalg.norm(resp.outputs[:2], axis=0)
     assert norms[-1] < 1e-3 * norms[0]
     assert norms[-1] <= 10 * norms[0] * np.exp(0.9 * eig.real.max() * T[-1])
+
+
+@pytest.fixture(scope="module")
+def composable():
+    text = README.read_text()
+    section = text.split("\n## Objectives, Lyapunov functions and discrete time\n", 1)[
+        1
+    ]
+    code = re.findall(r"```python\n(.*?)```", section.split("\n## ", 1)[0], flags=re.S)[
+        0
+    ]
+    namespace = {"__name__": "readme_composable"}
+    with contextlib.redirect_stdout(io.StringIO()):
+        exec(compile(code, str(README), "exec"), namespace)
+    return namespace
+
+
+def test_composable_example_bounds_its_frozen_loops(composable):
+    design, dt_design = composable["design"], composable["dt_design"]
+    h2, hinf = sorted(design.bounds.values())
+    assert hinf < 1.0
+    for k in np.linspace(1.0, 4.0, 13):
+        A, B, C, D = design.closed_loop({"k": k})
+        loop = ct.ss(A, B, C, D)
+        assert ct.norm(loop, 2) <= h2
+        assert ct.linfnorm(loop)[0] < 1.0
+        A, B, C, D = dt_design.closed_loop({"k": k})
+        assert np.abs(np.linalg.eigvals(A)).max() < 1
+        assert ct.linfnorm(ct.ss(A, B, C, D, dt=0.05))[0] <= dt_design.gamma

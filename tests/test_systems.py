@@ -100,7 +100,10 @@ def test_tuple_vertices_and_default_simplex():
             r"vertices\[1\]",
         ),
         (
-            [ct.ss([[0.5]], [[1.0]], [[1.0]], 0, dt=0.1), ct.ss([[1.0]], [[1.0]], [[1.0]], 0)],
+            [
+                ct.ss([[0.5]], [[1.0]], [[1.0]], 0, dt=0.1),
+                ct.ss([[1.0]], [[1.0]], [[1.0]], 0),
+            ],
             ValueError,
             "dt",
         ),

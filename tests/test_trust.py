@@ -121,7 +121,11 @@ def test_huge_bounds_are_accepted(plant):
 
 def test_zero_backoff_is_the_raw_optimum(plant):
     raw = lpv.hinf_state_feedback(plant, backoff=0, **CHANNELS)
-    assert raw.gamma == pytest.approx(raw.gamma_opt, rel=1e-6)
+    backed_off = lpv.hinf_state_feedback(plant, **CHANNELS)
+    # The raw point is certified with the margin, gamma* estimated without:
+    # they differ by the margin's effect only, far less than the back-off.
+    assert raw.gamma_opt <= raw.gamma <= raw.gamma_opt * (1 + 1e-4)
+    assert raw.gamma < backed_off.gamma
 
 
 def test_time_limit_is_honoured(plant):

@@ -21,6 +21,7 @@ _EXPORTS = {
     "Polytope": "polytope",
     "Simplex": "polytope",
     "box": "polytope",
+    "DiscretizationBound": "discretization",
     "quadratic_stabilization": "synthesis",
     "hinf_state_feedback": "synthesis",
     "gain_scheduled_stabilization": "synthesis",

@@ -25,24 +25,56 @@ __all__ = [
 ]
 
 
+class _LyapunovResult:
+    """``lyapunov_matrix(p)`` of the analysis results."""
+
+    def lyapunov_matrix(self, p=None) -> np.ndarray:
+        """The Lyapunov matrix ``P(p)`` of ``V = x' P(p) x``.
+
+        Constant, or for ``lyapunov="affine"`` ``P(p) = W(p)^-1`` with
+        ``W(p) = sum_j delta_j(p) P_j^-1`` multi-affine (the dual
+        parametrization of `ctrl_lpv.synthesize`).
+
+        Parameters
+        ----------
+        p : array_like or mapping, optional
+            Parameter value; ignored for a constant ``P``.
+
+        Returns
+        -------
+        ndarray
+        """
+        if not isinstance(self.P, tuple):
+            return self.P.copy()
+        if p is None:
+            raise ValueError("p: an affine Lyapunov function needs the parameter value")
+        delta = self.system.weights(p)
+        return np.linalg.inv(sum(d * np.linalg.inv(Pj) for d, Pj in zip(delta, self.P)))
+
+
 @dataclass(frozen=True)
-class QuadraticStability:
-    """A common Lyapunov matrix for every vertex.
+class QuadraticStability(_LyapunovResult):
+    """A Lyapunov function for every vertex (constant or parameter-dependent).
 
     Attributes
     ----------
-    P : ndarray
-        ``P > 0`` with ``A_j' P + P A_j < 0`` at every vertex ``j``.
+    P : ndarray or tuple of ndarray
+        ``P > 0`` with ``A_j' P + P A_j < 0`` at every vertex ``j``; for an
+        affine Lyapunov function the vertex values of ``P(p)`` (see
+        `lyapunov_matrix`).
     checks : tuple of `ctrl_lpv.lmi.LMICheck`
         Float64 checks of the LMIs at ``P``.
+    system : `PolytopicStateSpace` or None
+        The analysed system (for `lyapunov_matrix`).
     """
 
     P: np.ndarray
     checks: tuple[LMICheck, ...]
+    system: PolytopicStateSpace | None = None
 
 
 @dataclass(frozen=True)
-class L2GainBound:
+class L2GainBound(_LyapunovResult):
     """Certified bound on the L2 gain of a polytopic closed loop.
 
     Attributes
@@ -50,19 +82,23 @@ class L2GainBound:
     gamma : float
         ``||z||_2 < gamma ||w||_2`` for every parameter trajectory in the
         domain (quadratic H-infinity performance with a common ``P``).
-    P : ndarray
-        The common Lyapunov matrix.
+    P : ndarray or tuple of ndarray
+        The common Lyapunov matrix, or the vertex values of an affine one
+        (see `lyapunov_matrix`).
     checks : tuple of `ctrl_lpv.lmi.LMICheck`
         Float64 checks of the LMIs.
+    system : `PolytopicStateSpace` or None
+        The analysed system (for `lyapunov_matrix`).
     """
 
     gamma: float
     P: np.ndarray
     checks: tuple[LMICheck, ...]
+    system: PolytopicStateSpace | None = None
 
 
 @dataclass(frozen=True)
-class H2Bound:
+class H2Bound(_LyapunovResult):
     """Certified H2 bound of a polytopic closed loop.
 
     Attributes
@@ -74,11 +110,14 @@ class H2Bound:
         The Lyapunov matrix (vertex matrices for an affine one).
     checks : tuple of `ctrl_lpv.lmi.LMICheck`
         Float64 checks of the LMIs.
+    system : `PolytopicStateSpace` or None
+        The analysed system (for `lyapunov_matrix`).
     """
 
     gamma: float
     P: object
     checks: tuple[LMICheck, ...]
+    system: PolytopicStateSpace | None = None
 
 
 @dataclass(frozen=True)
@@ -189,7 +228,7 @@ def quadratic_stability(
     if lyapunov != "constant" or rate_bounds is not None or sys.isdtime(strict=True):
         cl = _autonomous(sys, As)
         design = _general_analysis(cl, None, lyapunov, rate_bounds, margin)
-        return QuadraticStability(design.P, design.certificate.lmi_checks)
+        return QuadraticStability(design.P, design.certificate.lmi_checks, sys)
     scale = max(1.0, max(np.linalg.norm(A, 2) for A in As))
     As = [A / scale for A in As]
     n = sys.nstates
@@ -260,7 +299,7 @@ def l2_gain_bound(
 
         cl = _closed_loop(sys, gains, iw, iu, iz, lyapunov)
         design = _general_analysis(cl, Hinf(), lyapunov, rate_bounds, margin)
-        return L2GainBound(design.gamma, design.P, design.certificate.lmi_checks)
+        return L2GainBound(design.gamma, design.P, design.certificate.lmi_checks, sys)
     data = []
     for A, B, C, D in sys.vertex_data():
         data.append(
@@ -355,7 +394,7 @@ def h2_bound(
     iz = signal_indices(z, sys.output_labels, "z")
     cl = _closed_loop(sys, gains, iw, iu, iz, lyapunov)
     design = _general_analysis(cl, H2(), lyapunov, rate_bounds, margin)
-    return H2Bound(design.gamma, design.P, design.certificate.lmi_checks)
+    return H2Bound(design.gamma, design.P, design.certificate.lmi_checks, sys)
 
 
 def _require_stable_vertices(sys, As) -> None:
@@ -373,8 +412,9 @@ def _require_stable_vertices(sys, As) -> None:
 
 
 def _autonomous(sys, As):
+    # One zero input and output: python-control refuses systems without.
     n = sys.nstates
-    vertices = [(A, np.zeros((n, 0)), np.zeros((0, n)), np.zeros((0, 0))) for A in As]
+    vertices = [(A, np.zeros((n, 1)), np.zeros((1, n)), np.zeros((1, 1))) for A in As]
     return PolytopicStateSpace(vertices, domain=sys.domain, dt=sys.dt)
 
 

@@ -75,8 +75,9 @@ max_j ||B_j||``, ``I_k = \int_0^T s^k exp(s mu_A*) ds``, from
 ``sum_i (a_i^2 b I_2 + 2 a_i b_i I_1) / 8`` on a box (``a_i, b_i`` the
 largest edge changes of ``A`` and ``B`` along ``i``) and ``(a^2 b I_2 + 2 a
 b' I_1) / 2`` on any polytope (``a, b'`` the largest vertex-pair changes).
-The smallest of the valid bounds is reported. The forward-Euler model ``(I + T A_j, T B_j)`` is affine
-in the vertex data, so it is exactly polytopic (both errors 0).
+The smallest of the valid bounds is reported. The forward-Euler model
+``(I + T A_j, T B_j)`` is affine in the vertex data, so it is exactly
+polytopic (both errors 0).
 """
 
 from __future__ import annotations

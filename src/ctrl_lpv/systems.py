@@ -208,7 +208,8 @@ class PolytopicStateSpace(StateSpace):
     the polytopic class (`minreal`, products of two LPV systems with
     nonaffine result) raise `TypeError` instead of returning a frozen
     system; `sample` returns the vertexwise discretization together with a
-    rigorous bound on its error between the vertices. Paths that python-control owns and that cannot be intercepted:
+    rigorous bound on its error between the vertices. Paths that
+    python-control owns and that cannot be intercepted:
 
     * `control.interconnect` of blocks that are all `StateSpace` returns a
       `control.LinearICSystem`. Its simulation with

@@ -23,8 +23,9 @@ from ..regions import LMIRegion
 from ..stabilizability import check_stabilizability
 from ..systems import PolytopicStateSpace
 from .channels import require_pss, resolve_channels
+from .general import run_general
 from .ladder import run_ladder
-from .options import validated_options
+from .options import validated_options, validated_regions
 from .parametric import lyapunov_structure
 from .results import StateFeedbackDesign
 from .specs import H2, PERFORMANCE, GainBound
@@ -76,8 +77,9 @@ def synthesize(
     lyapunov : {"constant", "affine"}, optional
         A constant Lyapunov matrix (quadratic stability and performance,
         valid for arbitrarily fast parameters), or one multi-affine in the
-        box parameters (needs `rate_bounds`). With "affine" the scheduled
-        gain is ``K(p) = -Z(p) W(p)^-1``, rational in ``p``.
+        box parameters (needs `rate_bounds`). With "affine" a scheduled
+        gain is ``K(p) = -Z(p) W(p)^-1``, rational in ``p``; a common gain
+        comes from the extended (slack-variable) LMIs, ``K = -Z G^-1``.
     rate_bounds : mapping of str to float, optional
         ``{name: nu}``: ``|dp/dt| <= nu`` (continuous) or
         ``|p[k+1] - p[k]| <= nu`` (discrete); ``nu = 0`` for a
@@ -150,8 +152,6 @@ def synthesize(
         )  # fmt: skip
         bounds = {objective: design.gamma} if hinf else {}
         return dataclasses.replace(design, bounds=bounds)
-
-    from .general import run_general
 
     lyap = lyapunov_structure(sys, lyapunov, rate_bounds)
     regions, backoff, _, gain_bound, margin, chain, time_limit = validated_options(
@@ -307,17 +307,8 @@ def h2_state_feedback(
     CertificationError
         If no certified design was found.
     """
-    if isinstance(regions, LMIRegion):
-        regions = (regions,)
-    try:
-        regions = tuple(regions)
-    except TypeError:
-        raise TypeError(
-            f"regions: expected an LMIRegion or a sequence of them, got {regions!r}"
-        ) from None
-    if any(not isinstance(r, LMIRegion) for r in regions):
-        raise TypeError(f"regions: expected LMIRegion objects, got {regions!r}")
-    constraints = regions + ((GainBound(gain_bound),) if gain_bound is not None else ())
+    bound = (GainBound(gain_bound),) if gain_bound is not None else ()
+    constraints = validated_regions(regions) + bound
     return synthesize(
         sys, u, objective=H2(w, z, bound=gamma), constraints=constraints, gains=gains,
         backoff=backoff, margin=margin, solvers=solvers, time_limit=time_limit,

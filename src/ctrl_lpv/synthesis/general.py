@@ -6,19 +6,31 @@ objective, its back-off to a well-conditioned point, and the gain
 iterations when a `GainBound` is set. Each point is checked by
 `ctrl_lpv.lmi.LMIProblem` (every LMI at its coefficient, in float64) and by
 `_Job.verify` (the frozen closed loops in the model's units).
+
+Prescaling
+----------
+The state, input and time scalings ``x = T x~``, ``u = Su u~``,
+``t~ = a t`` (``a = 1`` in discrete time) are those of the paper's engine;
+each spec ``i`` adds powers of two ``w = sw_i w~`` and ``z = sz_i z~``.
+With one ``W = kappa T W~ T`` for every spec (``kappa = a / sw^2`` of the
+base scaling), the prescaled LMIs are congruent to the model's when the
+identity block of spec ``i``'s ``w`` is weighted by ``rho_i =
+sw_i^2 kappa / a`` (congruence by ``diag(T^-1 / sqrt(a kappa), sw_i
+sqrt(kappa / a), ...)``), and the squared bounds map back as
+``gamma^2 = g~ kappa sz_i^2 / a`` (H-infinity) and ``h = h~ kappa sz_i^2``
+(H2, where ``Y`` scales like ``C W C'``). All factors are powers of two, so
+the congruence is exact in floating point.
 """
 
 from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from types import SimpleNamespace
 
 import numpy as np
 
 from ..exceptions import CertificationError, InfeasibleError
-from ..lmi import LMIProblem
-from .assembly import region_block
+from .frozen import verify_frozen
 from .ladder import (
     ESTIMATE_MARGIN,
     GAIN_ITERATIONS,
@@ -26,21 +38,16 @@ from .ladder import (
     MARGIN_FACTORS,
     STABILIZE_Z_MAX,
     gain_tangent,
+    solve_stage,
 )
-from .parametric import coefficients, step_terms
+from .parametric import coefficients
+from .problem import EPSILONS, build_problem
 from .results import Certificate, StateFeedbackDesign
 from .scaling import Scaling, channel_scales, pow2
-from .specs import H2, Stability
-from .terms import Terms
+from .specs import H2
 
 # Bounds W <= w_max I (scaled units) tried in turn for a given bound.
 _GIVEN_W_MAX = (1e3, 1e6, 1e9)
-# A given bound is posed as bound^2 (1 - _BOUND_SLACK), met strictly.
-_BOUND_SLACK = 1e-6
-_VERIFY_SAMPLES = 64
-# The scalar of the continuous-time extended LMIs (prescaled time units,
-# where the data are of order one), tried in turn.
-_EPSILONS = (1.0, 0.1, 0.01, 0.001)
 
 
 def run_general(
@@ -193,155 +200,23 @@ class _Job:
         With ``W = kappa T W~ T`` for every spec (``kappa`` the base
         scaling's `w_factor`), the prescaled LMIs are congruent to the
         model's when the identity block of a channel is weighted by `_rho`
-        (derivations in the module docstring of `ctrl_lpv.synthesis.specs`).
+        (see the module docstring).
         """
-        sw, sz = self.channel[i]
+        _, sz = self.channel[i]
         a, kappa = self.scaling.a, self.scaling.w_factor
-        if isinstance(self.specs[i], H2) or not self.continuous:
-            return a**2 / (sw**2 * kappa)
+        if isinstance(self.specs[i], H2):
+            return kappa * sz**2
         return kappa * sz**2 / a
 
-    def _rho(self):
-        a, kappa = self.scaling.a, self.scaling.w_factor
-        rho = {}
-        for i, (sw, sz) in enumerate(self.channel):
-            rho[(i, "w")] = sw**2 * kappa / a if self.continuous else 1.0
-            rho[(i, "z")] = a / (kappa * sz**2)
-            if self.continuous and not isinstance(self.specs[i], H2):
-                rho[(i, "z")] = 1.0
-        return rho
-
-    def _scaled_data(self):
-        T, Su, a = self.scaling.T, self.scaling.Su, self.scaling.a
-        Ti = 1.0 / T
-        out = []
-        for v in self.original:
-            d = {
-                "A": Ti[:, None] * v["A"] * T / a,
-                "B2": Ti[:, None] * v["B2"] * Su / a,
-            }
-            for i, (sw, sz) in enumerate(self.channel):
-                d[(i, "Bw")] = Ti[:, None] * v[(i, "Bw")] * sw / a
-                d[(i, "Cz")] = v[(i, "Cz")] * T / sz
-                d[(i, "Dzw")] = v[(i, "Dzw")] * sw / sz
-                d[(i, "Dzu")] = v[(i, "Dzu")] * Su / sz
-            out.append(d)
-        return out
-
-    # -- the problem -----------------------------------------------------
-    def build(self) -> None:
-        data = self._scaled_data()
-        rho = self._rho()
-        n, m = data[0]["A"].shape[0], data[0]["B2"].shape[1]
-        nZ = self._nZ()
-        lmi = LMIProblem(margin=self.margin)
-        for ell in range(self.lyap.count):
-            lmi.variable(f"W{ell}", (n, n), symmetric=True)
-            lmi.add(f"W{ell} > 0", lambda v, e=ell: [[-getattr(v, f"W{e}")]])
-        for k in range(nZ):
-            lmi.variable(f"Z{k}", (m, n))
-        for i, spec in enumerate(self.specs):
-            lmi.variable(f"g{i}", (1, 1))
-            if isinstance(spec, H2):
-                nw = data[0][(i, "Bw")].shape[1]
-                lmi.variable(f"Y{i}", (nw, nw), symmetric=True)
-        for name in ("t", "kappa"):
-            lmi.variable(name, (1, 1))
-        if self.slack:
-            lmi.variable("G", (n, n))
-            lmi.parameter("eps", nonneg=True, value=_EPSILONS[0])
-        lmi.parameter("g_max", (1, 1), nonneg=True, value=np.ones((1, 1)))
-        lmi.parameter("w_max", nonneg=True, value=1.0)
-        lmi.parameter("z_max", nonneg=True, value=1.0)
-
-        def terms(v, c, r):
-            return Terms(v, c, r, self.lyap, data, self.index, rho, self.scheduled,
-                         self.continuous)  # fmt: skip
-
-        zero = SimpleNamespace(**{
-            name: np.zeros(item.shape)
-            for name, item in (*lmi._vars.items(), *lmi._params.items())
-        })  # fmt: skip
-        performance = self.specs or [Stability()]
-        for c in self.coefficients:
-            for r in self.rates:
-                at = c.label + (f", rate {np.round(r * self.scaling.a, 12).tolist()}"
-                                if len(self.rates) > 1 else "")  # fmt: skip
-                for spec in performance:
-                    named = spec.lmis(terms(zero, c, r), self.continuous)
-                    for q, (name, _) in enumerate(named):
-
-                        def blocks(v, spec=spec, q=q, c=c, r=r):
-                            return spec.lmis(terms(v, c, r), self.continuous)[q][1]
-
-                        lmi.add(f"{name} {at}", blocks)
-                if not self.specs:
-                    # The decay of the stabilization stage, as in Lemma 1.
-                    def decay(v, c=c, r=r):
-                        blocks = Stability().lmis(terms(v, c, r), self.continuous)[0][1]
-                        return _shifted(blocks, v.t[0, 0] * c.const)
-
-                    lmi.add(f"decay {at}", decay, strict=False,
-                            stages=("stabilize",), normalization=True)  # fmt: skip
-            for q, region in enumerate(self.regions):
-
-                def region_lmi(v, c=c, region=region):
-                    t = terms(v, c, self.rates[0])
-                    return [[region_block(region.L, region.M, t.W(), t.AW(), 1.0)]]
-
-                lmi.add(f"region {q} {c.label}", region_lmi)
-        for i, spec in enumerate(self.specs):
-            g = f"g{i}"
-            if isinstance(spec, H2):
-                nw = data[0][(i, "Bw")].shape[1]
-                lmi.add(f"trace Y{i} < h{i}", lambda v, i=i, nw=nw, g=g: [[
-                    sum(getattr(v, f"Y{i}")[k : k + 1, k : k + 1] for k in range(nw))
-                    - getattr(v, g)
-                ]])  # fmt: skip
-            if spec.bound is not None:
-                fixed = spec.bound**2 / self._to_model(i) * (1 - _BOUND_SLACK)
-                lmi.add(f"{spec} bound", lambda v, g=g, fixed=fixed: [
-                    [getattr(v, g) - fixed]], strict=False)  # fmt: skip
-            elif i == 0:
-                lmi.add("g <= g_max", lambda v: [[v.g0 - v.g_max]], strict=False,
-                        stages=("center", "gain"))  # fmt: skip
-        for ell in range(self.lyap.count):
-            lmi.add(f"W{ell} <= w_max I",
-                    lambda v, e=ell: [[getattr(v, f"W{e}") - v.w_max * np.eye(n)]],
-                    strict=False, stages=("center", "stabilize"),
-                    normalization=True)  # fmt: skip
-            lmi.add(f"W{ell} >= t I",
-                    lambda v, e=ell: [[v.t[0, 0] * np.eye(n) - getattr(v, f"W{e}")]],
-                    strict=False, stages=("center", "stabilize"),
-                    normalization=True)  # fmt: skip
-        for k in range(nZ):
-            lmi.add(f"||Z{k}||^2 <= z_max", lambda v, k=k: [
-                [-v.z_max * np.eye(n)], [getattr(v, f"Z{k}"), -np.eye(m)]],
-                strict=False, stages=("stabilize",), normalization=True)  # fmt: skip
-        if self.gain_bound is not None:
-            T, Su = np.diag(self.scaling.T), np.diag(self.scaling.Su)
-            lmi.parameter("gain_Ginv", (n, n), value=np.eye(n))
-            lmi.parameter("gain_Ginv_K", (n, n), value=np.eye(n))
-            lmi.parameter("kappa_max", nonneg=True, value=1.0)
-            for k in range(nZ):
-                lmi.add(f"||K{k}||^2 <= kappa", lambda v, k=k: [
-                    [-(T @ v.W0 @ v.gain_Ginv + v.gain_Ginv.T @ v.W0 @ T - np.eye(n))],
-                    [Su @ getattr(v, f"Z{k}") @ v.gain_Ginv_K, -v.kappa[0, 0] * np.eye(m)],
-                ], strict=False, stages=("gain",))  # fmt: skip
-            lmi.add("kappa <= kappa_max", lambda v: [[v.kappa - v.kappa_max * np.eye(1)]],
-                    strict=False, stages=("gain",))  # fmt: skip
-        self.lmi = lmi
-
-    # -- stages ----------------------------------------------------------
     def run(self):
-        self.build()
+        self.lmi = build_problem(self)
         if not (self.slack and self.continuous):
             return self._stages()
         # The extended LMIs hold for each fixed eps; none is best for every
         # problem: a feasibility problem takes the first that certifies, a
         # minimisation the smallest certified bound.
         best = None
-        for eps in _EPSILONS:
+        for eps in EPSILONS:
             self.lmi.set_parameter("eps", eps)
             found = self._stages()
             if found is None:
@@ -361,21 +236,7 @@ class _Job:
         return self._optimal()
 
     def _solve(self, stage, objective, certify=True, proof=False):
-        try:
-            sol = self.lmi.solve(objective, stage=stage, solvers=self.chain,
-                                 certify=certify, deadline=self.deadline)  # fmt: skip
-        except InfeasibleError as exc:
-            self.attempts.extend(exc.attempts)
-            if proof and not exc.farkas.normalized:
-                raise
-            self.notes.append(f"{stage}: {exc.farkas}")
-            return None
-        except CertificationError as exc:
-            self.attempts.extend(exc.attempts)
-            self.notes.append(f"{stage}: {exc}")
-            return None
-        self.attempts.extend(sol.attempts)
-        return sol
+        return solve_stage(self, stage, objective, certify, proof)
 
     def _stabilize(self):
         best = None
@@ -410,12 +271,9 @@ class _Job:
         if g_opt > 4:
             # Pose the later stages with a bound of order one (see the ladder
             # of the paper's functions) by a power-of-two channel scaling:
-            # of z where the bound sits on z's block, else of w.
-            if self.continuous and not isinstance(self.objective, H2):
-                self.channel[0][1] *= pow2(np.sqrt(g_opt))
-            else:
-                self.channel[0][0] /= pow2(np.sqrt(g_opt))
-            self.build()
+            # of z, whose block the bound sits on.
+            self.channel[0][1] *= pow2(np.sqrt(g_opt))
+            self.lmi = build_problem(self)
             raw = self._solve("optimal", lambda v: v.g0[0, 0], certify=False)
             if raw is None:
                 return None
@@ -480,7 +338,8 @@ class _Job:
         worst = max(np.linalg.norm(K, 2) for K in best.gains)
         if worst > self.gain_bound:
             self.notes.append(
-                f"final point: gain norm {worst:.4g} above gain_bound {self.gain_bound:g}"
+                f"final point: gain norm {worst:.4g} above gain_bound "
+                f"{self.gain_bound:g}"
             )
             return None
         return best, gamma_opt
@@ -516,7 +375,7 @@ class _Job:
                 tuple(factor * (sc.Su[:, None] * Z * sc.T) for Z in Zs),
                 tuple(sc.unscale_W(Ws[self.lyap.index[j]]) for j in range(nZ)),
             )
-        certificate = self.verify(sol, gains, values, Ws, Zs)
+        certificate = verify_frozen(self, sol, gains, values, Ws, Zs)
         if not certificate.verified:
             self.notes.append(
                 f"{label}: closed-loop verification failed ({certificate})"
@@ -529,116 +388,3 @@ class _Job:
             else tuple(Ps[self.lyap.index[j]] for j in range(self.sys.nvertices))
         )
         return _Point(sol, gains, certificate, values, P, rational)
-
-    def _points(self):
-        """Convex coordinates (and box points) of the verification points."""
-        sys, N = self.sys, self.sys.nvertices
-        rng = np.random.default_rng(12345)
-        domain = sys.domain
-        if hasattr(domain, "lower") and N > 1:
-            points = list(domain.points)
-            points += list(
-                rng.uniform(
-                    domain.lower, domain.upper, size=(_VERIFY_SAMPLES, domain.nparams)
-                )
-            )
-            points.append(0.5 * (domain.lower + domain.upper))
-            return [(domain._weights(np.asarray(p, float)), np.asarray(p, float))
-                    for p in points]  # fmt: skip
-        deltas = list(np.eye(N))
-        if N > 1:
-            deltas += list(rng.dirichlet(np.ones(N), size=_VERIFY_SAMPLES))
-        return [(d, None) for d in deltas]
-
-    def verify(self, sol, gains, values, Ws, Zs) -> Certificate:
-        """Frozen closed loops in the model's units at vertices and samples."""
-        sc, lyap = self.scaling, self.lyap
-        worst_eig = worst_lyap = worst_spec = -np.inf
-        npoints = 0
-        performance = self.specs or [Stability()]
-        bounds = values or (None,)
-        for delta, p in self._points():
-
-            def mix(items):
-                return np.tensordot(delta, np.stack(items), axes=1)
-
-            A = mix([v["A"] for v in self.original])
-            B2 = mix([v["B2"] for v in self.original])
-            if not Zs:
-                K = np.zeros((0, A.shape[0]))
-            elif self.scheduled and not lyap.constant:
-                Wt = mix([Ws[lyap.index[j]] for j in range(len(delta))])
-                K = sc.unscale_K(-mix(Zs) @ np.linalg.inv(Wt))
-            elif self.scheduled:
-                K = mix(gains)
-            else:
-                K = gains[0]
-            Acl = A - B2 @ K
-            eig = np.linalg.eigvals(Acl)
-            worst_eig = max(worst_eig, (eig.real.max() if self.continuous
-                                        else np.abs(eig).max() - 1))  # fmt: skip
-            for region in self.regions:
-                L = region.L * sc.a
-                for s in eig:
-                    F = L + region.M * s + region.M.T * np.conj(s)
-                    worst_spec = max(worst_spec, float(np.linalg.eigvalsh(F)[-1]))
-            W_here = mix([Ws[lyap.index[j]] for j in range(len(delta))])
-            P = sc.unscale_P(np.linalg.inv(W_here))
-            for rate in lyap.rates:
-                if self.continuous:
-                    dW = sum(
-                        delta[j] * f * Ws[w]
-                        for j in range(len(delta))
-                        for w, f in step_terms(lyap, j, rate, True)
-                    )
-                    moved = -P @ sc.unscale_W(np.asarray(dW + 0 * W_here)) @ P
-                else:
-                    if p is not None:
-                        nxt = np.clip(
-                            p + rate, self.sys.domain.lower, self.sys.domain.upper
-                        )
-                        delta_next = self.sys.domain._weights(nxt)
-                    else:
-                        delta_next = delta
-                    W_next = np.tensordot(
-                        delta_next,
-                        np.stack([Ws[lyap.index[j]] for j in range(len(delta))]),
-                        axes=1,
-                    )
-                    moved = sc.unscale_P(np.linalg.inv(W_next))
-                npoints += 1
-                for i, (spec, bound) in enumerate(zip(performance, bounds)):
-                    if isinstance(spec, Stability):
-                        frozen = (Acl, None, None, None, P, moved)
-                    else:
-                        Bw = mix([v[(i, "Bw")] for v in self.original])
-                        Cz = mix([v[(i, "Cz")] for v in self.original])
-                        Dzu = mix([v[(i, "Dzu")] for v in self.original])
-                        Dzw = mix([v[(i, "Dzw")] for v in self.original])
-                        frozen = (Acl, Bw, Cz - Dzu @ K, Dzw, P, moved)
-                    worst_spec = max(
-                        worst_spec, spec.residual(frozen, bound, self.continuous)
-                    )
-                worst_lyap = max(
-                    worst_lyap,
-                    Stability().residual(
-                        (Acl, None, None, None, P, moved), None, self.continuous
-                    ),
-                )
-        return Certificate(
-            lmi_checks=sol.checks,
-            margin=self.lmi.margin,
-            max_closed_loop_real=float(worst_eig),
-            max_lyapunov_eig=float(worst_lyap),
-            npoints=npoints,
-            max_original_eig=float(worst_spec),
-        )
-
-
-def _shifted(blocks, shift):
-    """`blocks` plus ``shift I`` on the diagonal (``2 X`` stands for ``X + X'``)."""
-    out = [list(row) for row in blocks]
-    for i, row in enumerate(out):
-        size = row[i].shape[0]
-        row[i] = row[i] + shift * np.eye(size)
-    return out

@@ -198,23 +198,7 @@ class _Job:
         lmi = self.lmi
         first = self.chain[0][0] if self.chain else None
         self.compiling += lmi.compile(stage, objective, first)
-        try:
-            sol = lmi.solve(
-                objective, stage=stage, solvers=self.chain, certify=certify,
-                deadline=self.deadline,
-            )  # fmt: skip
-        except InfeasibleError as exc:
-            self.attempts.extend(exc.attempts)
-            if proof and not exc.farkas.normalized:
-                raise
-            self.notes.append(f"{stage}: {exc.farkas}")
-            return None
-        except CertificationError as exc:
-            self.attempts.extend(exc.attempts)
-            self.notes.append(f"{stage}: {exc}")
-            return None
-        self.attempts.extend(sol.attempts)
-        return sol
+        return solve_stage(self, stage, objective, certify, proof)
 
     def _accept(self, sol, label, bounded=False):
         """Full verification of a point: a `_Point`, or None.
@@ -419,6 +403,34 @@ class _Job:
         if self._accept(best.solution, "final point", bounded=True) is None:
             return None
         return best, gamma_opt
+
+
+def solve_stage(job, stage, objective, certify=True, proof=False):
+    """Solve one stage of a ladder job; None if it gave no certified point.
+
+    `job` has ``lmi``, ``chain``, ``deadline``, ``attempts`` and ``notes``.
+    A verified infeasibility proof that needs no normalisation is re-raised
+    when `proof` is set (the stage poses the user's problem itself, with
+    its variables bounded by the data); otherwise it only ends this branch,
+    and the note says what it proved.
+    """
+    try:
+        sol = job.lmi.solve(
+            objective, stage=stage, solvers=job.chain, certify=certify,
+            deadline=job.deadline,
+        )  # fmt: skip
+    except InfeasibleError as exc:
+        job.attempts.extend(exc.attempts)
+        if proof and not exc.farkas.normalized:
+            raise
+        job.notes.append(f"{stage}: {exc.farkas}")
+        return None
+    except CertificationError as exc:
+        job.attempts.extend(exc.attempts)
+        job.notes.append(f"{stage}: {exc}")
+        return None
+    job.attempts.extend(sol.attempts)
+    return sol
 
 
 def gain_tangent(lmi, scaling, W, Z, gain_bound):

@@ -21,8 +21,8 @@ _WARN_COMPILE_SECONDS = 30.0
 _BYTES_PER_ENTRY = 400  # cvxpy's compiled problem, measured order of magnitude
 
 
-def validated_options(regions, backoff, gamma, gain_bound, margin, solvers, time_limit):
-    """Check the keyword options of the four functions at their boundary."""
+def validated_regions(regions) -> tuple:
+    """`regions` as a tuple of `LMIRegion` (a single one accepted)."""
     if isinstance(regions, LMIRegion):
         regions = (regions,)
     try:
@@ -34,6 +34,12 @@ def validated_options(regions, backoff, gamma, gain_bound, margin, solvers, time
     for region in regions:
         if not isinstance(region, LMIRegion):
             raise TypeError(f"regions: expected LMIRegion objects, got {region!r}")
+    return regions
+
+
+def validated_options(regions, backoff, gamma, gain_bound, margin, solvers, time_limit):
+    """Check the keyword options of the four functions at their boundary."""
+    regions = validated_regions(regions)
     backoff = real_number(backoff, "backoff", allow_none=True, minimum=0.0)
     # gamma^2 and gain_bound^2 must stay finite in float64.
     gamma = real_number(gamma, "gamma", allow_none=True, positive=True, below=1e150)

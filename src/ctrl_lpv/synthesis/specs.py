@@ -7,21 +7,25 @@ The blocks read the vertex data through a `~ctrl_lpv.synthesis.terms.Terms`
 object, which evaluates each parameter-dependent product at one coefficient
 of the relaxation (see `ctrl_lpv.synthesis.parametric`):
 
-======  =====================================================================
-spec    LMIs (continuous time; ``sym(X) = X + X'``)
-======  =====================================================================
-Hinf    ``[[sym(A W + B2 Z) - dW/dt, *, *], [Bw', -I, *], [Cz W + Dzu Z, Dzw, -g I]] < 0``
-H2      ``[[sym(A W + B2 Z) - dW/dt, *], [Cz W + Dzu Z, -I]] < 0``,
-        ``[[Y, Bw'], [Bw, W]] > 0``, ``trace Y < h``
-======  =====================================================================
+In continuous time, with ``sym(X) = X + X'`` and ``*`` the symmetric
+completion:
+
+* Hinf: ``[[sym(A W + B2 Z) - dW/dt, *, *], [Bw', -I, *],
+  [Cz W + Dzu Z, Dzw, -g I]] < 0``;
+* H2: ``[[sym(A W + B2 Z) - dW/dt, *], [Bw', -I]] < 0``,
+  ``[[Y, Cz W + Dzu Z], [*, W]] > 0`` and ``trace Y < h``;
 
 and in discrete time, with ``W+`` the Lyapunov matrix at the next sample,
-``[[-W, *, *, *], [0, -g I, *, *], [A W + B2 Z, Bw, -W+, *],
-[Cz W + Dzu Z, Dzw, 0, -I]] < 0`` (H-infinity; Schur complements of the
-primal bounded-real inequality ``M' diag(P+, I) M < diag(P, g I)``) and
-``[[-W, *, *], [A W + B2 Z, -W+, *], [Cz W + Dzu Z, 0, -I]] < 0``,
-``[[-Y, *, *], [Bw, -W+, *], [Dzw, 0, -I]] < 0`` (H2). The certified bound
-is ``sqrt(g)`` or ``sqrt(h)``.
+``[[-W+, *, *, *], [(A W + B2 Z)', -W, *, *], [Bw', 0, -I, *],
+[0, Cz W + Dzu Z, Dzw, -g I]] < 0`` (the dual bounded-real inequality) and
+``[[-W+, *, *], [(A W + B2 Z)', -W, *], [Bw', 0, -I]] < 0``,
+``[[-Y, *, *], [(Cz W + Dzu Z)', -W, *], [Dzw', 0, -I]] < 0`` (H2). The
+certified bound is ``sqrt(g)`` or ``sqrt(h)``. The H2 LMIs are the
+controllability (Gramian) form, whose ``W`` bounds the state covariance
+under white noise; with the dual bounded-real inequality it shares the
+``Bw Bw'`` term, so that mixed H2/H-infinity designs with one ``W`` are not
+more conservative than necessary (Khargonekar and Rotea 1991; Scherer,
+Gahinet and Chilali 1997).
 
 With a common gain and a parameter-dependent ``W`` the blocks are the
 extended ones (see `_extended`): ``A_cl W`` becomes ``A_cl G`` with a
@@ -31,9 +35,10 @@ parameter. Discrete time: ``[[W - G - G', *], [A_cl G, -W+]] < 0``
 and likewise in the H-infinity and H2 blocks.
 
 For time-varying parameters the H-infinity bound bounds the L2 gain over
-every admissible parameter trajectory; the H2 bound the output energy of
-every impulse (the energy of ``z`` for ``w = e_i delta(t)``, summed over
-``i``), so for frozen parameters it bounds the H2 norm.
+every admissible parameter trajectory; the H2 bound the steady-state
+output variance ``E z'z`` under unit white noise ``w`` for every admissible
+trajectory (the covariance stays below ``W``), so for frozen parameters it
+bounds the H2 norm.
 """
 
 from __future__ import annotations
@@ -108,42 +113,34 @@ class Hinf(_Performance):
 
     def lmis(self, t, continuous):
         """The LMI blocks at one coefficient (see the module docstring)."""
-        nw, nz = t.nw(self), t.nz(self)
-        Bw, Dzw, CW = t.data(self, "Bw"), t.data(self, "Dzw"), t.CW(self)
-        g = t.const(t.g(self)[0, 0] * np.eye(nz))
+        Bw, Dzw = t.data(self, "Bw"), t.data(self, "Dzw")
+        g = t.const(t.g(self)[0, 0] * np.eye(t.nz(self)))
+        eye_w = t.rho(self) * t.identity(t.nw(self))
         if t.slack:
-            AG, CG = t.AG(), t.CG(self)
-            if continuous:
-                return [("H-infinity", [
-                    *_extended(t),
-                    [Bw.T, 0, -t.rho(self, "w") * t.identity(nw)],
-                    [CG, t.eps() * CG, Dzw, -g],
-                ])]  # fmt: skip
-            return [("H-infinity", [
-                [t.W() - 2 * t.G()],
-                [0, -t.const(t.g(self)[0, 0] * np.eye(nw))],
-                [AG, Bw, -t.W_moved()],
-                [CG, Dzw, 0, -t.rho(self, "z") * t.identity(nz)],
-            ])]  # fmt: skip
-        if continuous:
-            blocks = [
-                [2 * t.AW() - t.W_moved()],
-                [Bw.T, -t.rho(self, "w") * t.identity(nw)],
-                [CW, Dzw, -g],
-            ]
+            AX, CX, X = t.AG(), t.CG(self), 2 * t.G() - t.W()
+        else:
+            AX, CX, X = t.AW(), t.CW(self), t.W()
+        if continuous and t.slack:
+            blocks = [*_extended(t), [Bw.T, 0, -eye_w], [CX, t.eps() * CX, Dzw, -g]]
+        elif continuous:
+            blocks = [[2 * AX - t.W_moved()], [Bw.T, -eye_w], [CX, Dzw, -g]]
         else:
             blocks = [
-                [-t.W()],
-                [0, -t.const(t.g(self)[0, 0] * np.eye(nw))],
-                [t.AW(), Bw, -t.W_moved()],
-                [CW, Dzw, 0, -t.rho(self, "z") * t.identity(nz)],
+                [-t.W_moved()],
+                [AX.T, -X],
+                [Bw.T, 0, -eye_w],
+                [0, CX, Dzw, -g],
             ]
         return [("H-infinity", blocks)]
 
     def residual(self, frozen, gamma, continuous) -> float:
-        """Largest normalised eigenvalue of the primal bounded-real inequality."""
-        A, Bw, Cz, Dzw, P, P_moved = frozen
-        nw, nz = Bw.shape[1], Cz.shape[0]
+        """Largest normalised eigenvalue of the bounded-real inequality.
+
+        Continuous time the primal form with ``P``; discrete time the dual
+        form with ``W`` and its next value ``W+``.
+        """
+        A, Bw, Cz, Dzw, P, P_moved, W, W_moved = frozen
+        n, nw, nz = A.shape[0], Bw.shape[1], Cz.shape[0]
         if continuous:
             M = np.block([
                 [A.T @ P + P @ A + P_moved, P @ Bw, Cz.T],
@@ -151,11 +148,12 @@ class Hinf(_Performance):
                 [Cz, Dzw, -gamma**2 * np.eye(nz)],
             ])  # fmt: skip
         else:
-            AB = np.hstack([A, Bw])
-            CD = np.hstack([Cz, Dzw])
-            M = AB.T @ P_moved @ AB + CD.T @ CD
-            M[: A.shape[0], : A.shape[0]] -= P
-            M[A.shape[0] :, A.shape[0] :] -= gamma**2 * np.eye(nw)
+            M = np.block([
+                [-W_moved, A @ W, Bw, np.zeros((n, nz))],
+                [W @ A.T, -W, np.zeros((n, nw)), W @ Cz.T],
+                [Bw.T, np.zeros((nw, n)), -np.eye(nw), Dzw.T],
+                [np.zeros((nz, n)), Cz @ W, Dzw, -gamma**2 * np.eye(nz)],
+            ])  # fmt: skip
         return normalized_max_eig(M[None])
 
 
@@ -189,52 +187,37 @@ class H2(_Performance):
 
     def lmis(self, t, continuous):
         """The LMI blocks at one coefficient (see the module docstring)."""
-        nz, rho = t.nz(self), t.rho(self, "z")
-        Bw, CW, Y = t.data(self, "Bw"), t.CW(self), t.const(t.Y(self))
+        rho = t.rho(self)
+        Bw, Dzw, Y = t.data(self, "Bw"), t.data(self, "Dzw"), t.const(t.Y(self))
+        eye_w = rho * t.identity(t.nw(self))
         if t.slack:
-            CG = t.CG(self)
-            if continuous:
-                return [
-                    ("H2 Lyapunov", [*_extended(t), [CG, t.eps() * CG, -rho * t.identity(nz)]]),
-                    ("H2 trace", [[-Y], [Bw, -t.W()]]),
-                ]  # fmt: skip
-            Dzw = t.data(self, "Dzw")
-            return [
-                ("H2 Lyapunov", [[t.W() - 2 * t.G()], [t.AG(), -t.W_moved()],
-                                 [CG, 0, -rho * t.identity(nz)]]),
-                ("H2 trace", [[-Y], [Bw, -t.W_moved()], [Dzw, 0, -rho * t.identity(nz)]]),
-            ]  # fmt: skip
+            # W(delta) only through its inverse's lower bound G + G' - W.
+            AX, CX, X = t.AG(), t.CG(self), 2 * t.G() - t.W()
+        else:
+            AX, CX, X = t.AW(), t.CW(self), t.W()
         if continuous:
-            return [
-                (
-                    "H2 Lyapunov",
-                    [[2 * t.AW() - t.W_moved()], [CW, -rho * t.identity(nz)]],
-                ),
-                ("H2 trace", [[-Y], [Bw, -t.W()]]),
-            ]
-        Dzw = t.data(self, "Dzw")
-        return [
-            (
-                "H2 Lyapunov",
-                [[-t.W()], [t.AW(), -t.W_moved()], [CW, 0, -rho * t.identity(nz)]],
-            ),
-            ("H2 trace", [[-Y], [Bw, -t.W_moved()], [Dzw, 0, -rho * t.identity(nz)]]),
-        ]
+            gramian = _extended(t) + [[Bw.T, 0, -eye_w]] if t.slack else [
+                [2 * AX - t.W_moved()], [Bw.T, -eye_w]]  # fmt: skip
+            trace = [[-Y], [CX.T, -X]]
+        else:
+            gramian = [[-t.W_moved()], [AX.T, -X], [Bw.T, 0, -eye_w]]
+            trace = [[-Y], [CX.T, -X], [Dzw.T, 0, -eye_w]]
+        return [("H2 Gramian", gramian), ("H2 trace", trace)]
 
     def residual(self, frozen, gamma, continuous) -> float:
-        """Largest normalised eigenvalue of the primal H2 inequalities.
+        """Largest normalised eigenvalue of the Gramian inequalities.
 
-        ``A'P + P A + dP/dt + C'C < 0`` (or ``A'P+ A - P + C'C < 0``) and the
-        trace bound ``trace(Bw' P Bw) < gamma^2`` (``Bw' P+ Bw + Dzw' Dzw``
-        in discrete time), as a relative excess.
+        ``A W + W A' - dW/dt + Bw Bw' < 0`` (or ``A W A' - W+ + Bw Bw' < 0``)
+        and the trace bound ``trace(Cz W Cz') < gamma^2`` (plus
+        ``trace(Dzw Dzw')`` in discrete time), as a relative excess.
         """
-        A, Bw, Cz, Dzw, P, P_moved = frozen
+        A, Bw, Cz, Dzw, _, _, W, W_moved = frozen
         if continuous:
-            M = A.T @ P + P @ A + P_moved + Cz.T @ Cz
-            energy = np.trace(Bw.T @ P @ Bw)
+            M = A @ W + W @ A.T - W_moved + Bw @ Bw.T
+            energy = np.trace(Cz @ W @ Cz.T)
         else:
-            M = A.T @ P_moved @ A - P + Cz.T @ Cz
-            energy = np.trace(Bw.T @ P_moved @ Bw + Dzw.T @ Dzw)
+            M = A @ W @ A.T - W_moved + Bw @ Bw.T
+            energy = np.trace(Cz @ W @ Cz.T + Dzw @ Dzw.T)
         excess = (energy - gamma**2) / gamma**2
         return max(normalized_max_eig(M[None]), excess)
 
@@ -288,7 +271,7 @@ class Stability:
 
     def residual(self, frozen, gamma, continuous) -> float:
         """Largest normalised eigenvalue of the primal Lyapunov inequality."""
-        A, _, _, _, P, P_moved = frozen
+        A, _, _, _, P, P_moved, _, _ = frozen
         if continuous:
             M = A.T @ P + P @ A + P_moved
         else:

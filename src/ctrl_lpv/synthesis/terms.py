@@ -33,9 +33,8 @@ class Terms:
     specs : dict
         Spec -> index.
     rho : dict
-        ``(index, "w" or "z") -> weight`` of the identity block of a spec's
-        channel in the prescaled LMIs (powers of two; see
-        `ctrl_lpv.synthesis.general`).
+        Spec index -> weight of the identity block of the spec's ``w`` in
+        the prescaled LMIs (a power of two; see `ctrl_lpv.synthesis.general`).
     scheduled : bool
         One ``Z`` per vertex.
     continuous : bool
@@ -142,9 +141,9 @@ class Terms:
         """Number of performance outputs of a spec."""
         return self.d[0][(self.specs[spec], "Cz")].shape[0]
 
-    def rho(self, spec, side):
-        """Weight of the identity block of a spec's `side` (``"w"``, ``"z"``)."""
-        return self.weights[(self.specs[spec], side)]
+    def rho(self, spec):
+        """Weight of the identity block of a spec's exogenous input."""
+        return self.weights[self.specs[spec]]
 
     def g(self, spec):
         """The spec's squared bound variable."""

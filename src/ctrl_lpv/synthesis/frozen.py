@@ -1,0 +1,127 @@
+"""Checks of a point of the general engine on frozen closed loops, in model units.
+
+At the vertices, random parameter points and the centre, and at every
+vertex of the rate box: closed-loop eigenvalues (Hurwitz or Schur), the
+pole regions, and each spec's inequality written with the returned
+Lyapunov matrix and gains in the model's units (`spec.residual`). These are
+recomputed from the model's data, independently of the relaxation whose
+coefficients `ctrl_lpv.lmi.LMIProblem` checks.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .parametric import step_terms
+from .results import Certificate
+from .specs import Stability
+
+_VERIFY_SAMPLES = 64
+
+
+def _points(job):
+    """Convex coordinates (and box points) of the verification points."""
+    sys, N = job.sys, job.sys.nvertices
+    rng = np.random.default_rng(12345)
+    domain = sys.domain
+    if hasattr(domain, "lower") and N > 1:
+        points = list(domain.points)
+        points += list(
+            rng.uniform(
+                domain.lower, domain.upper, size=(_VERIFY_SAMPLES, domain.nparams)
+            )
+        )
+        points.append(0.5 * (domain.lower + domain.upper))
+        return [(domain._weights(np.asarray(p, float)), np.asarray(p, float))
+                for p in points]  # fmt: skip
+    deltas = list(np.eye(N))
+    if N > 1:
+        deltas += list(rng.dirichlet(np.ones(N), size=_VERIFY_SAMPLES))
+    return [(d, None) for d in deltas]
+
+
+def _moved(job, Ws, delta, p, rate):
+    """``dW/dt`` (continuous) or ``W`` at the next sample, model units."""
+    lyap, sc = job.lyap, job.scaling
+    N = len(delta)
+    if job.continuous:
+        dW = np.zeros_like(Ws[0])
+        for j in range(N):
+            for w, f in step_terms(lyap, j, rate, True):
+                dW = dW + delta[j] * f * Ws[w]
+        return sc.unscale_W(dW)
+    nxt = delta
+    if p is not None and not lyap.constant:
+        domain = job.sys.domain
+        nxt = domain._weights(np.clip(p + rate, domain.lower, domain.upper))
+    return sc.unscale_W(
+        np.tensordot(nxt, np.stack([Ws[lyap.index[j]] for j in range(N)]), axes=1)
+    )
+
+
+def verify_frozen(job, sol, gains, values, Ws, Zs) -> Certificate:
+    """Frozen closed loops in the model's units at vertices and samples."""
+    sc, lyap = job.scaling, job.lyap
+    worst_eig = worst_lyap = worst_spec = -np.inf
+    npoints = 0
+    performance = job.specs or [Stability()]
+    bounds = values or (None,)
+    for delta, p in _points(job):
+
+        def mix(items, delta=delta):
+            return np.tensordot(delta, np.stack(items), axes=1)
+
+        A = mix([v["A"] for v in job.original])
+        B2 = mix([v["B2"] for v in job.original])
+        if not Zs:
+            K = np.zeros((0, A.shape[0]))
+        elif job.scheduled and not lyap.constant:
+            Wt = mix([Ws[lyap.index[j]] for j in range(len(delta))])
+            K = sc.unscale_K(-mix(Zs) @ np.linalg.inv(Wt))
+        elif job.scheduled:
+            K = mix(gains)
+        else:
+            K = gains[0]
+        Acl = A - B2 @ K
+        eig = np.linalg.eigvals(Acl)
+        worst_eig = max(worst_eig, (eig.real.max() if job.continuous
+                                    else np.abs(eig).max() - 1))  # fmt: skip
+        for region in job.regions:
+            L = region.L * sc.a
+            for s in eig:
+                F = L + region.M * s + region.M.T * np.conj(s)
+                worst_spec = max(worst_spec, float(np.linalg.eigvalsh(F)[-1]))
+        W_here = mix([Ws[lyap.index[j]] for j in range(len(delta))])
+        P = sc.unscale_P(np.linalg.inv(W_here))
+        W = sc.unscale_W(W_here)
+        for rate in lyap.rates:
+            W_moved = _moved(job, Ws, delta, p, rate)
+            if job.continuous:
+                # d(W^-1)/dt = -W^-1 (dW/dt) W^-1.
+                P_moved = -P @ W_moved @ P
+            else:
+                P_moved = np.linalg.inv(W_moved) if not lyap.constant else P
+            npoints += 1
+            loop = (Acl, None, None, None, P, P_moved, W, W_moved)
+            for i, (spec, bound) in enumerate(zip(performance, bounds)):
+                frozen = loop
+                if not isinstance(spec, Stability):
+                    Bw, Cz, Dzu, Dzw = (
+                        mix([v[(i, key)] for v in job.original])
+                        for key in ("Bw", "Cz", "Dzu", "Dzw")
+                    )
+                    frozen = (Acl, Bw, Cz - Dzu @ K, Dzw, P, P_moved, W, W_moved)
+                worst_spec = max(
+                    worst_spec, spec.residual(frozen, bound, job.continuous)
+                )
+            worst_lyap = max(
+                worst_lyap, Stability().residual(loop, None, job.continuous)
+            )
+    return Certificate(
+        lmi_checks=sol.checks,
+        margin=job.lmi.margin,
+        max_closed_loop_real=float(worst_eig),
+        max_lyapunov_eig=float(worst_lyap),
+        npoints=npoints,
+        max_original_eig=float(worst_spec),
+    )
