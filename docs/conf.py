@@ -39,6 +39,9 @@ extensions = [
     # renders offline, with no CDN (the package sets mathjax_path).
     "sphinx-mathjax-offline",
     "numpydoc",
+    # The gallery: examples/plot_*.py run at build time, with their output
+    # and figures (generated/gallery, rebuilt on every build).
+    "sphinx_gallery.gen_gallery",
 ]
 # No sphinx.ext.intersphinx: the docs must build and read without network
 # access (tests/test_docs.py checks that no page loads a remote script).
@@ -75,6 +78,28 @@ numpydoc_show_inherited_class_members = False
 numpydoc_class_members_toctree = False
 numpydoc_attributes_as_param_list = True
 numpydoc_xref_param_type = False
+
+# -- sphinx-gallery ------------------------------------------------------------
+# The examples live in ``examples/`` at the repository root (runnable as
+# scripts); their pages, figures and downloads are written to
+# ``generated/gallery``, which `_clean_generated` removes before every build,
+# so every build runs every example (a failing example fails the build).
+sphinx_gallery_conf = {
+    "examples_dirs": ["../examples"],
+    "gallery_dirs": ["generated/gallery"],
+    "filename_pattern": r"/plot_",
+    "within_subsection_order": "FileNameSortKey",
+    "backreferences_dir": None,
+    "doc_module": (),
+    "download_all_examples": False,
+    "write_computation_times": False,
+    "show_memory": False,
+    "remove_config_comments": True,
+    "matplotlib_animations": False,
+    "image_scrapers": ("matplotlib",),
+    "reset_modules": ("matplotlib",),
+    "plot_gallery": "True",
+}
 
 # -- HTML --------------------------------------------------------------------
 html_theme = "alabaster"

@@ -82,6 +82,33 @@ def test_docs_build_with_warnings_as_errors(html):
         assert list(html.rglob(f"{figure}.png")), f"{figure}.png not in the build"
 
 
+GALLERY = sorted(p.stem for p in (DOCS.parent / "examples").glob("plot_*.py"))
+
+
+def test_objectives_and_discrete_pages_in_the_build(html):
+    index = (html / "index.html").read_text()
+    for page in ("objectives", "discrete"):
+        assert (html / f"{page}.html").is_file()
+        assert f'href="{page}.html"' in index, f"{page} not in the toctree"
+    # The citations of the objectives page resolve (no unknown-target marks).
+    text = (html / "objectives.html").read_text()
+    for label in ("SGC97", "GAC96", "dOBG99", "ATB01", "OP07", "DB01"):
+        assert label in text
+
+
+@pytest.mark.parametrize("example", GALLERY)
+def test_gallery_example_ran_with_a_figure(html, example):
+    """Each example runs at build time: its page shows output and a figure."""
+    page = html / "generated" / "gallery" / f"{example}.html"
+    assert page.is_file(), f"no gallery page for {example}"
+    text = page.read_text()
+    figures = list(html.rglob(f"sphx_glr_{example}_*.png"))
+    figures = [f for f in figures if "thumb" not in f.name]
+    assert figures, f"{example}: no figure in the build"
+    assert any(f.name in text for f in figures)
+    assert "sphx-glr-script-out" in text, f"{example}: no captured output"
+
+
 _REMOTE = re.compile(
     r"""<(?:script|link|img|iframe)\b[^>]*\b(?:src|href)\s*=\s*["']"""
     r"""((?:[a-z][a-z0-9+.-]*:)?//[^"']*)""",

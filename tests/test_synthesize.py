@@ -65,7 +65,9 @@ def test_pdl_stability_where_no_constant_lyapunov_matrix_exists():
     # A(k)' P(k) + P(k) A(k) < 0 at every frozen k of a fine grid.
     for k in np.linspace(1.0, 10.0, 201):
         delta = (10.0 - k) / 9.0
-        P = np.linalg.inv(delta * np.linalg.inv(P_lower) + (1 - delta) * np.linalg.inv(P_upper))
+        P = np.linalg.inv(
+            delta * np.linalg.inv(P_lower) + (1 - delta) * np.linalg.inv(P_upper)
+        )
         A = np.array([[0.0, 1.0], [-k, -0.5]])
         assert np.linalg.eigvalsh(P).min() > 0
         assert np.linalg.eigvalsh(A.T @ P + P @ A).max() < 0
@@ -76,7 +78,9 @@ def test_pdl_gain_bound_tight_for_time_invariant_and_growing_with_the_rate():
     worst = _frozen_worst()
     zero = np.zeros((1, 2))
     bounds = [
-        lpv.l2_gain_bound(sys, zero, 0, 0, 0, lyapunov="affine", rate_bounds={"k": nu}).gamma
+        lpv.l2_gain_bound(
+            sys, zero, 0, 0, 0, lyapunov="affine", rate_bounds={"k": nu}
+        ).gamma
         for nu in (0.0, 0.3, 1.0)
     ]
     # Never below the worst frozen norm (a lower bound of every valid bound
@@ -124,16 +128,28 @@ def test_mixed_h2_with_hinf_constraint(plant):
         ({"constraints": [5]}, TypeError, "constraints"),
         ({"constraints": 5}, TypeError, "constraints"),
         ({"constraints": [lpv.Hinf("w")]}, ValueError, "constraints"),
-        ({"constraints": [lpv.GainBound(1.0), lpv.GainBound(2.0)]}, ValueError, "constraints"),
+        (
+            {"constraints": [lpv.GainBound(1.0), lpv.GainBound(2.0)]},
+            ValueError,
+            "constraints",
+        ),
         ({"lyapunov": "affine"}, ValueError, "rate_bounds"),
         ({"lyapunov": "quadratic"}, ValueError, "lyapunov"),
         ({"lyapunov": "affine", "rate_bounds": {"q": 0.0}}, ValueError, "rate_bounds"),
         ({"lyapunov": "affine", "rate_bounds": {"p": -1.0}}, ValueError, "rate_bounds"),
         ({"lyapunov": "affine", "rate_bounds": [0.0]}, TypeError, "rate_bounds"),
         ({"lyapunov": "affine", "rate_bounds": {"p": "0"}}, TypeError, "rate_bounds"),
-        ({"objective": lpv.H2("w"), "rate_bounds": {"p": 0.0}}, ValueError, "rate_bounds"),
         (
-            {"lyapunov": "affine", "rate_bounds": {"p": 0.0}, "constraints": [lpv.disk(5.0)]},
+            {"objective": lpv.H2("w"), "rate_bounds": {"p": 0.0}},
+            ValueError,
+            "rate_bounds",
+        ),
+        (
+            {
+                "lyapunov": "affine",
+                "rate_bounds": {"p": 0.0},
+                "constraints": [lpv.disk(5.0)],
+            },
             ValueError,
             "constraints",
         ),
@@ -154,7 +170,9 @@ def test_specs_validate_their_arguments():
 
 
 def test_h2_refuses_feedthrough_in_continuous_time():
-    sys = lpv.PolytopicStateSpace([ct.ss([[-1.0]], [[1.0, 1.0]], [[1.0]], [[1.0, 0.0]])])
+    sys = lpv.PolytopicStateSpace(
+        [ct.ss([[-1.0]], [[1.0, 1.0]], [[1.0]], [[1.0, 0.0]])]
+    )
     with pytest.raises(ValueError, match="H2"):
         lpv.h2_state_feedback(sys, w=0, u=1)
 
@@ -172,3 +190,20 @@ def test_discrete_regions_are_disks_inside_the_unit_circle():
         lpv.synthesize(sys, 0, constraints=[lpv.halfplane(0.1)])
     with pytest.raises(ValueError, match="unit circle"):
         lpv.synthesize(sys, 0, constraints=[lpv.disk(0.5, 0.7)])
+
+
+def test_two_specs_of_one_kind_on_different_channels(plant):
+    bound = 2.0
+    design = lpv.synthesize(
+        plant,
+        "u",
+        objective=lpv.Hinf("w", "y"),
+        constraints=[lpv.Hinf("w", "uz", bound=bound)],
+    )
+    assert design.bounds[lpv.Hinf("w", "uz", bound=bound)] < bound
+    for p in np.linspace(-1.0, 1.0, 11):
+        A, B, C, D = design.closed_loop({"p": p})  # the objective's channel, w -> y
+        assert ct.linfnorm(ct.ss(A, B, C, D))[0] <= design.gamma
+        # w -> uz = u = -K(p) x, written from the plant's data.
+        K = design.gain({"p": p})
+        assert ct.linfnorm(ct.ss(A, B, -K, 0))[0] < bound

@@ -186,6 +186,7 @@ class _Job:
         self.index = {spec: i for i, spec in enumerate(specs)}
         # A common gain with a parameter-dependent W: the extended LMIs.
         self.slack = not (lyap.constant or scheduled) and self._nZ() > 0
+        self.eps = EPSILONS[0]
 
     def _nZ(self) -> int:
         """Number of ``Z`` variables (none for an analysis, without inputs)."""
@@ -217,6 +218,8 @@ class _Job:
         # minimisation the smallest certified bound.
         best = None
         for eps in EPSILONS:
+            # Kept on the job: a rebuild (the bound's rescaling) reads it.
+            self.eps = eps
             self.lmi.set_parameter("eps", eps)
             found = self._stages()
             if found is None:

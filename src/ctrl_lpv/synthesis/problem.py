@@ -25,7 +25,7 @@ from .terms import Terms
 BOUND_SLACK = 1e-6
 # The scalar of the continuous-time extended LMIs (prescaled time units,
 # where the data are of order one), tried in turn.
-EPSILONS = (1.0, 0.1, 0.01, 0.001)
+EPSILONS = (100.0, 30.0, 10.0, 3.0, 1.0, 0.1, 0.01)
 
 
 def _rho(job):
@@ -73,7 +73,7 @@ def build_problem(job) -> LMIProblem:
         lmi.variable(name, (1, 1))
     if job.slack:
         lmi.variable("G", (n, n))
-        lmi.parameter("eps", nonneg=True, value=EPSILONS[0])
+        lmi.parameter("eps", nonneg=True, value=job.eps)
     lmi.parameter("g_max", (1, 1), nonneg=True, value=np.ones((1, 1)))
     lmi.parameter("w_max", nonneg=True, value=1.0)
     lmi.parameter("z_max", nonneg=True, value=1.0)
@@ -92,13 +92,15 @@ def build_problem(job) -> LMIProblem:
             at = c.label + (f", rate {np.round(r * job.scaling.a, 12).tolist()}"
                             if len(job.rates) > 1 else "")  # fmt: skip
             for spec in performance:
+                # Specs of one kind (two Hinf channels) are told apart.
+                tag = f" [{spec}]" if len(performance) > 1 else ""
                 named = spec.lmis(terms(zero, c, r), job.continuous)
                 for q, (name, _) in enumerate(named):
 
                     def blocks(v, spec=spec, q=q, c=c, r=r):
                         return spec.lmis(terms(v, c, r), job.continuous)[q][1]
 
-                    lmi.add(f"{name} {at}", blocks)
+                    lmi.add(f"{name}{tag} {at}", blocks)
             if not job.specs:
                 # The decay of the stabilization stage, as in Lemma 1.
                 def decay(v, c=c, r=r):
