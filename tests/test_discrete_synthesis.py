@@ -107,7 +107,10 @@ def test_reference_scalar_dt_hinf_brute_force():
 # ----------------------------------------------------------------------
 # LTI discrete H-infinity vs Riccati
 # ----------------------------------------------------------------------
-@pytest.mark.parametrize("index, n, m", [(0, 1, 1), (1, 3, 2), (2, 5, 1)])
+@pytest.mark.parametrize(
+    "index, n, m",
+    [(0, 1, 1), (1, 3, 2), pytest.param(2, 5, 1, marks=pytest.mark.slow)],
+)
 def test_lti_dt_hinf_matches_riccati(index, n, m):
     rng = np.random.default_rng([SEED, 9, index])
     A, B1, B2, C, _, _ = random_lti(rng, n=n, m=m, dt=1)
@@ -232,14 +235,27 @@ def test_dt_stabilization_with_dt_true():
     assert ctrl.isdtime(strict=True)
 
 
+def _autonomous(A, dt=DT):
+    n = A.shape[0]
+    return lti_system(lpv, A, np.eye(n), np.eye(n), np.eye(n), dt=dt)
+
+
 def test_dt_quadratic_stability_analysis():
     # Schur, not Hurwitz: stable in DT; P satisfies A'PA - P < 0.
-    stable = lpv.quadratic_stability(_scalar(0.5))
-    P = np.atleast_2d(stable.P)
-    assert P[0, 0] > 0 and 0.25 * P[0, 0] - P[0, 0] < 0
+    A = np.array([[0.5, 0.3], [0.0, -0.3]])
+    P = np.asarray(lpv.quadratic_stability(_autonomous(A)).P)
+    assert np.linalg.eigvalsh(P).min() > 0
+    assert np.linalg.eigvalsh(A.T @ P @ A - P).max() < 0
     # Hurwitz, not Schur: unstable in DT.
     with pytest.raises(lpv.SynthesisError):
-        lpv.quadratic_stability(_scalar(-1.5))
+        lpv.quadratic_stability(_autonomous(np.diag([-1.5, -0.2])))
+
+
+def test_quadratic_stability_one_state():
+    P = np.atleast_2d(lpv.quadratic_stability(_autonomous(np.array([[0.5]]))).P)
+    assert P[0, 0] > 0
+    with pytest.raises(lpv.SynthesisError):
+        lpv.quadratic_stability(_autonomous(np.array([[-1.5]])))
 
 
 def test_dt_gain_bounds_analysis_of_a_fixed_gain():
