@@ -5,7 +5,7 @@ entries ``x`` of the variables: ``F_i(x) = F_i(0) + sum_k x_k M_k^(i)``.
 `AffineMap` stacks them: ``vec F_i(0)`` one after another in `base`, and
 the columns ``vec M_k^(i)`` in one sparse matrix ``M`` (rows: the stacked
 entries of every ``F_i``, columns: the free entries of the variables), read
-off the block functions themselves one free entry at a time (`build_map`).
+off the block functions themselves one free entry at a time (`columns`).
 
 A dual point ``Y = (Y_1, ..., Y_q)`` is a vector ``y`` of the same stacked
 layout. `AffineMap.polish` alternates the projection on the PSD cone (one
@@ -16,8 +16,6 @@ Nothing here decides what a certificate proves: `ctrl_lpv.lmi` does.
 """
 
 from __future__ import annotations
-
-from collections.abc import Callable, Sequence
 
 import numpy as np
 import scipy.sparse as sp
@@ -33,66 +31,63 @@ def _gamma(n):
     return nu / (1.0 - nu)
 
 
-def build_map(
-    functions: Sequence[Callable[[dict, set | None], np.ndarray]],
-    units: dict[str, list[np.ndarray]],
-) -> AffineMap:
-    """Read the affine map of the inequalities off their block functions.
+def columns(evaluate, F0, read, units) -> tuple:
+    """The columns of one inequality, read off its block function.
 
     Parameters
     ----------
-    functions : sequence of callables
-        ``functions[i](values, read)`` is the float64 matrix ``F_i`` with the
-        variables of `values` set and every other variable zero; with a set
-        `read` it adds the names the block function read.
+    evaluate : callable
+        ``evaluate(values)`` is the float64 matrix ``F_i`` with the variables
+        of `values` set and every other variable zero.
+    F0 : ndarray
+        ``evaluate({})``.
+    read : set of str
+        The variables the block function reads; the others get no columns.
     units : dict of str to list of ndarray
         Per variable, in column order, its unit points (one per free
         entry).
 
     Returns
     -------
-    AffineMap
-        Columns for a variable are evaluated only for the inequalities that
-        read it (the others have zero columns).
+    tuple
+        ``(rows, cols, data)`` of the nonzero entries of ``M_i``, column
+        indices counted over all variables of `units` in their order.
     """
-    offsets = {}
-    total = 0
-    for name, points in units.items():
-        offsets[name] = total
-        total += len(points)
-    sizes, bases = [], []
     rows, cols, data = [], [], []
-    row0 = 0
-    for evaluate in functions:
-        read: set = set()
-        F0 = np.asarray(evaluate({}, read), float)
-        if "__dict__" in read:  # the namespace was read as a whole
-            read = set(units)
-        for name, points in units.items():
-            if name not in read or not points:
-                continue
+    offset = 0
+    for name, points in units.items():
+        if name in read and points:
             dense = np.column_stack(
-                [(evaluate({name: E}, None) - F0).ravel() for E in points]
+                [(evaluate({name: E}) - F0).ravel() for E in points]
             )
             r, c = np.nonzero(dense)
-            rows.append(r + row0)
-            cols.append(c + offsets[name])
+            rows.append(r)
+            cols.append(c + offset)
             data.append(dense[r, c])
+        offset += len(points)
+    if not rows:
+        return np.zeros(0, int), np.zeros(0, int), np.zeros(0)
+    return np.concatenate(rows), np.concatenate(cols), np.concatenate(data)
+
+
+def stacked(pieces, nfree) -> AffineMap:
+    """`AffineMap` of inequalities given as ``(F0, (rows, cols, data))``."""
+    sizes, bases, rows, cols, data = [], [], [], [], []
+    row0 = 0
+    for F0, (r, c, x) in pieces:
         sizes.append(F0.shape[0])
         bases.append(F0.ravel())
+        rows.append(r + row0)
+        cols.append(c)
+        data.append(x)
         row0 += F0.size
+    if not pieces:
+        return AffineMap(np.zeros(0, int), np.zeros(0), sp.csr_array((0, nfree)))
     M = sp.csr_array(
-        (
-            np.concatenate(data) if data else np.zeros(0),
-            (
-                np.concatenate(rows) if rows else np.zeros(0, int),
-                np.concatenate(cols) if cols else np.zeros(0, int),
-            ),
-        ),
-        shape=(row0, total),
+        (np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))),
+        shape=(row0, nfree),
     )
-    base = np.concatenate(bases) if bases else np.zeros(0)
-    return AffineMap(np.asarray(sizes, int), base, M)
+    return AffineMap(np.asarray(sizes, int), np.concatenate(bases), M)
 
 
 class AffineMap:
@@ -135,9 +130,7 @@ class AffineMap:
             transpose.append(start + local.T.ravel())
             diagonal.append(start + np.diag(local))
             groups.setdefault(int(d), []).append(i)
-        self._transpose = (
-            np.concatenate(transpose) if transpose else np.zeros(0, int)
-        )
+        self._transpose = np.concatenate(transpose) if transpose else np.zeros(0, int)
         self._diagonal = np.concatenate(diagonal) if diagonal else np.zeros(0, int)
         self._groups = [
             (

@@ -475,6 +475,8 @@ class LMIProblem:
         # compiled DPP program of one solver per problem).
         self._compiled: dict[str, str] = {}
         self._margin = cp.Parameter(nonneg=True, name="margin", value=float(margin))
+        # Columns of the affine map of each inequality (`_affine_map`).
+        self._farkas_columns: dict[str, tuple] = {}
 
     @property
     def margin(self) -> float:
@@ -598,6 +600,7 @@ class LMIProblem:
             self._normalizations.add(name)
         self._problems.clear()
         self._compiled.clear()
+        self._farkas_columns.clear()
 
     def _active(self, stage: str):
         return [lmi for lmi in self._lmis if lmi[3] is None or stage in lmi[3]]
@@ -668,6 +671,7 @@ class LMIProblem:
         """
         self._problems.pop(stage, None)
         self._compiled.pop(stage, None)
+        self._farkas_columns.clear()
 
     def is_dpp(self, stage: str = "default") -> bool:
         """Whether a built stage re-solves without recompiling (DPP).
@@ -927,7 +931,10 @@ class LMIProblem:
 
         Evaluated in float64 with the block functions themselves, one free
         entry of the variables at a time, only for the variables that the
-        block function of inequality ``i`` reads.
+        block function of inequality ``i`` reads. The columns of an
+        inequality are kept until the next `add` or `invalidate`, and reused
+        while the parameters it reads and ``F_i(0)`` are unchanged (the
+        margin is not part of ``F_i``).
         """
         numeric = {k: np.asarray(p.value, float) for k, p in self._params.items()}
         zero = {k: np.zeros(x.shape) for k, x in self._vars.items()}
@@ -935,10 +942,12 @@ class LMIProblem:
             name: list(_unit_points(x.shape, _is_symmetric(x)))
             for name, x in self._vars.items()
         }
-        names = frozenset(self._vars)
+        nfree = sum(len(points) for points in units.values())
+        names = frozenset(self._vars) | frozenset(self._params)
+        pieces = []
+        for name, blocks, _, _ in active:
 
-        def function(blocks):
-            def evaluate(values, read):
+            def evaluate(values, read=None, blocks=blocks):
                 namespace = {**numeric, **zero, **values}
                 if read is None:
                     v = SimpleNamespace(**namespace)
@@ -946,6 +955,16 @@ class LMIProblem:
                     v = _recording_namespace(namespace, read, names)
                 return assemble(blocks(v), xp=np)
 
-            return evaluate
-
-        return _farkas.build_map([function(b) for _, b, _, _ in active], units)
+            read: set = set()
+            F0 = evaluate({}, read)
+            if "__dict__" in read:  # the namespace was read as a whole
+                read = set(names)
+            key = tuple((p, numeric[p].tobytes()) for p in sorted(read & set(numeric)))
+            cached = self._farkas_columns.get(name)
+            if cached and cached[0] == key and np.array_equal(cached[1], F0):
+                part = cached[2]
+            else:
+                part = _farkas.columns(evaluate, F0, read, units)
+                self._farkas_columns[name] = (key, F0, part)
+            pieces.append((F0, part))
+        return _farkas.stacked(pieces, nfree)
