@@ -289,6 +289,10 @@ def assemble(blocks, xp=np):
             return zero(i, j)
         return item.T if transpose else item
 
+    if xp is np and nrows == 1:
+        # One block (most LMIs here): np.block would only copy it.
+        full = np.asarray(blocks[0][0])
+        return 0.5 * (full + full.T)
     if xp is not np:
         # cvxpy's PSD constraints act on the symmetric part (M + M')/2, so
         # the lower triangle with doubled off-diagonal blocks is the same
