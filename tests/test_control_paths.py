@@ -465,16 +465,31 @@ def test_hinfsyn_and_h2syn_warn_once():
     "call",
     [
         lambda s: ct.minreal(s),
-        lambda s: ct.sample_system(s, 0.1),
-        lambda s: ct.c2d(s, 0.1),
-        lambda s: s.sample(0.1),
         lambda s: s.returnScipySignalLTI(),
     ],
-    ids=["minreal", "sample_system", "c2d", "sys.sample", "returnScipySignalLTI"],
+    ids=["minreal", "returnScipySignalLTI"],
 )
 def test_refused_paths(single_input, call):
     with pytest.raises(TypeError, match=r"sys\.at\(p\)"):
         call(single_input)
+
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda s: ct.sample_system(s, 0.1),
+        lambda s: ct.c2d(s, 0.1),
+        lambda s: s.sample(0.1),
+    ],
+    ids=["sample_system", "c2d", "sys.sample"],
+)
+def test_sampling_paths_stay_polytopic(single_input, call):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", NominalPointWarning)
+        sysd = call(single_input)
+    assert isinstance(sysd, lpv.PolytopicStateSpace)
+    assert sysd.dt == 0.1 and sysd.isdtime(strict=True)
+    assert sysd.discretization_error.Ts == 0.1
 
 
 G = ct.ss([[-3.0]], [[1.0]], [[2.0]], [[0.5]])

@@ -16,6 +16,8 @@ from .systems import PolytopicStateSpace
 __all__ = [
     "QuadraticStability",
     "L2GainBound",
+    "H2Bound",
+    "h2_bound",
     "FrozenSweep",
     "quadratic_stability",
     "l2_gain_bound",
@@ -60,6 +62,26 @@ class L2GainBound:
 
 
 @dataclass(frozen=True)
+class H2Bound:
+    """Certified H2 bound of a polytopic closed loop.
+
+    Attributes
+    ----------
+    gamma : float
+        Bound on the H2 norm of every frozen closed loop (and on the impulse
+        output energy for admissible parameter trajectories).
+    P : ndarray or tuple of ndarray
+        The Lyapunov matrix (vertex matrices for an affine one).
+    checks : tuple of `ctrl_lpv.lmi.LMICheck`
+        Float64 checks of the LMIs.
+    """
+
+    gamma: float
+    P: object
+    checks: tuple[LMICheck, ...]
+
+
+@dataclass(frozen=True)
 class FrozenSweep:
     """Closed-loop poles and H-infinity norms at frozen parameter values.
 
@@ -68,18 +90,38 @@ class FrozenSweep:
     points : ndarray
         Parameter values, shape ``(M, k)``.
     poles : ndarray
-        Closed-loop eigenvalues, shape ``(M, n)``.
+        Closed-loop eigenvalues, shape ``(M, n)`` (z-plane in discrete
+        time).
     max_real : ndarray
-        Largest real part per point, shape ``(M,)``.
+        Largest real part per point, shape ``(M,)``: the stability test in
+        continuous time (``< 0``); in discrete time it is still the largest
+        real part of the z-plane eigenvalues, which does not decide
+        stability (use `spectral_radius`).
     hinf : ndarray or None
         H-infinity norm from `w` to `z` per point (``inf`` where unstable),
-        None if no channels were given.
+        None if no channels were given. In discrete time the norm of the
+        discrete closed loop (``sup`` over the unit circle, with the
+        system's ``dt``).
+    spectral_radius : ndarray
+        Largest eigenvalue modulus per point, shape ``(M,)``: the stability
+        test in discrete time (``< 1``).
+    dt : 0, True or float
+        Timebase of the system.
     """
 
     points: np.ndarray
     poles: np.ndarray
     max_real: np.ndarray
     hinf: np.ndarray | None
+    spectral_radius: np.ndarray | None = None
+    dt: float | bool = 0
+
+    @property
+    def stable(self) -> np.ndarray:
+        """Whether each frozen closed loop is stable (Hurwitz or Schur)."""
+        if self.dt:
+            return self.spectral_radius < 1.0
+        return self.max_real < 0.0
 
 
 def _as_closed_loop_data(sys, gains, u):
@@ -104,15 +146,29 @@ def _as_closed_loop_data(sys, gains, u):
     return gains, iu
 
 
-def quadratic_stability(sys: PolytopicStateSpace, margin: float = 1e-6):
-    """Find a common quadratic Lyapunov function for the vertices.
+def quadratic_stability(
+    sys: PolytopicStateSpace,
+    margin: float = 1e-6,
+    *,
+    lyapunov: str = "constant",
+    rate_bounds=None,
+):
+    """Find a Lyapunov function for the autonomous part of the polytope.
 
     Parameters
     ----------
     sys : `PolytopicStateSpace`
-        Autonomous part ``A(delta)`` is analysed (e.g. a closed loop).
+        Autonomous part ``A(delta)`` is analysed (e.g. a closed loop);
+        continuous or discrete time.
     margin : float, optional
         Margin of the strict LMIs, relative to ``max_j ||A_j||``.
+    lyapunov : {"constant", "affine"}, optional
+        One ``P`` for every vertex (quadratic stability, any parameter
+        rate), or ``P(p)`` multi-affine in the box parameters with
+        `rate_bounds` (see `ctrl_lpv.synthesize`).
+    rate_bounds : mapping of str to float, optional
+        ``{name: nu}`` bounds on the parameter rates, for
+        ``lyapunov="affine"``; ``nu = 0`` for time-invariant parameters.
 
     Returns
     -------
@@ -129,13 +185,11 @@ def quadratic_stability(sys: PolytopicStateSpace, margin: float = 1e-6):
     if not isinstance(sys, PolytopicStateSpace):
         raise TypeError(f"sys: expected a PolytopicStateSpace, got {type(sys)!r}")
     As = [d[0] for d in sys.vertex_data()]
-    for j, A in enumerate(As):
-        worst = np.linalg.eigvals(A).real.max()
-        if worst >= 0:
-            raise InfeasibleError(
-                f"vertex {j} is not asymptotically stable (eigenvalue with real "
-                f"part {worst:.6g}), so no common Lyapunov matrix exists"
-            )
+    _require_stable_vertices(sys, As)
+    if lyapunov != "constant" or rate_bounds is not None or sys.isdtime(strict=True):
+        cl = _autonomous(sys, As)
+        design = _general_analysis(cl, None, lyapunov, rate_bounds, margin)
+        return QuadraticStability(design.P, design.certificate.lmi_checks)
     scale = max(1.0, max(np.linalg.norm(A, 2) for A in As))
     As = [A / scale for A in As]
     n = sys.nstates
@@ -163,6 +217,9 @@ def l2_gain_bound(
     u,
     z,
     margin: float = 1e-6,
+    *,
+    lyapunov: str = "constant",
+    rate_bounds=None,
 ) -> L2GainBound:
     """Certified L2-gain bound of ``sys`` under ``u = -K(delta) x``.
 
@@ -179,6 +236,12 @@ def l2_gain_bound(
         Exogenous inputs, control inputs, performance outputs.
     margin : float, optional
         Strict-LMI margin, relative to the data scale.
+    lyapunov : {"constant", "affine"}, optional
+        A constant ``P``, or ``P(p)`` multi-affine in the box parameters
+        with `rate_bounds` (see `ctrl_lpv.synthesize`).
+    rate_bounds : mapping of str to float, optional
+        ``{name: nu}`` bounds on the parameter rates, for
+        ``lyapunov="affine"``.
 
     Returns
     -------
@@ -192,6 +255,12 @@ def l2_gain_bound(
     gains, iu = _as_closed_loop_data(sys, gains, u)
     iw = signal_indices(w, sys.physical_inputs, "w")
     iz = signal_indices(z, sys.output_labels, "z")
+    if lyapunov != "constant" or rate_bounds is not None or sys.isdtime(strict=True):
+        from .synthesis import Hinf
+
+        cl = _closed_loop(sys, gains, iw, iu, iz, lyapunov)
+        design = _general_analysis(cl, Hinf(), lyapunov, rate_bounds, margin)
+        return L2GainBound(design.gamma, design.P, design.certificate.lmi_checks)
     data = []
     for A, B, C, D in sys.vertex_data():
         data.append(
@@ -233,6 +302,126 @@ def l2_gain_bound(
     return L2GainBound(float(np.sqrt(sol.g[0, 0])), sol.P, sol.checks)
 
 
+def h2_bound(
+    sys: PolytopicStateSpace,
+    gains,
+    w,
+    u,
+    z,
+    margin: float = 1e-6,
+    *,
+    lyapunov: str = "constant",
+    rate_bounds=None,
+) -> H2Bound:
+    """Certified H2 bound of ``sys`` under ``u = -K(delta) x``.
+
+    For time-varying parameters the bound is on the output energy of every
+    impulse in `w` (summed over the inputs), so for frozen parameters it
+    bounds the H2 norm (see `ctrl_lpv.H2`).
+
+    Parameters
+    ----------
+    sys : `PolytopicStateSpace`
+        Open-loop plant, continuous (no feedthrough from `w` to `z`) or
+        discrete time.
+    gains : array_like or sequence of array_like
+        One common gain or one per vertex (``u = -K x``).
+    w, u, z : str, int or list
+        Exogenous inputs, control inputs, performance outputs.
+    margin : float, optional
+        Strict-LMI margin, relative to the data scale.
+    lyapunov : {"constant", "affine"}, optional
+        A constant ``P``, or ``P(p)`` multi-affine in the box parameters
+        with `rate_bounds`.
+    rate_bounds : mapping of str to float, optional
+        ``{name: nu}`` bounds on the parameter rates, for
+        ``lyapunov="affine"``.
+
+    Returns
+    -------
+    `H2Bound`
+
+    Raises
+    ------
+    InfeasibleError
+        If a vertex closed loop is unstable.
+    CertificationError
+        If no certified bound was found.
+    """
+    from .synthesis import H2
+
+    gains, iu = _as_closed_loop_data(sys, gains, u)
+    iw = signal_indices(w, sys.physical_inputs, "w")
+    iz = signal_indices(z, sys.output_labels, "z")
+    cl = _closed_loop(sys, gains, iw, iu, iz, lyapunov)
+    design = _general_analysis(cl, H2(), lyapunov, rate_bounds, margin)
+    return H2Bound(design.gamma, design.P, design.certificate.lmi_checks)
+
+
+def _require_stable_vertices(sys, As) -> None:
+    """Refuse an unstable vertex: no Lyapunov function of any kind exists."""
+    discrete = sys.isdtime(strict=True)
+    for j, A in enumerate(As):
+        eig = np.linalg.eigvals(A)
+        worst = np.abs(eig).max() if discrete else eig.real.max()
+        if worst >= (1 if discrete else 0):
+            what = "modulus" if discrete else "real part"
+            raise InfeasibleError(
+                f"vertex {j} is not asymptotically stable (eigenvalue with {what} "
+                f"{worst:.6g}), so no Lyapunov function exists"
+            )
+
+
+def _autonomous(sys, As):
+    # One zero input and output: python-control refuses systems without.
+    n = sys.nstates
+    vertices = [(A, np.zeros((n, 1)), np.zeros((1, n)), np.zeros((1, 1))) for A in As]
+    return PolytopicStateSpace(vertices, domain=sys.domain, dt=sys.dt)
+
+
+def _closed_loop(sys, gains, iw, iu, iz, lyapunov):
+    """The closed loop's vertices from `w` to `z` (exact for the relaxation)."""
+    data = list(sys.vertex_data())
+    if len(gains) > 1 and lyapunov != "constant":
+        B2 = [B[:, iu] for _, B, _, _ in data]
+        D2 = [D[np.ix_(iz, iu)] for _, _, _, D in data]
+        if any(not np.array_equal(B2[0], b) for b in B2) or any(
+            not np.array_equal(D2[0], d) for d in D2
+        ):
+            raise ValueError(
+                "gains: vertex gains with lyapunov='affine' need an input matrix "
+                "of u that does not depend on the parameter (the closed loop is "
+                "then affine in it)"
+            )
+    vertices = []
+    for j, (A, B, C, D) in enumerate(data):
+        K = gains[j if len(gains) > 1 else 0]
+        vertices.append((
+            A - B[:, iu] @ K,
+            B[:, iw],
+            C[iz] - D[np.ix_(iz, iu)] @ K,
+            D[np.ix_(iz, iw)],
+        ))  # fmt: skip
+    _require_stable_vertices(sys, [v[0] for v in vertices])
+    return PolytopicStateSpace(vertices, domain=sys.domain, dt=sys.dt)
+
+
+def _general_analysis(cl, spec, lyapunov, rate_bounds, margin):
+    """The bound of `spec` (None: stability) for a closed loop without inputs."""
+    from .lmi import solver_chain
+    from .synthesis.general import run_general
+    from .synthesis.parametric import lyapunov_structure
+
+    lyap = lyapunov_structure(cl, lyapunov, rate_bounds)
+    specs = [] if spec is None else [spec]
+    channels = [(list(range(cl.ninputs)), [], list(range(cl.noutputs)))] * len(specs)
+    return run_general(
+        cl, [], specs, channels, spec, (), None, False, lyap,
+        not cl.isdtime(strict=True), None, margin, solver_chain(None), None,
+        "analysis", (),
+    )  # fmt: skip
+
+
 def frozen_sweep(
     sys: PolytopicStateSpace,
     gains,
@@ -263,11 +452,15 @@ def frozen_sweep(
         call).
     w, z : str, int or list, optional
         If given, the H-infinity norm from `w` to `z` is computed with
-        `control.linfnorm`.
+        `control.linfnorm` (of the discrete closed loop for a
+        discrete-time `sys`).
 
     Returns
     -------
     `FrozenSweep`
+        For a discrete-time `sys` (``dt > 0`` or True), stability is read
+        from ``spectral_radius < 1`` (``max_real`` keeps its meaning, the
+        largest real part); ``stable`` answers for either timebase.
     """
 
     def sample(domain, count: int) -> np.ndarray:
@@ -308,6 +501,7 @@ def frozen_sweep(
     iw = signal_indices(w, sys.physical_inputs, "w") if w is not None else None
     iz = signal_indices(z, sys.output_labels, "z") if z is not None else None
     Kstack = np.stack(gains)
+    discrete = sys.isdtime(strict=True)
     poles, hinf = [], []
     for p in points:
         delta = sys.weights(p)
@@ -317,11 +511,14 @@ def frozen_sweep(
         eig = np.linalg.eigvals(Acl)
         poles.append(np.sort_complex(eig))
         if iw is not None and iz is not None:
-            if eig.real.max() >= 0:
+            unstable = np.abs(eig).max() >= 1.0 if discrete else eig.real.max() >= 0
+            if unstable:
                 hinf.append(np.inf)
             else:
                 Ccl = frozen.C[iz] - frozen.D[np.ix_(iz, iu)] @ K
-                cl = ct.ss(Acl, frozen.B[:, iw], Ccl, frozen.D[np.ix_(iz, iw)])
+                cl = ct.ss(
+                    Acl, frozen.B[:, iw], Ccl, frozen.D[np.ix_(iz, iw)], dt=sys.dt
+                )
                 hinf.append(float(ct.linfnorm(cl)[0]))
     poles = np.array(poles)
     return FrozenSweep(
@@ -329,4 +526,6 @@ def frozen_sweep(
         poles=poles,
         max_real=poles.real.max(axis=1),
         hinf=np.array(hinf) if hinf else None,
+        spectral_radius=np.abs(poles).max(axis=1),
+        dt=sys.dt,
     )

@@ -26,6 +26,12 @@ def state_feedback(
 ) -> ct.NonlinearIOSystem:
     """Controller ``u = -K(delta) x`` (or ``u = ud - K (x - xd)``).
 
+    The controller has the timebase of the design model ``design.system``:
+    for a discrete-time model (``dt > 0`` or True) it is a discrete
+    `control.NonlinearIOSystem` with the same ``dt``, ``u[k] = -K(p[k])
+    x[k]``, and its integral states are accumulators ``q[k+1] = q[k] +
+    e[k]`` (the convention of `integral_augmentation` in discrete time).
+
     In the spirit of `control.create_statefbk_iosystem`: the controller reads
     the measured states and outputs the control inputs of the design, named
     after the design model's signals, so that `control.interconnect` can
@@ -81,7 +87,8 @@ def state_feedback(
     `control.NonlinearIOSystem`
         Inputs ``measured states [+ integrated outputs] [+ xd + ud]
         [+ parameters]``, outputs the control inputs ``design.u``, states
-        the integral states (none without integrals).
+        the integral states (none without integrals); ``dt`` that of
+        ``design.system``.
 
     Raises
     ------
@@ -160,8 +167,14 @@ def state_feedback(
         nref=nref,
     )
     gains = np.stack(design.gains)  # (N, m, n)
+    discrete = sys.isdtime(strict=True)
     kernel = _feedback_kernel(
-        gains, sys.domain, scheduling if design.scheduled else None, layout
+        gains,
+        sys.domain,
+        scheduling if design.scheduled else None,
+        layout,
+        getattr(design, "rational", None),
+        discrete=discrete,
     )
     # u depends on the measured states, references and parameters, not on
     # the integrated outputs (they enter through the integrators).
@@ -177,6 +190,7 @@ def state_feedback(
         states=list(integrals) or None,
         feedthrough=through,
         name=name,
+        dt=sys.dt,
     )
 
 
@@ -221,13 +235,18 @@ class _Layout:
     nref: int
 
 
-def _feedback_kernel(gains, domain, scheduling, layout: _Layout) -> BlockKernel:
+def _feedback_kernel(
+    gains, domain, scheduling, layout: _Layout, rational=None, *, discrete=False
+) -> BlockKernel:
     """Scalar and vectorized functions of `state_feedback`.
 
     ``u = ud - K(delta) (x - xd)`` on Python floats (the gains are small),
     ``x`` the design state (measured states and integral states); the
     scheduled gain ``sum_j delta_j K_j`` comes from the domain's convex
-    coordinates of the projected parameter.
+    coordinates of the projected parameter, or is ``-Z(delta) W(delta)^-1``
+    for the `rational` vertex matrices ``(Z_j, W_j)`` of a design with a
+    parameter-dependent Lyapunov function. The integrators return
+    ``dq/dt = e`` (continuous) or the next state ``q + e`` (`discrete`).
     """
     N, m, n = gains.shape
     flat_gains = gains.reshape(N, m * n)
@@ -269,7 +288,11 @@ def _feedback_kernel(gains, domain, scheduling, layout: _Layout) -> BlockKernel:
             p = asarray(u[nref:], dtype=float)
         else:
             p = parameter(scheduling(t, asarray(design_state(x, u), dtype=float)))
-        flat = (weights(p) @ flat_gains).tolist()
+        delta = weights(p)
+        if rational is not None:
+            Z, W = (np.tensordot(delta, np.stack(M), axes=1) for M in rational)
+            return (-np.linalg.solve(W.T, Z.T).T).tolist()
+        flat = (delta @ flat_gains).tolist()
         return [flat[i * n : (i + 1) * n] for i in range(m)]
 
     def out(t, x, u):
@@ -279,10 +302,18 @@ def _feedback_kernel(gains, domain, scheduling, layout: _Layout) -> BlockKernel:
             for d, row in zip(ud, gain(t, x, u))
         ]  # fmt: skip
 
-    def rhs(t, x, u):
+    def rate(t, x, u):
         if ref is None:
             return [u[k] for k in integrated]
         return [u[k] - u[ref + k] for k in integrated]
+
+    if discrete:
+
+        def rhs(t, x, u):
+            return [q + e for q, e in zip(x, rate(t, x, u))]
+
+    else:
+        rhs = rate
 
     def out_many(t, x, u):
         shape = np.broadcast(t, *x, *u).shape
@@ -326,6 +357,13 @@ def integral_augmentation(
     `sys` (outputs may depend on the inputs through ``D``). The outputs are
     unchanged; integral states are appended after the original states.
 
+    For a discrete-time `sys` the integrators are accumulators,
+    ``xi_i[k+1] = xi_i[k] + s_i[k]`` (no factor ``dt``: scale the integral
+    states if you want ``dt`` times the sum), so that the augmented plant
+    is discrete with the same ``dt``: ``A_aug = [[A, 0], [C_s, I]]``,
+    ``B_aug = [B; D_s]``. The controller of a design on it
+    (`state_feedback`) accumulates the same way.
+
     The result is the *design model*. The result records which signal each
     integral state integrates (attribute ``integral_signals``, a dict
     ``{integral state: signal}``), so that the controller of a design on it
@@ -351,7 +389,8 @@ def integral_augmentation(
     Returns
     -------
     `PolytopicStateSpace`
-        Over the same domain, with the same nominal point and scheduling.
+        Over the same domain, with the same nominal point, scheduling and
+        timebase.
 
     Raises
     ------
@@ -379,6 +418,8 @@ def integral_augmentation(
                 s, list(sys.state_labels) + list(sys.output_labels), "signals"
             )
     k = len(signals)
+    # Continuous time: d xi/dt = s; discrete time: xi[k+1] = xi[k] + s[k].
+    hold = np.eye(k) if sys.isdtime(strict=True) else np.zeros((k, k))
     vertices = []
     for A, B, C, D in sys.vertex_data():
         Ci = np.zeros((k, n))
@@ -390,7 +431,7 @@ def integral_augmentation(
                 Ci[r], Di[r] = C[i], D[i]
         vertices.append(
             (
-                np.block([[A, np.zeros((n, k))], [Ci, np.zeros((k, k))]]),
+                np.block([[A, np.zeros((n, k))], [Ci, hold]]),
                 np.vstack([B, Di]),
                 np.hstack([C, np.zeros((C.shape[0], k))]),
                 D,
@@ -410,6 +451,7 @@ def integral_augmentation(
         outputs=list(sys.output_labels),
         states=list(sys.state_labels) + names,
         name=name or sys.name,
+        dt=sys.dt,
     )
     result.integral_signals = dict(zip(names, signals))
     return result

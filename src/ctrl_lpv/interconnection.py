@@ -79,6 +79,7 @@ def kernel_nlsys(
     states: Sequence[str] | None = None,
     feedthrough=True,
     name: str | None = None,
+    dt=0,
 ) -> ct.NonlinearIOSystem:
     """Create a `control.NonlinearIOSystem` from a `BlockKernel`.
 
@@ -100,6 +101,9 @@ def kernel_nlsys(
         pairs, or a ``(noutputs, ninputs)`` matrix.  Default True.
     name : str, optional
         System name.
+    dt : 0, True or float, optional
+        Timebase (python-control's convention); in discrete time
+        ``kernel.rhs`` returns the next state. Default 0 (continuous).
 
     Returns
     -------
@@ -137,6 +141,7 @@ def kernel_nlsys(
         outputs=list(outputs),
         states=None if states is None else list(states),
         name=name,
+        dt=dt,
     )
     sys._kernel = kernel
     sys._feedthrough = _as_feedthrough(

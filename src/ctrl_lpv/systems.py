@@ -144,6 +144,15 @@ class PolytopicStateSpace(StateSpace):
     domain (a box of named bounds, a general polytope, or the simplex of the
     coordinates themselves).
 
+    **Timebase.** As in python-control, ``dt = 0`` is continuous time and
+    ``dt = True`` or a positive sampling period is discrete time,
+    :math:`x[k+1] = A(\delta[k]) x[k] + B(\delta[k]) u[k]`. Every vertex has
+    the same ``dt`` (taken from the vertex systems, or given with `dt`), and
+    every system built from this one (`at`, `vertices`, `scheduled`,
+    operations, `linearize`) keeps it; `isdtime` and `isctime` answer for
+    it. `sample` discretizes a continuous-time system with a certified
+    bound on the interpolation error (ZOH is not exact between vertices).
+
     It is a `control.StateSpace`: its matrices ``A, B, C, D`` are the frozen
     system at the `nominal` parameter value (default: the domain's center,
     the mean of its vertices), which is what python-control's linear tools
@@ -196,9 +205,10 @@ class PolytopicStateSpace(StateSpace):
     systems or gains, indexing, `append`, `feedback` where the closed loop is
     affine in the vertex data) return a `PolytopicStateSpace` computed vertex
     by vertex and checked at interior points; operations that would leave
-    the polytopic class (`sample`, `minreal`, products of two LPV systems
-    with nonaffine result) raise `TypeError` instead of returning a frozen
-    system. Paths that python-control owns and that cannot be intercepted:
+    the polytopic class (`minreal`, products of two LPV systems with
+    nonaffine result) raise `TypeError` instead of returning a frozen
+    system; `sample` returns the vertexwise discretization together with a
+    rigorous bound on its error between the vertices. Paths that python-control owns and that cannot be intercepted:
 
     * `control.interconnect` of blocks that are all `StateSpace` returns a
       `control.LinearICSystem`. Its simulation with
@@ -216,7 +226,7 @@ class PolytopicStateSpace(StateSpace):
     Parameters
     ----------
     vertices : sequence or mapping of `control.StateSpace` or (A, B, C, D)
-        Vertex systems, all of the same dimensions, continuous time, in the
+        Vertex systems, all of the same dimensions and timebase, in the
         order of the domain's vertices, or a mapping ``{vertex point:
         system}`` (see "Vertex order"). Signal names default to those of
         the first `StateSpace` vertex.
@@ -233,14 +243,19 @@ class PolytopicStateSpace(StateSpace):
         Signal names (physical inputs only), as in `control.ss`.
     name : str, optional
         System name.
+    dt : 0, True or float, optional
+        Timebase: 0 continuous time, True or a positive sampling period
+        discrete time. Default: the ``dt`` of the vertex systems (0 for
+        (A, B, C, D) tuples).
 
     Raises
     ------
     ValueError
-        Vertices of different dimensions, a vertex count that differs from
-        the domain's, a mapping key that is not a vertex of the domain, a
-        vertex whose ``params`` name another vertex, or a `nominal` outside
-        the domain.
+        Vertices of different dimensions or timebases, a `dt` that differs
+        from the vertices' or is not 0, True or positive, a vertex count
+        that differs from the domain's, a mapping key that is not a vertex
+        of the domain, a vertex whose ``params`` name another vertex, or a
+        `nominal` outside the domain.
 
     Attributes
     ----------
@@ -286,7 +301,8 @@ class PolytopicStateSpace(StateSpace):
             )
         if len(vertices) == 0:
             raise ValueError("vertices: at least one vertex system is required")
-        data = tuple(as_ss_data(v, f"vertices[{j}]") for j, v in enumerate(vertices))
+        data = tuple(_ss_data(v, f"vertices[{j}]") for j, v in enumerate(vertices))
+        dt = _common_dt(vertices, kwargs.pop("dt", _UNSET))
         shapes = [tuple(m.shape for m in d) for d in data]
         for j, shape in enumerate(shapes[1:], start=1):
             if shape != shapes[0]:
@@ -319,8 +335,6 @@ class PolytopicStateSpace(StateSpace):
         outputs = kwargs.pop("outputs", first.output_labels if first else ny)
         states = kwargs.pop("states", first.state_labels if first else n)
         name = kwargs.pop("name", None)
-        if kwargs.pop("dt", 0) not in (0, None):
-            raise ValueError("dt: polytopic systems are continuous time (dt=0)")
         if kwargs:
             raise TypeError(f"unexpected keyword arguments: {sorted(kwargs)}")
 
@@ -332,6 +346,7 @@ class PolytopicStateSpace(StateSpace):
             outputs=outputs,
             states=states,
             name=name,
+            dt=dt,
             remove_useless_states=False,
         )
         self._physical_inputs = tuple(frozen.input_labels)
@@ -342,6 +357,7 @@ class PolytopicStateSpace(StateSpace):
                 outputs=frozen.output_labels,
                 states=frozen.state_labels,
                 name=f"{frozen.name}[{j}]",
+                dt=dt,
                 remove_useless_states=False,
             )
             for j, d in enumerate(data)
@@ -363,6 +379,7 @@ class PolytopicStateSpace(StateSpace):
             states=frozen.state_labels,
             name=frozen.name,
             params=dict(zip(self.domain.names, self.nominal.tolist())),
+            dt=dt,
             remove_useless_states=False,
         )
         self._update_params(None)
@@ -395,7 +412,9 @@ class PolytopicStateSpace(StateSpace):
             Parameter bounds.
         **kwargs
             Passed to `PolytopicStateSpace` (``scheduling``, ``nominal``,
-            ``inputs``, ``outputs``, ``states``, ``name``).
+            ``inputs``, ``outputs``, ``states``, ``name``, ``dt``). The
+            timebase defaults to that of `base` when it is a
+            `control.StateSpace`.
 
         Returns
         -------
@@ -412,7 +431,7 @@ class PolytopicStateSpace(StateSpace):
         [-3.0, -1.0]
         """
         domain = bounds if isinstance(bounds, ParameterBox) else ParameterBox(bounds)
-        base_data = as_ss_data(base, "base")
+        base_data = _ss_data(base, "base")
         if not isinstance(terms, Mapping):
             raise TypeError("terms: expected a mapping {parameter name: matrices}")
         if set(terms) != set(domain.names):
@@ -428,7 +447,7 @@ class PolytopicStateSpace(StateSpace):
                     np.zeros_like(b) if np.isscalar(t) and t == 0 else t
                     for t, b in zip(term, base_data)
                 )
-            data = as_ss_data(term, f"terms[{pname!r}]")
+            data = _ss_data(term, f"terms[{pname!r}]")
             for t, b, label in zip(data, base_data, "ABCD"):
                 if t.shape != b.shape:
                     raise ValueError(
@@ -448,6 +467,15 @@ class PolytopicStateSpace(StateSpace):
             kwargs.setdefault("outputs", base.output_labels)
             kwargs.setdefault("states", base.state_labels)
             kwargs.setdefault("name", base.name)
+            base_dt = base.dt
+            if base_dt is not None and "dt" in kwargs:
+                if not _same_dt(_as_dt(base_dt, "base.dt"), _as_dt(kwargs["dt"])):
+                    raise ValueError(
+                        f"dt: {kwargs['dt']!r} differs from the timebase of base "
+                        f"(dt = {base_dt!r})"
+                    )
+            elif base_dt is not None:
+                kwargs["dt"] = base_dt
         return cls(vertices, domain, **kwargs)
 
     def _set_scheduling(self, scheduling: Scheduling) -> None:
@@ -566,6 +594,7 @@ class PolytopicStateSpace(StateSpace):
             outputs=first.output_labels,
             states=first.state_labels,
             name=name,
+            dt=self.dt,
             remove_useless_states=False,
         )
 
@@ -878,7 +907,7 @@ class PolytopicStateSpace(StateSpace):
         return method(t, x, u)
 
     def dynamics(self, t, x, u=None, params=None):
-        """State derivative of the scheduled system.
+        """State derivative (continuous time) or next state (discrete time).
 
         Parameters
         ----------
@@ -936,12 +965,12 @@ class PolytopicStateSpace(StateSpace):
 
         if not all(isinstance(r, StateSpace) for r in results):
             return NotImplemented
-        out_data = [as_ss_data(r, label) for r in results]
+        out_data = [_ss_data(r, label) for r in results]
         rng = np.random.default_rng(0)
         checks = [np.full(self.nvertices, 1.0 / self.nvertices)]
         checks += list(rng.dirichlet(np.ones(self.nvertices), size=2))
         for delta in checks:
-            expected = as_ss_data(interpolated(delta), label)
+            expected = _ss_data(interpolated(delta), label)
             for got, ref in zip(_combine_data(out_data, delta), expected):
                 if got.shape != ref.shape or not np.allclose(
                     got, ref, rtol=1e-9, atol=1e-12 * max(1.0, np.abs(ref).max())
@@ -959,7 +988,9 @@ class PolytopicStateSpace(StateSpace):
         )
 
     def _frozen(self, delta) -> StateSpace:
-        return StateSpace(*self._combine(delta), remove_useless_states=False)
+        return StateSpace(
+            *self._combine(delta), dt=self.dt, remove_useless_states=False
+        )
 
     def _binary(self, other, op, label):
         if isinstance(other, NonlinearIOSystem) and not isinstance(other, StateSpace):
@@ -1021,18 +1052,141 @@ class PolytopicStateSpace(StateSpace):
         """Linear fractional transformation, kept polytopic where exact."""
         return self._vertexwise(lambda v, w: v.lft(w, nu, ny), other, "lft")
 
-    def sample(self, *args, **kwargs):
-        """Not available: discretization is not polytopic.
+    def sample(
+        self,
+        Ts,
+        method="zoh",
+        alpha=None,
+        prewarp_frequency=None,
+        name=None,
+        copy_names=True,
+        **kwargs,
+    ):
+        """Discretize vertex by vertex, with a bound on the error between them.
+
+        Same signature as `control.StateSpace.sample` (so
+        `control.sample_system` works too). The zero-order hold of the
+        frozen system at ``p`` is not the interpolation of the vertices'
+        ZOH (``expm`` is not affine), so the result carries a rigorous
+        bound on that difference: ``sysd.discretization_error``, a
+        `DiscretizationBound` with ``phi >= sup_p ||Phi(p) - sum_j
+        delta_j(p) Phi_j||_2`` and ``gamma`` the same for ``Gamma``, where
+        ``Phi(p), Gamma(p)`` is the ZOH of ``sys.at(p)`` (``C, D`` are
+        unchanged, hence exact). With ``e = T^2/8 exp(T mu*) sum_i d_i^2``
+        on a `ParameterBox` (``d_i`` the largest change of the vertex data
+        along an edge of coordinate ``i``, ``mu*`` the largest logarithmic
+        norm of a vertex) and ``T^2/2 exp(T mu*) max_{j,l} ||M_j -
+        M_l||^2`` on any domain; the derivation is in
+        `ctrl_lpv.discretization`. The bound is 0 for a single vertex (an
+        LTI system) and for ``method="euler"``, whose model ``(I + T A_j,
+        T B_j)`` is affine in the vertex data, hence exactly polytopic.
+
+        Use the bound to account for the sampling: the true sampled frozen
+        system is ``sum_j delta_j (Phi_j, Gamma_j) + (E_Phi, E_Gamma)`` with
+        ``||E_Phi|| <= phi``, ``||E_Gamma|| <= gamma``, a norm-bounded
+        uncertainty.
+
+        Parameters
+        ----------
+        Ts : float
+            Sampling period, positive.
+        method : {"zoh", "euler"}, optional
+            Zero-order hold (default) or forward Euler. The other methods
+            of python-control (``"bilinear"``, ``"tustin"``,
+            ``"backward_diff"``, ``"gbt"`` with ``alpha != 0``) involve a
+            matrix inverse, not affine in the vertex data, and have no
+            bound here: a `ValueError`.
+        alpha : float, optional
+            For ``method="gbt"``: only ``alpha = 0`` (forward Euler) is
+            accepted. Ignored otherwise, as in python-control.
+        prewarp_frequency : float, optional
+            Ignored with a warning (as python-control does for methods
+            other than bilinear).
+        name : str, optional
+            Name of the result; default the name of this system with
+            python-control's sampled-system prefix and suffix
+            (``"$sampled"``) when `copy_names`.
+        copy_names : bool, optional
+            Copy the signal names (default True).
+        **kwargs
+            ``inputs``, ``outputs``, ``states``: signal names of the result
+            (physical inputs only).
+
+        Returns
+        -------
+        `PolytopicStateSpace`
+            Discrete time with ``dt = Ts``, the same domain, nominal point
+            and scheduling, and the attribute ``discretization_error`` (not
+            kept by operations that build a new system from it).
 
         Raises
         ------
-        TypeError
-            Always; sample a frozen system ``sys.at(p).sample(Ts)`` instead.
+        ValueError
+            If this system is already discrete time, `Ts` is not positive,
+            or `method` is not ``"zoh"`` or ``"euler"``.
         """
-        raise TypeError(
-            "sample: the discretization of a polytopic system is not polytopic; "
-            "use sys.at(p).sample(Ts) for a frozen parameter value"
+        import control as _ct
+
+        from ._checks import real_number
+        from .discretization import sampled_vertex_data
+
+        if not self.isctime(strict=True):
+            raise ValueError(
+                "sample: the system is already discrete time "
+                f"(dt = {self.dt!r}); sampling needs a continuous-time system"
+            )
+        Ts = real_number(Ts, "Ts", positive=True)
+        if method == "gbt" and alpha in (0, 0.0):
+            method = "euler"
+        if method not in ("zoh", "euler"):
+            raise ValueError(
+                f"method: {method!r} is not available for a polytopic system: "
+                "only 'zoh' (with a certified bound on the error between the "
+                "vertices) and 'euler' (exactly polytopic) are; the other "
+                "discretizations involve a matrix inverse, not affine in the "
+                "vertex data, and have no error bound here"
+            )
+        if prewarp_frequency is not None:
+            warnings.warn(
+                "prewarp_frequency ignored: incompatible conversion",
+                UserWarning,
+                stacklevel=2,
+            )
+        unknown = sorted(set(kwargs) - {"inputs", "outputs", "states"})
+        if unknown:
+            raise TypeError(f"unexpected keyword arguments: {unknown}")
+        vertices, bound = sampled_vertex_data(self._data, self.domain, Ts, method)
+        first = self.vertices[0]
+        if copy_names:
+            defaults = _ct.config.defaults
+            labels = {
+                "inputs": list(first.input_labels),
+                "outputs": list(first.output_labels),
+                "states": list(first.state_labels),
+                "name": name
+                if name is not None
+                else defaults["iosys.sampled_system_name_prefix"]
+                + self.name
+                + defaults["iosys.sampled_system_name_suffix"],
+            }
+        else:
+            labels = {
+                "inputs": first.ninputs,
+                "outputs": first.noutputs,
+                "states": first.nstates,
+                "name": name,
+            }
+        labels.update(kwargs)
+        result = PolytopicStateSpace(
+            vertices,
+            self.domain,
+            scheduling=self.scheduling,
+            nominal=self.nominal,
+            dt=Ts,
+            **labels,
         )
+        result.discretization_error = bound
+        return result
 
     def minreal(self, *args, **kwargs):
         """Not available: vertex realizations would differ.
@@ -1074,8 +1228,85 @@ class PolytopicStateSpace(StateSpace):
         return (
             f"<PolytopicStateSpace {self.name}: {self.nvertices} vertices, "
             f"{self.nstates} states, inputs {list(self.input_labels)}, "
-            f"outputs {list(self.output_labels)}>"
+            f"outputs {list(self.output_labels)}"
+            + (f", dt={self.dt}" if self.isdtime(strict=True) else "")
+            + ">"
         )
+
+
+_UNSET = object()
+
+
+def _as_dt(value, name: str = "dt"):
+    """A python-control timebase: 0 (continuous), True or a period > 0.
+
+    ``False`` is 0; ``True`` (discrete, unspecified period) is kept as is;
+    numbers become floats. None (python-control's unspecified timebase) is
+    refused: a polytopic system is either continuous or discrete.
+    """
+    if value is True or (isinstance(value, np.bool_) and bool(value)):
+        return True
+    if value is False or (isinstance(value, np.bool_) and not bool(value)):
+        return 0
+    if value is None:
+        raise ValueError(
+            f"{name}: None (an unspecified timebase) is not supported; use 0 "
+            "(continuous time), True or a positive sampling period (discrete time)"
+        )
+    if isinstance(value, (str, bytes, complex)) or not isinstance(
+        value, (int, float, np.integer, np.floating)
+    ):
+        raise TypeError(
+            f"{name}: expected 0, True or a positive sampling period, got {value!r}"
+        )
+    number = float(value)
+    if not np.isfinite(number) or number < 0:
+        raise ValueError(
+            f"{name}: expected 0, True or a positive sampling period, got {value!r}"
+        )
+    return 0 if number == 0 else number
+
+
+def _same_dt(a, b) -> bool:
+    """Equal timebases (``True`` differs from ``1.0``)."""
+    return (a is True) == (b is True) and a == b
+
+
+def _common_dt(vertices, given):
+    """The timebase of the vertices, checked against a given ``dt``.
+
+    Every `control.StateSpace` vertex must have the same ``dt`` (a vertex
+    with ``dt=None`` takes the common one); tuples take `given`, or 0.
+    """
+    found, first = None, None
+    for j, vertex in enumerate(vertices):
+        own = getattr(vertex, "dt", None) if isinstance(vertex, StateSpace) else None
+        if own is None:
+            continue
+        own = _as_dt(own, f"vertices[{j}].dt")
+        if found is None:
+            found, first = own, j
+        elif not _same_dt(own, found):
+            raise ValueError(
+                f"vertices: vertices[{j}] has dt = {own!r} but vertices[{first}] "
+                f"has dt = {found!r}; every vertex must have the same timebase"
+            )
+    if given is _UNSET:
+        return 0 if found is None else found
+    given = _as_dt(given, "dt")
+    if found is not None and not _same_dt(given, found):
+        raise ValueError(
+            f"dt: {given!r} differs from the timebase of the vertex systems "
+            f"(dt = {found!r})"
+        )
+    return given
+
+
+def _ss_data(item, name: str) -> tuple[np.ndarray, ...]:
+    """``(A, B, C, D)`` of a vertex, checked, whatever its timebase."""
+    if isinstance(item, StateSpace):
+        item = (item.A, item.B, item.C, item.D)
+    return as_ss_data(item, name)
 
 
 def _combine_data(data, delta):
@@ -1197,7 +1428,7 @@ def pss(vertices, domain=None, **kwargs) -> PolytopicStateSpace:
         Parameter domain (see `PolytopicStateSpace`).
     **kwargs
         ``scheduling``, ``nominal``, ``inputs``, ``outputs``, ``states``,
-        ``name``.
+        ``name``, ``dt``.
 
     Returns
     -------

@@ -62,9 +62,13 @@ Data flow one way through the package:
 -> ``assembly`` (the LMIs as a parametrised cvxpy problem) -> ``ladder``
 (solvers, prescalings, margins, stages) -> ``verification`` (float64
 checks) -> ``results`` (`StateFeedbackDesign`, `Certificate`); ``paper``
-holds the four public functions.
+holds the four public functions. `synthesize` (``compose``) takes the
+specs of ``specs`` and sends the paper's cases to ``ladder``, the others to
+``general``, which assembles them over the relaxation of ``parametric``
+with ``terms``.
 """
 
+from .compose import h2_state_feedback, synthesize
 from .paper import (
     gain_scheduled_hinf,
     gain_scheduled_stabilization,
@@ -72,6 +76,7 @@ from .paper import (
     quadratic_stabilization,
 )
 from .results import Certificate, StateFeedbackDesign
+from .specs import H2, GainBound, Hinf
 
 __all__ = [
     "StateFeedbackDesign",
@@ -80,4 +85,9 @@ __all__ = [
     "hinf_state_feedback",
     "gain_scheduled_stabilization",
     "gain_scheduled_hinf",
+    "synthesize",
+    "h2_state_feedback",
+    "Hinf",
+    "H2",
+    "GainBound",
 ]

@@ -6,8 +6,10 @@ from collections.abc import Sequence
 
 from ..regions import LMIRegion
 from ..systems import PolytopicStateSpace
+from .compose import synthesize
 from .ladder import run_ladder
 from .results import StateFeedbackDesign
+from .specs import GainBound, Hinf
 
 
 def quadratic_stabilization(
@@ -81,7 +83,7 @@ def quadratic_stabilization(
     >>> design.certificate.verified
     True
     """
-    return run_ladder(
+    return _paper(
         sys, None, u, None, "Lemma 1", False, None, regions, None, gain_bound,
         margin, solvers, time_limit,
     )  # fmt: skip
@@ -150,7 +152,7 @@ def gain_scheduled_stabilization(
     CertificationError
         If no certified design was found, with every fallback tried.
     """
-    return run_ladder(
+    return _paper(
         sys, None, u, None, "Theorem 1", True, None, regions, None, gain_bound,
         margin, solvers, time_limit,
     )  # fmt: skip
@@ -233,7 +235,7 @@ def hinf_state_feedback(
     CertificationError
         If no certified design was found (with what was tried).
     """
-    return run_ladder(
+    return _paper(
         sys, w, u, z, "Lemma 2", False, gamma, regions, backoff, gain_bound,
         margin, solvers, time_limit, hinf=True,
     )  # fmt: skip
@@ -316,7 +318,26 @@ def gain_scheduled_hinf(
     CertificationError
         If no certified design was found (with what was tried).
     """
-    return run_ladder(
+    return _paper(
         sys, w, u, z, "Theorem 2", True, gamma, regions, backoff, gain_bound,
         margin, solvers, time_limit, hinf=True,
+    )  # fmt: skip
+
+
+def _paper(
+    sys, w, u, z, method, scheduled, gamma, regions, backoff, gain_bound, margin,
+    solvers, time_limit, hinf=False,
+):  # fmt: skip
+    """The paper's engine, or `synthesize` for a discrete-time system."""
+    if not (isinstance(sys, PolytopicStateSpace) and sys.isdtime(strict=True)):
+        return run_ladder(
+            sys, w, u, z, method, scheduled, gamma, regions, backoff, gain_bound,
+            margin, solvers, time_limit, hinf=hinf,
+        )  # fmt: skip
+    regions = (regions,) if isinstance(regions, LMIRegion) else tuple(regions)
+    bound = (GainBound(gain_bound),) if gain_bound is not None else ()
+    return synthesize(
+        sys, u, objective=Hinf(w, z, bound=gamma) if hinf else None,
+        constraints=regions + bound, gains="scheduled" if scheduled else "common",
+        backoff=backoff, margin=margin, solvers=solvers, time_limit=time_limit,
     )  # fmt: skip

@@ -91,8 +91,9 @@ class StateFeedbackDesign:
         "Theorem 2").
     gains : tuple of ndarray
         ``m x n`` gains for ``u = -K x``: one common gain, or one per vertex.
-    P : ndarray
-        Lyapunov matrix ``P = W^-1`` of ``V(x) = x' P x`` (original units).
+    P : ndarray or tuple of ndarray
+        Lyapunov matrix ``P = W^-1`` of ``V(x) = x' P x`` (original units);
+        for an affine Lyapunov function its vertex values.
     gamma : float or None
         Certified bound on the L2 gain from `w` to `z` (None without a
         performance channel).
@@ -120,6 +121,17 @@ class StateFeedbackDesign:
         What the fallback ladder tried before this design certified (empty
         when the first point did): each rung (prescaling, margin, stage
         bound) and why it was passed over.
+    lyapunov : {"constant", "affine"}
+        The Lyapunov function: one ``P``, or ``P(p) = W(p)^-1`` with ``W``
+        multi-affine in the box parameters (then `P` holds the vertex
+        matrices, see `lyapunov_matrix`).
+    bounds : dict
+        Certified bound of every `ctrl_lpv.Hinf` and `ctrl_lpv.H2` spec of
+        the call, keyed by the spec.
+    rational : tuple or None
+        For a scheduled gain with an affine Lyapunov function, the vertex
+        matrices ``(Z_j, W_j)`` (model units) of ``K(p) = -Z(p) W(p)^-1``;
+        None when the gain is affine in the convex coordinates.
     """
 
     system: PolytopicStateSpace
@@ -137,6 +149,9 @@ class StateFeedbackDesign:
     backoff: float | None = None
     regions: tuple[LMIRegion, ...] = ()
     ladder: tuple[str, ...] = ()
+    lyapunov: str = "constant"
+    bounds: dict = field(default_factory=dict)
+    rational: tuple | None = None
 
     @property
     def scheduled(self) -> bool:
@@ -166,7 +181,31 @@ class StateFeedbackDesign:
         if p is None:
             raise ValueError("p: a scheduled design needs the parameter value")
         delta = self.system.weights(p)
+        if self.rational is not None:
+            Z, W = (np.tensordot(delta, np.stack(M), axes=1) for M in self.rational)
+            return -np.linalg.solve(W.T, Z.T).T
         return np.tensordot(delta, np.stack(self.gains), axes=1)
+
+    def lyapunov_matrix(self, p=None) -> np.ndarray:
+        """The Lyapunov matrix ``P(p)`` of ``V = x' P(p) x`` (model units).
+
+        Parameters
+        ----------
+        p : array_like or mapping, optional
+            Parameter value; ignored (may be omitted) for a constant ``P``.
+
+        Returns
+        -------
+        ndarray
+            ``n x n``, positive definite.
+        """
+        if self.lyapunov == "constant":
+            return self.P.copy()
+        if p is None:
+            raise ValueError("p: an affine Lyapunov function needs the parameter value")
+        delta = self.system.weights(p)
+        W = sum(d * np.linalg.inv(Pj) for d, Pj in zip(delta, self.P))
+        return np.linalg.inv(W)
 
     def closed_loop(self, p) -> tuple[np.ndarray, ...]:
         """Closed-loop ``(A, B_w, C_z, D_zw)`` matrices at `p`."""
@@ -224,7 +263,7 @@ class StateFeedbackDesign:
         TypeError
             If `integrals` is not a mapping.
         """
-        from .controllers import state_feedback
+        from ..controllers import state_feedback
 
         return state_feedback(self, *args, **kwargs)
 

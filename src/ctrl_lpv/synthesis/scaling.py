@@ -15,6 +15,17 @@ def pow2(x: float) -> float:
     return float(2.0 ** np.round(np.log2(x))) if x > 0 else 1.0
 
 
+def channel_scales(vertices, T, Su, a) -> tuple[float, float]:
+    """Powers of two ``(sw, sz)`` that normalise a channel's ``B1`` and ``C, D``."""
+    nb1 = max(spectral_norm(v[1] / T[:, None]) for v in vertices)
+    sw = pow2(a / nb1) if nb1 > 0 else 1.0
+    nz = max(
+        spectral_norm(np.hstack([v[3] * T, v[4] * sw, v[5] * Su])) for v in vertices
+    )
+    sz = pow2(nz) if nz > 0 else 1.0
+    return sw, sz
+
+
 @dataclass(frozen=True)
 class Scaling:
     """Exact (power-of-two) prescaling; see the module docstring."""
@@ -26,7 +37,11 @@ class Scaling:
     a: float  # time scaling, t~ = a t
 
     @classmethod
-    def of(cls, vertices, balance: bool = True) -> Scaling:
+    def of(cls, vertices, balance: bool = True, time_scaling: bool = True) -> Scaling:
+        """The prescaling of vertex data ``(A, B1, B2, C, D1, D2)``.
+
+        `time_scaling` False (discrete time) keeps ``a = 1``.
+        """
         n = vertices[0][0].shape[0]
         if balance:
             absA = sum(np.abs(v[0]) for v in vertices)
@@ -34,7 +49,11 @@ class Scaling:
             T = np.array([pow2(x) for x in t])
         else:
             T = np.ones(n)
-        a = pow2(max(np.linalg.norm(v[0] * (T / T[:, None]), 2) for v in vertices))
+        a = (
+            pow2(max(np.linalg.norm(v[0] * (T / T[:, None]), 2) for v in vertices))
+            if time_scaling
+            else 1.0
+        )
         Su = np.array(
             [
                 pow2(a / c) if c > 0 else 1.0
@@ -44,12 +63,7 @@ class Scaling:
                 )
             ]
         )
-        nb1 = max(spectral_norm(v[1] / T[:, None]) for v in vertices)
-        sw = pow2(a / nb1) if nb1 > 0 else 1.0
-        nz = max(
-            spectral_norm(np.hstack([v[3] * T, v[4] * sw, v[5] * Su])) for v in vertices
-        )
-        sz = pow2(nz) if nz > 0 else 1.0
+        sw, sz = channel_scales(vertices, T, Su, a)
         return cls(T, Su, sw, sz, a)
 
     def apply(self, v):

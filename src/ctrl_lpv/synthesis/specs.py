@@ -1,0 +1,292 @@
+"""Specifications of `synthesize`: one class per objective or constraint.
+
+Each performance spec holds its LMI blocks, written once for continuous and
+discrete time in the dual variables ``W = P^-1`` and ``Z = -K W``, and its
+own float64 residual check in the model's units with the primal ``P``.
+The blocks read the vertex data through a `~ctrl_lpv.synthesis.terms.Terms`
+object, which evaluates each parameter-dependent product at one coefficient
+of the relaxation (see `ctrl_lpv.synthesis.parametric`):
+
+In continuous time, with ``sym(X) = X + X'`` and ``*`` the symmetric
+completion:
+
+* Hinf: ``[[sym(A W + B2 Z) - dW/dt, *, *], [Bw', -I, *],
+  [Cz W + Dzu Z, Dzw, -g I]] < 0``;
+* H2: ``[[sym(A W + B2 Z) - dW/dt, *], [Bw', -I]] < 0``,
+  ``[[Y, Cz W + Dzu Z], [*, W]] > 0`` and ``trace Y < h``;
+
+and in discrete time, with ``W+`` the Lyapunov matrix at the next sample,
+``[[-W+, *, *, *], [(A W + B2 Z)', -W, *, *], [Bw', 0, -I, *],
+[0, Cz W + Dzu Z, Dzw, -g I]] < 0`` (the dual bounded-real inequality) and
+``[[-W+, *, *], [(A W + B2 Z)', -W, *], [Bw', 0, -I]] < 0``,
+``[[-Y, *, *], [(Cz W + Dzu Z)', -W, *], [Dzw', 0, -I]] < 0`` (H2). The
+certified bound is ``sqrt(g)`` or ``sqrt(h)``. The H2 LMIs are the
+controllability (Gramian) form, whose ``W`` bounds the state covariance
+under white noise; with the dual bounded-real inequality it shares the
+``Bw Bw'`` term, so that mixed H2/H-infinity designs with one ``W`` are not
+more conservative than necessary (Khargonekar and Rotea 1991; Scherer,
+Gahinet and Chilali 1997).
+
+With a common gain and a parameter-dependent ``W`` the blocks are the
+extended ones (see `_extended`): ``A_cl W`` becomes ``A_cl G`` with a
+constant slack ``G`` and ``K = -Z G^-1``, which keeps them affine in the
+parameter. Discrete time: ``[[W - G - G', *], [A_cl G, -W+]] < 0``
+(de Oliveira, Bernussou and Geromel 1999; Daafouz and Bernussou 2001),
+and likewise in the H-infinity and H2 blocks.
+
+For time-varying parameters the H-infinity bound bounds the L2 gain over
+every admissible parameter trajectory; the H2 bound the steady-state
+output variance ``E z'z`` under unit white noise ``w`` for every admissible
+trajectory (the covariance stays below ``W``), so for frozen parameters it
+bounds the H2 norm.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._checks import real_number
+from .verification import normalized_max_eig
+
+
+def _channel(value, name):
+    """A signal selection as a hashable tuple (None stays None)."""
+    if value is None:
+        return None
+    if isinstance(value, (str, int, np.integer)):
+        return (value,)
+    try:
+        return tuple(value)
+    except TypeError:
+        raise TypeError(
+            f"{name}: expected a signal name, an index or a sequence of them, got "
+            f"{value!r}"
+        ) from None
+
+
+@dataclass(frozen=True)
+class _Performance:
+    w: tuple | None = None
+    z: tuple | None = None
+    bound: float | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "w", _channel(self.w, "w"))
+        object.__setattr__(self, "z", _channel(self.z, "z"))
+        bound = real_number(
+            self.bound, "bound", allow_none=True, positive=True, below=1e150
+        )
+        object.__setattr__(self, "bound", bound)
+
+    def __str__(self) -> str:
+        w = "default" if self.w is None else list(self.w)
+        z = "default" if self.z is None else list(self.z)
+        bound = "" if self.bound is None else f", bound={self.bound:g}"
+        return f"{type(self).__name__}(w={w}, z={z}{bound})"
+
+    def check_data(self, channels, continuous) -> None:
+        """Refuse data the spec cannot bound (a `ValueError`)."""
+
+
+@dataclass(frozen=True)
+class Hinf(_Performance):
+    """H-infinity (L2-gain) specification from `w` to `z`.
+
+    Parameters
+    ----------
+    w : str, int or sequence, optional
+        Exogenous inputs; default every physical input that is not a
+        control input.
+    z : str, int or sequence, optional
+        Performance outputs; default all outputs.
+    bound : float, optional
+        Required bound, met strictly; None (only for the objective) asks for
+        the smallest one.
+
+    Examples
+    --------
+    >>> Hinf(w="d", z=["e", "u"], bound=2.0)
+    Hinf(w=('d',), z=('e', 'u'), bound=2.0)
+    """
+
+    def lmis(self, t, continuous):
+        """The LMI blocks at one coefficient (see the module docstring)."""
+        Bw, Dzw = t.data(self, "Bw"), t.data(self, "Dzw")
+        g = t.const(t.g(self)[0, 0] * np.eye(t.nz(self)))
+        eye_w = t.rho(self) * t.identity(t.nw(self))
+        if t.slack:
+            AX, CX, X = t.AG(), t.CG(self), 2 * t.G() - t.W()
+        else:
+            AX, CX, X = t.AW(), t.CW(self), t.W()
+        if continuous and t.slack:
+            blocks = [*_extended(t), [Bw.T, 0, -eye_w], [CX, t.eps() * CX, Dzw, -g]]
+        elif continuous:
+            blocks = [[2 * AX - t.W_moved()], [Bw.T, -eye_w], [CX, Dzw, -g]]
+        else:
+            blocks = [
+                [-t.W_moved()],
+                [AX.T, -X],
+                [Bw.T, 0, -eye_w],
+                [0, CX, Dzw, -g],
+            ]
+        return [("H-infinity", blocks)]
+
+    def residual(self, frozen, gamma, continuous) -> float:
+        """Largest normalised eigenvalue of the bounded-real inequality.
+
+        Continuous time the primal form with ``P``; discrete time the dual
+        form with ``W`` and its next value ``W+``.
+        """
+        A, Bw, Cz, Dzw, P, P_moved, W, W_moved = frozen
+        n, nw, nz = A.shape[0], Bw.shape[1], Cz.shape[0]
+        if continuous:
+            M = np.block([
+                [A.T @ P + P @ A + P_moved, P @ Bw, Cz.T],
+                [Bw.T @ P, -np.eye(nw), Dzw.T],
+                [Cz, Dzw, -gamma**2 * np.eye(nz)],
+            ])  # fmt: skip
+        else:
+            M = np.block([
+                [-W_moved, A @ W, Bw, np.zeros((n, nz))],
+                [W @ A.T, -W, np.zeros((n, nw)), W @ Cz.T],
+                [Bw.T, np.zeros((nw, n)), -np.eye(nw), Dzw.T],
+                [np.zeros((nz, n)), Cz @ W, Dzw, -gamma**2 * np.eye(nz)],
+            ])  # fmt: skip
+        return normalized_max_eig(M[None])
+
+
+@dataclass(frozen=True)
+class H2(_Performance):
+    """H2 specification from `w` to `z` (see the module docstring).
+
+    Parameters
+    ----------
+    w : str, int or sequence, optional
+        Exogenous inputs; default every physical input that is not a
+        control input.
+    z : str, int or sequence, optional
+        Performance outputs; default all outputs.
+    bound : float, optional
+        Required bound, met strictly; None (only for the objective) asks for
+        the smallest one.
+
+    Notes
+    -----
+    In continuous time the feedthrough from `w` to `z` must be zero (the H2
+    norm is infinite otherwise); a `ValueError` says so.
+    """
+
+    def check_data(self, channels, continuous) -> None:
+        if continuous and any(np.any(d["Dzw"] != 0) for d in channels):
+            raise ValueError(
+                f"{self}: the feedthrough from w to z is not zero, so the "
+                "continuous-time H2 norm is infinite"
+            )
+
+    def lmis(self, t, continuous):
+        """The LMI blocks at one coefficient (see the module docstring)."""
+        rho = t.rho(self)
+        Bw, Dzw, Y = t.data(self, "Bw"), t.data(self, "Dzw"), t.const(t.Y(self))
+        eye_w = rho * t.identity(t.nw(self))
+        if t.slack:
+            # W(delta) only through its inverse's lower bound G + G' - W.
+            AX, CX, X = t.AG(), t.CG(self), 2 * t.G() - t.W()
+        else:
+            AX, CX, X = t.AW(), t.CW(self), t.W()
+        if continuous:
+            gramian = _extended(t) + [[Bw.T, 0, -eye_w]] if t.slack else [
+                [2 * AX - t.W_moved()], [Bw.T, -eye_w]]  # fmt: skip
+            trace = [[-Y], [CX.T, -X]]
+        else:
+            gramian = [[-t.W_moved()], [AX.T, -X], [Bw.T, 0, -eye_w]]
+            trace = [[-Y], [CX.T, -X], [Dzw.T, 0, -eye_w]]
+        return [("H2 Gramian", gramian), ("H2 trace", trace)]
+
+    def residual(self, frozen, gamma, continuous) -> float:
+        """Largest normalised eigenvalue of the Gramian inequalities.
+
+        ``A W + W A' - dW/dt + Bw Bw' < 0`` (or ``A W A' - W+ + Bw Bw' < 0``)
+        and the trace bound ``trace(Cz W Cz') < gamma^2`` (plus
+        ``trace(Dzw Dzw')`` in discrete time), as a relative excess.
+        """
+        A, Bw, Cz, Dzw, _, _, W, W_moved = frozen
+        if continuous:
+            M = A @ W + W @ A.T - W_moved + Bw @ Bw.T
+            energy = np.trace(Cz @ W @ Cz.T)
+        else:
+            M = A @ W @ A.T - W_moved + Bw @ Bw.T
+            energy = np.trace(Cz @ W @ Cz.T + Dzw @ Dzw.T)
+        excess = (energy - gamma**2) / gamma**2
+        return max(normalized_max_eig(M[None]), excess)
+
+
+@dataclass(frozen=True)
+class GainBound:
+    """Bound on the spectral norm of every gain, in the model's units.
+
+    Parameters
+    ----------
+    bound : float
+        Upper bound on ``||K||_2`` (every vertex gain when scheduled).
+
+    Notes
+    -----
+    Imposed by convex-concave iterations from the first certified point (a
+    sufficient condition); a design whose gain stays above the bound is
+    not returned.
+    """
+
+    bound: float
+
+    def __post_init__(self):
+        object.__setattr__(
+            self, "bound", real_number(self.bound, "bound", positive=True)
+        )
+
+    def __str__(self) -> str:
+        return f"GainBound({self.bound:g})"
+
+
+PERFORMANCE = (Hinf, H2)
+
+
+class Stability:
+    """Lyapunov stability alone: the objective ``None`` of `synthesize`.
+
+    Continuous time ``sym(A W + B2 Z) - dW/dt < 0``; discrete time
+    ``[[-W, *], [A W + B2 Z, -W+]] < 0``.
+    """
+
+    def lmis(self, t, continuous):
+        """The LMI blocks at one coefficient."""
+        if t.slack:
+            if continuous:
+                return [("Lyapunov", _extended(t))]
+            return [("Lyapunov", [[t.W() - 2 * t.G()], [t.AG(), -t.W_moved()]])]
+        if continuous:
+            return [("Lyapunov", [[2 * t.AW() - t.W_moved()]])]
+        return [("Lyapunov", [[-t.W()], [t.AW(), -t.W_moved()]])]
+
+    def residual(self, frozen, gamma, continuous) -> float:
+        """Largest normalised eigenvalue of the primal Lyapunov inequality."""
+        A, _, _, _, P, P_moved, _, _ = frozen
+        if continuous:
+            M = A.T @ P + P @ A + P_moved
+        else:
+            M = A.T @ P_moved @ A - P
+        return normalized_max_eig(M[None])
+
+
+def _extended(t):
+    """The first two block rows of the continuous-time extended LMIs.
+
+    ``[[sym(A_cl G) - dW/dt, *], [W - G + eps (A_cl G)', -eps sym(G)]]``:
+    with the slack ``G`` and a fixed ``eps > 0`` this is the projection of
+    the dual inequality (Pipeleers, Demeulenaere, Swevers and Vandenberghe
+    2009; Apkarian, Tuan and Bernussou 2001), which lets a common gain
+    ``K = -Z G^-1`` go with a parameter-dependent ``W``.
+    """
+    AG, eps = t.AG(), t.eps()
+    return [[2 * AG - t.W_moved()], [t.W() - t.G() + eps * AG.T, -2 * eps * t.G()]]
