@@ -13,9 +13,11 @@ on exact tests of ``F + t diag(-F_ii) < 0``.
 
 Matrices examined, with the design's ``K`` (float64) and ``P`` (float64):
 
-* ``checker``: the inequality the checker tests at a vertex ``(j, j)`` or a
-  pair ``(j, k)`` of a scheduled design (Theorem 2's pair sum
-  ``A_j - B_j K_k + A_k - B_k K_j``, ``c = 2``), with ``P`` as returned;
+* the inequality the checker tests at a vertex ``(j, j)`` or a pair
+  ``(j, k)`` of a scheduled design (Theorem 2's pair sum
+  ``A_j - B_j K_k + A_k - B_k K_j``, ``c = 2``), with ``P`` as returned
+  (``P A + A' P'``, as the library's check builds it) and with its
+  symmetric part (the only part ``x' P x`` sees, as the checker uses);
 * ``frozen``: the library's original-units check at the same frozen
   points it uses (vertices, pair midpoints: ``A(d) - B(d) K(d)``);
 * ``scaled W``: the LMI the solver's point satisfies, in the library's
@@ -203,7 +205,11 @@ def main(argv=None):
         Kk = Ke[k] if sched else Ke[0]
         return A - mul(B2, Kk), B1, C - mul(D2, Kk), D1
 
-    print("\nchecker's inequality (P as returned), exact:")
+    print(
+        "\nthe checker's vertex/pair inequality with P as returned (not "
+        "symmetrised, as the library's check), exact; and the checker's float64 "
+        "enclosure (it uses sym(P)):"
+    )
     for j, k in pairs:
         Acl, B1, Ccl, D1 = closed(j, k)
         c = 1
