@@ -32,6 +32,13 @@ from _independent import (
 SEED = 2026
 NCASES = 20  # more: benchmarks/fuzz_trust.py
 PROBE_BUDGET = 4.0  # CPU seconds per refusal
+# Cases over ~5 s run with ``-m slow`` (measured CPU seconds, library call
+# and probes: 2026:0 38, 2026:13 17, 2026:18 37, 2026:19 31; all four are
+# refusals, three of them gain-scheduled H-infinity ladders). The default
+# suite keeps the other 16 (every function, scaled, ill-conditioned,
+# near-uncontrollable and issue-style cases, the refusal 2026:6 with its
+# probe), about 17 s of CPU.
+SLOW = {0, 13, 18, 19}
 
 
 # ----------------------------------------------------------------------
@@ -145,23 +152,27 @@ def test_uncontrollable_unstable_mode_is_refused_as_such():
 DISPUTED = {14: "library verifies an unsymmetrised P; sym(P) fails the BRL"}
 
 
+class _Records(dict):
+    """Each case run once, on first use (deselected cases never run)."""
+
+    def __missing__(self, index):
+        case = generate_case(SEED, index, small=True)
+        self[index] = (case, run_case(case, lpv, probe_budget=PROBE_BUDGET))
+        return self[index]
+
+
 @pytest.fixture(scope="module")
 def records():
-    out = {}
-    for index in range(NCASES):
-        case = generate_case(SEED, index, small=True)
-        out[index] = (case, run_case(case, lpv, probe_budget=PROBE_BUDGET))
-    return out
+    return _Records()
+
+
+def _marks(i):
+    marks = [pytest.mark.xfail(reason=DISPUTED[i])] if i in DISPUTED else []
+    return marks + ([pytest.mark.slow] if i in SLOW else [])
 
 
 @pytest.mark.parametrize(
-    "index",
-    [
-        pytest.param(i, marks=pytest.mark.xfail(reason=DISPUTED[i]))
-        if i in DISPUTED
-        else i
-        for i in range(NCASES)
-    ],
+    "index", [pytest.param(i, marks=_marks(i)) for i in range(NCASES)]
 )
 def test_generated_problem(records, index):
     case, rec = records[index]
@@ -179,13 +190,25 @@ def test_generated_problem(records, index):
     )
 
 
+def _false_refusals(records, indices):
+    false = []
+    for index in indices:
+        case, rec = records[index]
+        if rec["outcome"] == "refusal" and rec["verdict"] == "false refusal":
+            false.append(case.describe())
+    return false
+
+
 def test_false_refusal_rate(records):
     # The issue's bound is 1 % of the problems with a verified design; on a
     # subset this small one refusal is already 5 %: at most one is allowed
     # here, the rate is measured on larger runs by benchmarks/fuzz_trust.py.
-    false = [
-        case.describe()
-        for case, rec in records.values()
-        if rec["outcome"] == "refusal" and rec["verdict"] == "false refusal"
-    ]
+    fast = [i for i in range(NCASES) if i not in SLOW]
+    false = _false_refusals(records, fast)
+    assert len(false) <= 1, false
+
+
+@pytest.mark.slow
+def test_false_refusal_rate_all_cases(records):
+    false = _false_refusals(records, range(NCASES))
     assert len(false) <= 1, false
