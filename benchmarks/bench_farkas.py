@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import platform
 import sys
 import time
@@ -290,6 +291,8 @@ def main(argv=None):
             "numpy": np.__version__,
             "machine": platform.machine(),
             "repeat": args.repeat,
+            "load_average": os.getloadavg(),
+            "OPENBLAS_NUM_THREADS": os.environ.get("OPENBLAS_NUM_THREADS"),
         }
         args.json.write_text(json.dumps({"meta": meta, "rows": rows}, indent=1))
 

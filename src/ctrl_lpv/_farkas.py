@@ -110,6 +110,7 @@ class AffineMap:
         self.M = sp.csr_array(M)
         self.MT = self.M.T.tocsr()
         self.nfree = self.M.shape[1]
+        self._restricted: dict[bytes, AffineMap] = {}
         owner = np.repeat(np.arange(self.sizes.size), self.sizes**2)
         self._owner = owner
         nlmi = self.sizes.size
@@ -161,8 +162,13 @@ class AffineMap:
     def restrict(self, keep) -> AffineMap:
         """The map of the inequalities where `keep` (a boolean mask) is set."""
         keep = np.asarray(keep, bool)
-        rows = np.flatnonzero(keep[self._owner])
-        return AffineMap(self.sizes[keep], self.base[rows], self.M[rows])
+        key = keep.tobytes()
+        if key not in self._restricted:
+            rows = np.flatnonzero(keep[self._owner])
+            self._restricted[key] = AffineMap(
+                self.sizes[keep], self.base[rows], self.M[rows]
+            )
+        return self._restricted[key]
 
     def stack(self, matrices) -> np.ndarray:
         """Stacked vector of one symmetric matrix per inequality."""

@@ -479,8 +479,9 @@ class LMIProblem:
         # compiled DPP program of one solver per problem).
         self._compiled: dict[str, str] = {}
         self._margin = cp.Parameter(nonneg=True, name="margin", value=float(margin))
-        # Columns of the affine map of each inequality (`_affine_map`).
-        self._farkas_columns: dict[str, tuple] = {}
+        # Columns of the affine map of each inequality, and the last stacked
+        # map of each stage (`_affine_map`).
+        self._farkas_columns: dict = {}
 
     @property
     def margin(self) -> float:
@@ -971,4 +972,14 @@ class LMIProblem:
                 part = _farkas.columns(evaluate, F0, read, units)
                 self._farkas_columns[name] = (key, F0, part)
             pieces.append((F0, part))
-        return _farkas.stacked(pieces, nfree)
+        # Every inequality as last time (same column objects): the stacked
+        # map, with its factored Gram matrix, is the same too.
+        parts = tuple(part for _, part in pieces)
+        key = ("map", tuple(name for name, *_ in active))
+        last = self._farkas_columns.get(key)
+        if last and len(last[0]) == len(parts):
+            if all(a is b for a, b in zip(last[0], parts)):
+                return last[1]
+        amap = _farkas.stacked(pieces, nfree)
+        self._farkas_columns[key] = (parts, amap)
+        return amap
