@@ -60,6 +60,46 @@ def test_inhomogeneous_infeasibility_is_proven():
     assert info.value.farkas.proves_infeasible
 
 
+def test_certificate_that_needs_the_normalisation_says_so():
+    # P > 0 alone is feasible (P = I); only the normalisation tr P <= -1
+    # makes the stage infeasible, so the proof must be marked normalised.
+    # (A projection that let the normalisation's dual back in while calling
+    # the variant normalisation-free claimed "refutes the LMIs".)
+    lmi = LMIProblem()
+    lmi.variable("P", (2, 2), symmetric=True)
+    lmi.add("P > 0", lambda v: [[-v.P]])
+    lmi.add(
+        "tr P <= -1",
+        lambda v: [[np.eye(1) + v.P[0:1, 0:1] + v.P[1:2, 1:2]]],
+        strict=False,
+        normalization=True,
+    )
+    assert np.linalg.eigvalsh(-np.eye(2))[-1] < 0  # P = I solves "P > 0"
+    with pytest.raises(InfeasibleError) as info:
+        lmi.solve()
+    proof = info.value.farkas
+    assert proof.proves_infeasible and proof.normalized
+    assert "normalisation" in str(info.value)
+
+
+def test_farkas_map_columns_follow_the_parameters():
+    # The columns of the affine map are reused between judgements only
+    # while the parameters an LMI reads are unchanged: after a parameter
+    # change the certificate must refute the new data, not the old.
+    lmi = LMIProblem()
+    lmi.variable("P", (1, 1), symmetric=True)
+    lmi.parameter("a", (1, 1), value=np.array([[1.0]]))
+    lmi.add("P > 0", lambda v: [[-v.P]])
+    # 1 + a P <= 0 with P > 0: infeasible for a >= 0 (a = 1: P <= -1).
+    lmi.add("affine", lambda v: [[np.eye(1) + v.a @ v.P]])
+    duals = [np.eye(1), np.eye(1)]  # 1 + (a - 1) P: zero slope at a = 1
+    first = lmi.farkas(duals)
+    assert first.proves_infeasible
+    lmi.set_parameter("a", [[-1.0]])  # now P = 2 solves both
+    second = lmi.farkas(duals)
+    assert second is None or not second.proves_infeasible
+
+
 def test_check_rejects_a_wrong_point():
     A = np.array([[-1.0, 5.0], [0.0, -2.0]])
     lmi = lyapunov_problem(A)

@@ -7,8 +7,10 @@ either returns a design, which must pass the independent float64 check of
 an ``InfeasibleError``, in which case an independent search for a verified
 design (plain cvxpy LMIs in other scalings and margins, LQR and Riccati
 gains) must fail and the message must not state something false (a "not
-stabilizable" vertex that is stabilizable). With 40 problems the issue's
-"at most 1 % of the problems with a verified design refused" allows none.
+stabilizable" vertex that is stabilizable). 20 problems, of which the 16
+fast ones run by default and all with ``-m slow`` (see `SLOW`); on so few
+the issue's "at most 1 % of the problems with a verified design refused"
+is checked as "at most one".
 
 Re-run one case verbosely with
 ``python benchmarks/fuzz_trust.py --case 2026:INDEX --small``.
@@ -32,6 +34,13 @@ from _independent import (
 SEED = 2026
 NCASES = 20  # more: benchmarks/fuzz_trust.py
 PROBE_BUDGET = 4.0  # CPU seconds per refusal
+# Cases over ~5 s run with ``-m slow`` (measured CPU seconds, library call
+# and probes: 2026:0 38, 2026:13 17, 2026:18 37, 2026:19 31; all four are
+# refusals, three of them gain-scheduled H-infinity ladders). The default
+# suite keeps the other 16 (every function, scaled, ill-conditioned,
+# near-uncontrollable and issue-style cases, the refusal 2026:6 with its
+# probe), about 17 s of CPU.
+SLOW = {0, 13, 18, 19}
 
 
 # ----------------------------------------------------------------------
@@ -133,30 +142,39 @@ def test_uncontrollable_unstable_mode_is_refused_as_such():
 # ----------------------------------------------------------------------
 # The fuzz
 # ----------------------------------------------------------------------
-# 2026:14: a raw optimum with gains of 1.7e9 whose bounded-real inequality
-# with the returned P the library verifies (Jacobi-normalised lambda_max
-# -4.6e-9, frozen H-infinity norms 0.56 < gamma 0.65) and this checker
-# refutes beyond its rounding bound: one of the two is wrong, not settled.
-DISPUTED = {14: "library and checker disagree on the returned P (raw optimum)"}
+# 2026:14 (settled in exact rational arithmetic by
+# benchmarks/study_disputed_brl.py): the library's solver point (W~, Z~, g~)
+# satisfies its scaled H-infinity LMI (lambda_max(DFD) = -4.63e-9 exactly),
+# but the returned P = inv(W) is not exactly symmetric (4.9e-17 relative)
+# and the library's original-units check builds P A + A' P' with it
+# (-4.64e-9). x'Px sees only sym(P), and with it the bounded-real matrix at
+# vertex 0 has lambda_max(DFD) = +3.98e-4 exactly: the returned (K, P) is
+# no certificate, as this checker says. The fix belongs to
+# ctrl_lpv.synthesis (symmetrise P before verifying and returning it).
+DISPUTED = {14: "library verifies an unsymmetrised P; sym(P) fails the BRL"}
+
+
+class _Records(dict):
+    """Each case run once, on first use (deselected cases never run)."""
+
+    def __missing__(self, index):
+        case = generate_case(SEED, index, small=True)
+        self[index] = (case, run_case(case, lpv, probe_budget=PROBE_BUDGET))
+        return self[index]
 
 
 @pytest.fixture(scope="module")
 def records():
-    out = {}
-    for index in range(NCASES):
-        case = generate_case(SEED, index, small=True)
-        out[index] = (case, run_case(case, lpv, probe_budget=PROBE_BUDGET))
-    return out
+    return _Records()
+
+
+def _marks(i):
+    marks = [pytest.mark.xfail(reason=DISPUTED[i])] if i in DISPUTED else []
+    return marks + ([pytest.mark.slow] if i in SLOW else [])
 
 
 @pytest.mark.parametrize(
-    "index",
-    [
-        pytest.param(i, marks=pytest.mark.xfail(reason=DISPUTED[i]))
-        if i in DISPUTED
-        else i
-        for i in range(NCASES)
-    ],
+    "index", [pytest.param(i, marks=_marks(i)) for i in range(NCASES)]
 )
 def test_generated_problem(records, index):
     case, rec = records[index]
@@ -174,13 +192,25 @@ def test_generated_problem(records, index):
     )
 
 
+def _false_refusals(records, indices):
+    false = []
+    for index in indices:
+        case, rec = records[index]
+        if rec["outcome"] == "refusal" and rec["verdict"] == "false refusal":
+            false.append(case.describe())
+    return false
+
+
 def test_false_refusal_rate(records):
     # The issue's bound is 1 % of the problems with a verified design; on a
     # subset this small one refusal is already 5 %: at most one is allowed
     # here, the rate is measured on larger runs by benchmarks/fuzz_trust.py.
-    false = [
-        case.describe()
-        for case, rec in records.values()
-        if rec["outcome"] == "refusal" and rec["verdict"] == "false refusal"
-    ]
+    fast = [i for i in range(NCASES) if i not in SLOW]
+    false = _false_refusals(records, fast)
+    assert len(false) <= 1, false
+
+
+@pytest.mark.slow
+def test_false_refusal_rate_all_cases(records):
+    false = _false_refusals(records, range(NCASES))
     assert len(false) <= 1, false

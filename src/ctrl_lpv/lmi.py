@@ -29,6 +29,7 @@ import cvxpy as cp
 import numpy as np
 import scipy.sparse as sp
 
+from . import _farkas
 from .exceptions import CertificationError, InfeasibleError
 
 __all__ = [
@@ -54,9 +55,6 @@ _MAX_RETRY_FACTOR = 1e4
 # calls the LMIs infeasible: no solution, even with margin 0, within this
 # radius (scaled units).
 INFEASIBLE_RADIUS = 1e8
-# Alternating projections that polish a solver's dual point into a Farkas
-# certificate (PSD cone, then the null space of the adjoint map).
-_FARKAS_REFINEMENTS = 200
 
 
 def _retry_factor(checks, margin) -> float | None:
@@ -291,6 +289,10 @@ def assemble(blocks, xp=np):
             return zero(i, j)
         return item.T if transpose else item
 
+    if xp is np and nrows == 1:
+        # One block (most LMIs here): np.block would only copy it.
+        full = np.asarray(blocks[0][0])
+        return 0.5 * (full + full.T)
     if xp is not np:
         # cvxpy's PSD constraints act on the symmetric part (M + M')/2, so
         # the lower triangle with doubled off-diagonal blocks is the same
@@ -342,9 +344,16 @@ def _stronger(proof, other) -> bool:
     return rank(proof) > rank(other)
 
 
-def _psd_part(Y):
-    lam, V = np.linalg.eigh(Y)
-    return (V * np.clip(lam, 0.0, None)) @ V.T
+def _recording_namespace(values, read: set, names) -> SimpleNamespace:
+    """A namespace of `values` that adds to `read` the `names` looked up."""
+
+    class Recording(SimpleNamespace):
+        def __getattribute__(self, name):
+            if name in names or name == "__dict__":
+                read.add(name)
+            return super().__getattribute__(name)
+
+    return Recording(**values)
 
 
 def _is_symmetric(expression) -> bool:
@@ -470,6 +479,9 @@ class LMIProblem:
         # compiled DPP program of one solver per problem).
         self._compiled: dict[str, str] = {}
         self._margin = cp.Parameter(nonneg=True, name="margin", value=float(margin))
+        # Columns of the affine map of each inequality, and the last stacked
+        # map of each stage (`_affine_map`).
+        self._farkas_columns: dict = {}
 
     @property
     def margin(self) -> float:
@@ -593,6 +605,7 @@ class LMIProblem:
             self._normalizations.add(name)
         self._problems.clear()
         self._compiled.clear()
+        self._farkas_columns.clear()
 
     def _active(self, stage: str):
         return [lmi for lmi in self._lmis if lmi[3] is None or stage in lmi[3]]
@@ -663,6 +676,7 @@ class LMIProblem:
         """
         self._problems.pop(stage, None)
         self._compiled.pop(stage, None)
+        self._farkas_columns.clear()
 
     def is_dpp(self, stage: str = "default") -> bool:
         """Whether a built stage re-solves without recompiling (DPP).
@@ -873,87 +887,59 @@ class LMIProblem:
         duals : sequence of ndarray
             One symmetric matrix per active inequality of `stage`, in the
             order they were added (e.g. cvxpy's dual values after an
-            infeasible solve). Each is projected on the PSD cone, then the
-            certificate is evaluated as described in `FarkasCertificate`;
-            both signs are tried.
+            infeasible solve). Each is projected on the PSD cone, then
+            polished by alternating projections (PSD cone, null space of the
+            adjoint map) and the certificate is evaluated as described in
+            `FarkasCertificate`; both signs are tried, with and without the
+            duals of the normalisations.
         stage : str, optional
             Stage name.
 
         Returns
         -------
         `FarkasCertificate` or None
-            None if neither sign gives a positive offset.
+            None if no variant gives a positive trace.
         """
         active = self._active(stage)
         if len(duals) != len(active):
             raise ValueError(
                 f"duals: expected {len(active)} matrices, got {len(duals)}"
             )
-        base, M = self._affine_map(active)
-        gram = sum((m.T @ m).toarray() for m in M)
-        eps = np.finfo(float).eps
+        full = self._affine_map(active)
+        normalizing = np.array([name in self._normalizations for name, *_ in active])
+        symmetric = full.stack(duals)
+        # Without the normalisations (their inequalities dropped, so their
+        # duals are exactly zero): a certificate that does not need them
+        # refutes the LMIs themselves (for homogeneous strict LMIs the
+        # normalisations are often what makes the solver's problem
+        # infeasible).
+        variants = [(full, normalizing, symmetric)]
+        if normalizing.any() and not normalizing.all():
+            reduced = full.restrict(~normalizing)
+            kept = np.flatnonzero(~normalizing[full._owner])
+            variants.append((reduced, np.zeros(reduced.count, bool), symmetric[kept]))
         best = None
-        # Both signs (conventions differ), and without the duals of the
-        # normalisations: a certificate that does not need them refutes the
-        # LMIs themselves (for homogeneous strict LMIs the normalisations
-        # are often what makes the solver's problem infeasible).
-        symmetric = [
-            0.5 * (np.asarray(d, float) + np.asarray(d, float).T) for d in duals
-        ]
-        normalizing = [name in self._normalizations for name, *_ in active]
-        variants = [
-            (keep, [sign * y if keep or not nz else 0 * y
-                    for y, nz in zip(symmetric, normalizing)])
-            for sign in (1.0, -1.0)
-            for keep in (True, False)
-        ]  # fmt: skip
-        for keep, Y in variants:
-            used = keep and any(
-                nz and np.any(y) for y, nz in zip(symmetric, normalizing)
-            )
-            slope_before = np.inf
-            for _ in range(_FARKAS_REFINEMENTS):
-                Y = [_psd_part(y) for y in Y]
-                total = sum(np.trace(y) for y in Y)
-                if not total > 0:
-                    break
-                Y = [y / total for y in Y]
-                # The smallest change of Y that zeroes the slope g; the
-                # projections converge linearly, so stop when they stall.
-                g = sum(m.T @ y.ravel() for m, y in zip(M, Y))
-                slope = float(np.linalg.norm(g))
-                if slope > 0.999 * slope_before or slope < 1e3 * eps:
-                    break
-                slope_before = slope
-                c = np.linalg.lstsq(gram, g, rcond=None)[0]
-                Y = [y - (m @ c).reshape(y.shape) for m, y in zip(M, Y)]
-                Y = [0.5 * (y + y.T) for y in Y]
-            Y = [_psd_part(y) for y in Y]
-            total = sum(np.trace(y) for y in Y)
-            if not total > 0:
-                continue
-            Y = [y / total for y in Y]
-            b, b_err = 0.0, 0.0
-            g = np.zeros(gram.shape[0])
-            g_err = 0.0
-            for F0, m_i, y in zip(base, M, Y):
-                scale = 10 * F0.shape[0] * eps * np.abs(y).max()
-                b += float(np.sum(F0 * y))
-                b_err += scale * np.abs(F0).sum()
-                g += m_i.T @ y.ravel()
-                g_err += scale * abs(m_i).sum()
-            slope = float(np.linalg.norm(g)) + g_err
-            proof = FarkasCertificate(stage, b - b_err, slope, bool(used))
-            if best is None or _stronger(proof, best):
-                best = proof
+        for sign in (1.0, -1.0):  # conventions differ
+            for amap, marks, y0 in variants:
+                y = amap.polish(sign * y0)
+                if y is None:
+                    continue
+                offset, slope = amap.bound(y)
+                used = bool(np.any(amap.nonzero(y) & marks))
+                proof = FarkasCertificate(stage, offset, slope, used)
+                if best is None or _stronger(proof, best):
+                    best = proof
         return best
 
-    def _affine_map(self, active):
+    def _affine_map(self, active) -> _farkas.AffineMap:
         """``F_i(0)`` and the sparse map ``x -> vec(F_i(x) - F_i(0))``.
 
         Evaluated in float64 with the block functions themselves, one free
-        entry of the variables at a time (only for the variables that
-        inequality ``i`` reads).
+        entry of the variables at a time, only for the variables that the
+        block function of inequality ``i`` reads. The columns of an
+        inequality are kept until the next `add` or `invalidate`, and reused
+        while the parameters it reads and ``F_i(0)`` are unchanged (the
+        margin is not part of ``F_i``).
         """
         numeric = {k: np.asarray(p.value, float) for k, p in self._params.items()}
         zero = {k: np.zeros(x.shape) for k, x in self._vars.items()}
@@ -961,24 +947,39 @@ class LMIProblem:
             name: list(_unit_points(x.shape, _is_symmetric(x)))
             for name, x in self._vars.items()
         }
-        probe = np.random.default_rng(0)
-        base, maps = [], []
-        for _, blocks, _, _ in active:
+        nfree = sum(len(points) for points in units.values())
+        names = frozenset(self._vars) | frozenset(self._params)
+        pieces = []
+        for name, blocks, _, _ in active:
 
-            def evaluate(values, blocks=blocks):
-                v = self._namespace({**numeric, **zero, **values})
+            def evaluate(values, read=None, blocks=blocks):
+                namespace = {**numeric, **zero, **values}
+                if read is None:
+                    v = SimpleNamespace(**namespace)
+                else:
+                    v = _recording_namespace(namespace, read, names)
                 return assemble(blocks(v), xp=np)
 
-            F0 = evaluate({})
-            columns = []
-            for name, x in self._vars.items():
-                if np.array_equal(evaluate({name: probe.standard_normal(x.shape)}), F0):
-                    columns.append(sp.csc_array((F0.size, len(units[name]))))
-                    continue
-                dense = np.column_stack(
-                    [(evaluate({name: E}) - F0).ravel() for E in units[name]]
-                )
-                columns.append(sp.csc_array(dense))
-            base.append(F0)
-            maps.append(sp.hstack(columns, format="csr"))
-        return base, maps
+            read: set = set()
+            F0 = evaluate({}, read)
+            if "__dict__" in read:  # the namespace was read as a whole
+                read = set(names)
+            key = tuple((p, numeric[p].tobytes()) for p in sorted(read & set(numeric)))
+            cached = self._farkas_columns.get(name)
+            if cached and cached[0] == key and np.array_equal(cached[1], F0):
+                part = cached[2]
+            else:
+                part = _farkas.columns(evaluate, F0, read, units)
+                self._farkas_columns[name] = (key, F0, part)
+            pieces.append((F0, part))
+        # Every inequality as last time (same column objects): the stacked
+        # map, with its factored Gram matrix, is the same too.
+        parts = tuple(part for _, part in pieces)
+        key = ("map", tuple(name for name, *_ in active))
+        last = self._farkas_columns.get(key)
+        if last and len(last[0]) == len(parts):
+            if all(a is b for a, b in zip(last[0], parts)):
+                return last[1]
+        amap = _farkas.stacked(pieces, nfree)
+        self._farkas_columns[key] = (parts, amap)
+        return amap
