@@ -423,7 +423,9 @@ def test_common_gain_affine_lyapunov_beats_quadratic():
     # 6.71; exact common-gain / constant-X optimum 25.41; frozen optimum 3.206.
     lb, common = twomass_facts()
     sys = to_pss(twomass_box(), **TWOMASS)
-    design = _hinf_design(sys, gains="common", lyapunov="affine", rate_bounds={"k": 0.0})
+    design = _hinf_design(
+        sys, gains="common", lyapunov="affine", rate_bounds={"k": 0.0}
+    )
     assert len(design.gains) == 1
     K = np.asarray(design.gains[0], float)
     cl = twomass_box().closed_loop(K, [0], [1], [0, 1])

@@ -143,15 +143,12 @@ def test_uncontrollable_unstable_mode_is_refused_as_such():
 # The fuzz
 # ----------------------------------------------------------------------
 # 2026:14 (settled in exact rational arithmetic by
-# benchmarks/study_disputed_brl.py): the library's solver point (W~, Z~, g~)
-# satisfies its scaled H-infinity LMI (lambda_max(DFD) = -4.63e-9 exactly),
-# but the returned P = inv(W) is not exactly symmetric (4.9e-17 relative)
-# and the library's original-units check builds P A + A' P' with it
-# (-4.64e-9). x'Px sees only sym(P), and with it the bounded-real matrix at
-# vertex 0 has lambda_max(DFD) = +3.98e-4 exactly: the returned (K, P) is
-# no certificate, as this checker says. The fix belongs to
-# ctrl_lpv.synthesis (symmetrise P before verifying and returning it).
-DISPUTED = {14: "library verifies an unsymmetrised P; sym(P) fails the BRL"}
+# benchmarks/study_disputed_brl.py): the library used to verify and return
+# P = inv(W) unsymmetrised (4.9e-17 relative), for which P A + A' P' passed
+# (-4.64e-9) while sym(P), the storage function x'Px, fails the
+# bounded-real inequality (+3.98e-4). The library now symmetrises P
+# (Scaling.unscale_P); the case must be a true design or a true refusal.
+DISPUTED: dict[int, str] = {}
 
 
 class _Records(dict):

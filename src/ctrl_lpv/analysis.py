@@ -49,7 +49,8 @@ class _LyapunovResult:
         if p is None:
             raise ValueError("p: an affine Lyapunov function needs the parameter value")
         delta = self.system.weights(p)
-        return np.linalg.inv(sum(d * np.linalg.inv(Pj) for d, Pj in zip(delta, self.P)))
+        P = np.linalg.inv(sum(d * np.linalg.inv(Pj) for d, Pj in zip(delta, self.P)))
+        return 0.5 * (P + P.T)
 
 
 @dataclass(frozen=True)

@@ -100,7 +100,7 @@ def verify_frozen(job, sol, gains, values, Ws, Zs) -> Certificate:
                 # d(W^-1)/dt = -W^-1 (dW/dt) W^-1.
                 P_moved = -P @ W_moved @ P
             else:
-                P_moved = np.linalg.inv(W_moved) if not lyap.constant else P
+                P_moved = _sym_inv(W_moved) if not lyap.constant else P
             npoints += 1
             loop = (Acl, None, None, None, P, P_moved, W, W_moved)
             for i, (spec, bound) in enumerate(zip(performance, bounds)):
@@ -125,3 +125,9 @@ def verify_frozen(job, sol, gains, values, Ws, Zs) -> Certificate:
         npoints=npoints,
         max_original_eig=float(worst_spec),
     )
+
+
+def _sym_inv(W):
+    """``W^-1``, symmetrised (see `ctrl_lpv.synthesis.scaling.Scaling.unscale_P`)."""
+    P = np.linalg.inv(W)
+    return 0.5 * (P + P.T)

@@ -205,7 +205,8 @@ class StateFeedbackDesign:
             raise ValueError("p: an affine Lyapunov function needs the parameter value")
         delta = self.system.weights(p)
         W = sum(d * np.linalg.inv(Pj) for d, Pj in zip(delta, self.P))
-        return np.linalg.inv(W)
+        P = np.linalg.inv(W)
+        return 0.5 * (P + P.T)
 
     def closed_loop(self, p) -> tuple[np.ndarray, ...]:
         """Closed-loop ``(A, B_w, C_z, D_zw)`` matrices at `p`."""

@@ -87,8 +87,14 @@ class Scaling:
         return self.w_factor * (self.T[:, None] * Wt * self.T)
 
     def unscale_P(self, Pt):
-        """``P = W^-1`` from ``P~ = W~^-1``."""
-        return Pt / (self.w_factor * self.T[:, None] * self.T)
+        """``P = W^-1`` from ``P~ = W~^-1``, exactly symmetric.
+
+        ``x' P x`` sees only the symmetric part of ``P``, and a float inverse
+        is not exactly symmetric: a check of ``P A + A' P'`` with it is not
+        the Lyapunov inequality of any storage function (fuzz case 2026:14,
+        settled in exact arithmetic by ``benchmarks/study_disputed_brl.py``).
+        """
+        return 0.5 * (Pt + Pt.T) / (self.w_factor * self.T[:, None] * self.T)
 
     def unscale_K(self, Kt):
         # u = -K x with u = Su u~, x = T x~ and u~ = -K~ x~.
