@@ -207,3 +207,11 @@ def test_two_specs_of_one_kind_on_different_channels(plant):
         # w -> uz = u = -K(p) x, written from the plant's data.
         K = design.gain({"p": p})
         assert ct.linfnorm(ct.ss(A, B, -K, 0))[0] < bound
+
+
+def test_time_limit_refuses_before_compiling(plant):
+    with pytest.raises(lpv.CertificationError, match="time_limit"):
+        lpv.synthesize(
+            plant, "u", objective=lpv.H2("w"), gains="scheduled", lyapunov="affine",
+            rate_bounds={"p": 1.0}, time_limit=1e-9,
+        )  # fmt: skip

@@ -39,6 +39,7 @@ from .ladder import (
     gain_tangent,
     solve_stage,
 )
+from .options import guard_estimate
 from .parametric import coefficients
 from .problem import EPSILONS, build_problem
 from .results import Certificate, StateFeedbackDesign
@@ -67,6 +68,7 @@ def run_general(
         original.append(vertex)
     for i, spec in enumerate(specs):
         spec.check_data([{"Dzw": v[(i, "Dzw")]} for v in original], continuous)
+    _guard(sys, original, specs, regions, lyap, time_limit)
     record, attempts = [], []
     rungs = [(name, f) for name in ("balanced", "none") for f in MARGIN_FACTORS]
     for name, factor in rungs:
@@ -117,6 +119,20 @@ def run_general(
         f"{[margin * f for f in MARGIN_FACTORS]}); what failed: {reasons}{hint}",
         attempts,
     )
+
+
+def _guard(sys, original, specs, regions, lyap, time_limit) -> None:
+    """The size guard of the paper's engine, on this engine's LMI count."""
+    n = original[0]["A"].shape[0]
+    per_point = sum(2 if isinstance(s, H2) else 1 for s in specs) or 1
+    ncoef = len(coefficients(sys.domain, sys.nvertices))
+    nlmis = ncoef * (len(lyap.rates) * per_point + len(regions))
+    channels = max(
+        [original[0][(i, "Bw")].shape[1] + original[0][(i, "Cz")].shape[0]
+         for i in range(len(specs))] or [0]
+    )  # fmt: skip
+    largest = max([2 * n + channels] + [r.M.shape[0] * n for r in regions])
+    guard_estimate(nlmis, nlmis * largest**2, largest, time_limit)
 
 
 # Margin of the solve that only estimates the optimum, relative to the margin.
@@ -172,8 +188,7 @@ class _Job:
         base = Scaling.of(first, balance=balance, time_scaling=continuous)
         if not balance:
             n, m = first[0][0].shape[0], first[0][2].shape[1]
-            a = base.a if continuous else 1.0
-            base = Scaling(np.ones(n), np.ones(m), 1.0, 1.0, a)
+            base = Scaling(np.ones(n), np.ones(m), 1.0, 1.0, base.a)
         self.scaling = base
         self.channel = []
         for i in range(len(specs)):

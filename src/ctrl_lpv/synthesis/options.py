@@ -58,19 +58,26 @@ def validated_options(regions, backoff, gamma, gain_bound, margin, solvers, time
 
 
 def guard_size(structure, time_limit=None) -> None:
+    """`guard_estimate` for a structure of the paper's engine."""
+    guard_estimate(
+        len(vertex_pairs(structure.N, structure.scheduled)), structure.entries,
+        structure.lmi_size, time_limit, cached=structure in synthesis_cache,
+    )  # fmt: skip
+
+
+def guard_estimate(nlmis, entries, largest, time_limit=None, cached=False) -> None:
     """Warn about, or refuse, a problem too large for this machine or time.
 
     cvxpy compiles each LMI in Python: measured here about 0.03-0.07 s per
     LMI of a vertex pair and 1e-2 s per thousand matrix entries, all stages
     together, so a scheduled design on 200 vertices (20,100 LMIs) takes
-    about a quarter of an hour before any solver runs.
+    about a quarter of an hour before any solver runs. A `cached` problem is
+    compiled already: only the memory is checked.
     """
-    entries = structure.entries
-    npairs = len(vertex_pairs(structure.N, structure.scheduled))
     estimate = entries * _BYTES_PER_ENTRY
-    seconds = _COMPILE_SECONDS_PER_LMI * npairs + _COMPILE_SECONDS_PER_ENTRY * entries
+    seconds = _COMPILE_SECONDS_PER_LMI * nlmis + _COMPILE_SECONDS_PER_ENTRY * entries
     text = (
-        f"{npairs} LMIs of size up to {structure.lmi_size}, about {entries:,} "
+        f"{nlmis} LMIs of size up to {largest}, about {entries:,} "
         f"matrix entries, estimated {estimate / 2**30:.2g} GiB and "
         f"{seconds:.3g} s to compile"
     )
@@ -84,8 +91,8 @@ def guard_size(structure, time_limit=None) -> None:
             f"half of its {memory / 2**30:.3g} GiB); use fewer vertices or a "
             "common gain"
         )
-    if structure in synthesis_cache:
-        return  # compiled already: only the solver's time is left
+    if cached:
+        return
     if time_limit is not None and seconds > time_limit:
         raise CertificationError(
             f"time_limit: no design tried, the problem would not compile within "
@@ -95,5 +102,5 @@ def guard_size(structure, time_limit=None) -> None:
         warnings.warn(
             f"large LMI problem: {text}; time_limit= bounds the whole call",
             ProblemSizeWarning,
-            stacklevel=4,
+            stacklevel=5,
         )
