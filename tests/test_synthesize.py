@@ -215,3 +215,16 @@ def test_time_limit_refuses_before_compiling(plant):
             plant, "u", objective=lpv.H2("w"), gains="scheduled", lyapunov="affine",
             rate_bounds={"p": 1.0}, time_limit=1e-9,
         )  # fmt: skip
+
+
+@pytest.mark.slow  # about 70 s: 7 eps x 4 rungs x 3 W bounds, each refuted
+def test_extended_lmis_refusal_is_not_a_proof(plant):
+    # Far below what any gain reaches (the H-infinity optimum is about 1).
+    # The extended LMIs are posed at one fixed eps each: a refutation of them
+    # is not a refutation of the problem, so the refusal must not claim it.
+    with pytest.raises(lpv.SynthesisError) as info:
+        lpv.synthesize(
+            plant, "u", objective=lpv.Hinf("w", bound=1e-3), lyapunov="affine",
+            rate_bounds={"p": 0.0},
+        )  # fmt: skip
+    assert isinstance(info.value, lpv.CertificationError)

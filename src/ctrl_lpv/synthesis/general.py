@@ -256,6 +256,15 @@ class _Job:
             return self._given()
         return self._optimal()
 
+    @property
+    def _proves(self) -> bool:
+        """Whether a refutation of this job's LMIs refutes the problem's LMIs.
+
+        Not for the extended LMIs: they are posed at one fixed eps, and
+        another may be feasible.
+        """
+        return not (self.slack and self.continuous)
+
     def _solve(self, stage, objective, certify=True, proof=False):
         return solve_stage(self, stage, objective, certify, proof)
 
@@ -263,7 +272,7 @@ class _Job:
         best = None
         for z_max in STABILIZE_Z_MAX:
             self.lmi.set_parameter("z_max", z_max)
-            sol = self._solve("stabilize", lambda v: -v.t[0, 0], proof=True)
+            sol = self._solve("stabilize", lambda v: -v.t[0, 0], proof=self._proves)
             best = self.accept(sol, f"stabilize (z_max {z_max:g})")
             if best is not None:
                 break
@@ -273,7 +282,7 @@ class _Job:
         best = None
         for w_max in _GIVEN_W_MAX:
             self.lmi.set_parameter("w_max", w_max)
-            sol = self._solve("center", lambda v: -v.t[0, 0], proof=True)
+            sol = self._solve("center", lambda v: -v.t[0, 0], proof=self._proves)
             best = self.accept(sol, f"bound given (w_max {w_max:g})")
             if best is not None:
                 break
