@@ -36,6 +36,7 @@ from .ladder import (
     GAIN_RTOL,
     MARGIN_FACTORS,
     STABILIZE_Z_MAX,
+    back_off,
     gain_tangent,
     solve_stage,
 )
@@ -326,31 +327,13 @@ class _Job:
             if raw_design is not None:
                 return self._gain_stage(raw_design, gamma_opt)
             self.notes.append("raw optimum: not certified; backing off")
-            factors = (1.001, 1.01, 1.05, 1.2)
-        else:
-            b = self.backoff
-            factors = (1 + b, 1 + b / 2, 1 + b / 8, 1 + 2 * b)
         w_star = max(
             max(float(np.linalg.eigvalsh(getattr(raw, f"W{e}"))[-1]), 1e-12)
             for e in range(self.lyap.count)
         )
-        best = None
-        for factor in factors:
-            self.lmi.set_parameter("g_max", np.array([[g_opt * factor**2]]))
-            for w_max in (w_star, 1e3 * w_star):
-                self.lmi.set_parameter("w_max", w_max)
-                sol = self._solve("center", lambda v: -v.t[0, 0])
-                best = self.accept(sol, f"back-off x{factor:g} (w_max {w_max:.3g})")
-                if best is not None:
-                    break
-            if best is not None:
-                break
+        best = back_off(self, self.accept, g_opt, w_star, raw_design)
         if best is None:
-            if raw_design is None:
-                return None
-            self.notes.append("back-off: no certified point; the raw optimum is kept")
-            best = raw_design
-            self.lmi.set_parameter("g_max", np.array([[g_opt * (1 + 1e-9)]]))
+            return None
         return self._gain_stage(best, gamma_opt)
 
     def _gain_stage(self, best, gamma_opt):

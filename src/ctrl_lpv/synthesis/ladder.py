@@ -335,28 +335,10 @@ class _Job:
                     return raw_design, gamma_opt
                 return self._minimise_gain(raw_design, gamma_opt)
             self.notes.append("raw optimum: not certified; backing off")
-            factors = (1.001, 1.01, 1.05, 1.2)
-        else:
-            b = self.backoff
-            factors = (1 + b, 1 + b / 2, 1 + b / 8, 1 + 2 * b)
         w_star = max(float(np.linalg.eigvalsh(raw.W)[-1]), 1e-12)
-        best = None
-        for factor in factors:
-            lmi.set_parameter("g_max", g_opt * factor**2)
-            for w_max in (w_star, 1e3 * w_star):
-                lmi.set_parameter("w_max", w_max)
-                sol = self._solve("center", lambda v: -v.t[0, 0])
-                best = self._accept(sol, f"back-off x{factor:g} (w_max {w_max:.3g})")
-                if best is not None:
-                    break
-            if best is not None:
-                break
+        best = back_off(self, self._accept, g_opt, w_star, raw_design)
         if best is None:
-            if raw_design is None:
-                return None
-            self.notes.append("back-off: no certified point; the raw optimum is kept")
-            best = raw_design
-            lmi.set_parameter("g_max", g_opt * (1 + 1e-9))
+            return None
         if not self.backoff and self.gain_bound is None:
             return best, gamma_opt
         return self._minimise_gain(best, gamma_opt)
@@ -384,6 +366,34 @@ class _Job:
         if self._accept(best.solution, "final point", bounded=True) is None:
             return None
         return best, gamma_opt
+
+
+def back_off(job, accept, g_opt, w_star, raw_design):
+    """The back-off stage of a ladder job from the minimum ``g_opt``.
+
+    Re-solves with ``g <= factor^2 g_opt`` and ``W <= w_max I`` (``w_max``
+    the optimal point's ``lambda_max(W)``, then 1e3 times it), maximising
+    the smallest eigenvalue of ``W``; factors ``1 + b, 1 + b/2, 1 + b/8,
+    1 + 2 b`` for the back-off ``b``, or just above 1 without one (the raw
+    optimum did not certify). Returns the first point `accept` certifies,
+    else `raw_design` (None if that is None too).
+    """
+    b = job.backoff
+    factors = (
+        (1 + b, 1 + b / 2, 1 + b / 8, 1 + 2 * b) if b else (1.001, 1.01, 1.05, 1.2)
+    )
+    for factor in factors:
+        job.lmi.set_parameter("g_max", g_opt * factor**2)
+        for w_max in (w_star, 1e3 * w_star):
+            job.lmi.set_parameter("w_max", w_max)
+            sol = solve_stage(job, "center", lambda v: -v.t[0, 0])
+            point = accept(sol, f"back-off x{factor:g} (w_max {w_max:.3g})")
+            if point is not None:
+                return point
+    if raw_design is not None:
+        job.notes.append("back-off: no certified point; the raw optimum is kept")
+        job.lmi.set_parameter("g_max", g_opt * (1 + 1e-9))
+    return raw_design
 
 
 def solve_stage(job, stage, objective, certify=True, proof=False):
