@@ -249,7 +249,7 @@ def build(s: Structure) -> Compiled:
                 [
                     -(
                         scales["T"] @ v.W @ v.gain_Ginv
-                        + v.gain_Ginv.T @ v.W @ scales["T"]
+                        + v.gain_Ginv.T @ v.W @ scales["T"].T
                         - np.eye(n)
                     )
                 ],
@@ -286,7 +286,7 @@ def load(compiled, s: Structure, data, scaling, regions, margin) -> None:
     can leak into this one. See `build` for the pair data.
     """
     lmi = compiled.lmi
-    scales = {"T": np.diag(scaling.T), "Su": np.diag(scaling.Su)}
+    scales = {"T": scaling.matrix, "Su": np.diag(scaling.Su)}
     if any(not np.array_equal(compiled.scales[k], v) for k, v in scales.items()):
         compiled.scales.update(scales)
         lmi.invalidate("gain")

@@ -1,11 +1,18 @@
-"""Exact power-of-two prescaling of the vertex data, and the prescalings tried."""
+"""Prescaling of the vertex data, and the prescalings tried.
+
+Diagonal prescalings are powers of two, so applying and undoing them is
+exact in floating point. The Riccati prescaling is a full change of state
+coordinates (not exact); it only shapes the solver's problem, since every
+point is verified in the model's own units.
+"""
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import matrix_balance
+from scipy.linalg import matrix_balance, solve_continuous_are, solve_continuous_lyapunov
 
 from .channels import spectral_norm
 
@@ -30,7 +37,7 @@ def channel_scales(vertices, T, Su, a) -> tuple[float, float]:
 class Scaling:
     """Exact (power-of-two) prescaling; see the module docstring."""
 
-    T: np.ndarray  # state scaling, x = T x~
+    T: np.ndarray  # state scaling, x = T x~: a diagonal (1-D) or a full matrix
     Su: np.ndarray  # input scaling, u = Su u~
     sw: float  # w = sw w~
     sz: float  # z = sz z~
@@ -66,25 +73,44 @@ class Scaling:
         sw, sz = channel_scales(vertices, T, Su, a)
         return cls(T, Su, sw, sz, a)
 
+    @property
+    def matrix(self) -> np.ndarray:
+        """The state scaling as a matrix: ``x = matrix @ x~``."""
+        return np.diag(self.T) if self.T.ndim == 1 else self.T
+
+    def _inverse(self) -> np.ndarray:
+        return np.diag(1.0 / self.T) if self.T.ndim == 1 else np.linalg.inv(self.T)
+
     def apply(self, v):
         A, B1, B2, C, D1, D2 = v
-        Ti = 1.0 / self.T
+        if self.T.ndim == 1:
+            Ti = 1.0 / self.T
+            A, B1, B2, C = (
+                Ti[:, None] * A * self.T,
+                Ti[:, None] * B1,
+                Ti[:, None] * B2,
+                C * self.T,
+            )
+        else:
+            Ti = self._inverse()
+            A, B1, B2, C = Ti @ A @ self.T, Ti @ B1, Ti @ B2, C @ self.T
         return (
-            Ti[:, None] * A * self.T / self.a,
-            Ti[:, None] * B1 * self.sw / self.a,
-            Ti[:, None] * B2 * self.Su / self.a,
-            C * self.T / self.sz,
+            A / self.a,
+            B1 * self.sw / self.a,
+            B2 * self.Su / self.a,
+            C / self.sz,
             D1 * self.sw / self.sz,
             D2 * self.Su / self.sz,
         )
 
     @property
     def w_factor(self) -> float:
-        """W = w_factor * T W~ T and Z = w_factor * Su Z~ T."""
+        """W = w_factor * T W~ T' and Z = w_factor * Su Z~ T'."""
         return self.a / self.sw**2
 
     def unscale_W(self, Wt):
-        return self.w_factor * (self.T[:, None] * Wt * self.T)
+        T = self.matrix
+        return self.w_factor * (T @ Wt @ T.T)
 
     def unscale_P(self, Pt):
         """``P = W^-1`` from ``P~ = W~^-1``, exactly symmetric.
@@ -94,24 +120,86 @@ class Scaling:
         the Lyapunov inequality of any storage function (fuzz case 2026:14,
         settled in exact arithmetic by ``benchmarks/study_disputed_brl.py``).
         """
-        return 0.5 * (Pt + Pt.T) / (self.w_factor * self.T[:, None] * self.T)
+        if self.T.ndim == 1:
+            P = Pt / (self.w_factor * self.T[:, None] * self.T)
+        else:
+            Ti = self._inverse()
+            P = Ti.T @ Pt @ Ti / self.w_factor
+        return 0.5 * (P + P.T)
 
     def unscale_K(self, Kt):
         # u = -K x with u = Su u~, x = T x~ and u~ = -K~ x~.
-        return self.Su[:, None] * Kt / self.T
+        return self.Su[:, None] * (Kt @ self._inverse())
 
     def unscale_g(self, g):
         return g * (self.sz / self.sw) ** 2
 
+    def then(self, other: Scaling) -> Scaling:
+        """This scaling followed by `other` (applied to the scaled data)."""
+        return Scaling(
+            self.matrix @ other.matrix,
+            self.Su * other.Su,
+            self.sw * other.sw,
+            self.sz * other.sz,
+            self.a * other.a,
+        )
+
+
+def riccati_scaling(original, base: Scaling) -> Scaling | None:
+    """`base` followed by coordinates from a Riccati solution at the centre.
+
+    ``X`` is the stabilizing solution of the centre vertex's LQR equation
+    (weights ``C'C`` and ``D2'D2`` of the performance channel, regularised;
+    identities without one) and ``K`` its gain. The candidate
+    ``W0 = X^-1 + G``, with ``G`` the Gramian of ``B1`` under ``A - B2 K``
+    (a bounded-real ``W`` is at least that Gramian), becomes the identity in
+    the new coordinates ``x = W0^(1/2) x~``: a well-conditioned ``W`` exists
+    there for the centre and its neighbours. This is what a diagonal
+    scaling cannot give when modes are weakly controllable along a
+    direction that is not a coordinate axis (the minimum-gamma point of
+    such a problem missed its LMIs by 1e-2 in balanced coordinates). None
+    when the Riccati equation has no usable solution.
+    """
+    data = [base.apply(v) for v in original]
+    A, B1, B2, C, _, D2 = (sum(v[i] for v in data) / len(data) for i in range(6))
+    n, m = B2.shape
+    if C.shape[0]:
+        Q, R, S = C.T @ C, D2.T @ D2, C.T @ D2
+    else:
+        Q, R, S = np.eye(n), np.eye(m), np.zeros((n, m))
+    Q = Q + 1e-6 * max(1.0, np.linalg.norm(Q, 2)) * np.eye(n)
+    R = R + 1e-6 * max(1.0, np.linalg.norm(R, 2)) * np.eye(m)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            X = solve_continuous_are(A, B2, Q, R, s=S)
+            W0 = np.linalg.inv(0.5 * (X + X.T))
+            if B1.size:
+                K = np.linalg.solve(R, B2.T @ X + S.T)
+                W0 = W0 + solve_continuous_lyapunov(A - B2 @ K, -B1 @ B1.T)
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+    if not np.all(np.isfinite(W0)):
+        return None
+    e, V = np.linalg.eigh(0.5 * (W0 + W0.T))
+    if not e[0] > 1e-14 * e[-1]:
+        return None
+    shape = Scaling(V * np.sqrt(e), np.ones(m), 1.0, 1.0, 1.0)
+    shaped = [shape.apply(v) for v in data]
+    return base.then(shape).then(Scaling.of(shaped, balance=False))
+
 
 def prescalings(original):
-    """Prescalings tried in turn: balanced, time scaling alone, none.
+    """Prescalings tried in turn: balanced, Riccati, time scaling alone, none.
 
     The last keeps the model's units: a time scaling by the fastest mode
     leaves a mode 1e15 times slower no margin the solvers can see.
     """
     balanced = Scaling.of(original)
     yield "balanced", balanced
+    shaped = riccati_scaling(original, balanced)
+    if shaped is not None:
+        yield "Riccati", shaped
     plain = Scaling.of(original, balance=False)
     if not np.array_equal(plain.T, balanced.T):
         yield "unbalanced", plain
