@@ -31,6 +31,7 @@ _EXPORTS = {
     "Hinf": "synthesis",
     "H2": "synthesis",
     "GainBound": "synthesis",
+    "Saturation": "synthesis",
     "check_stabilizability": "stabilizability",
     "ModeResidual": "stabilizability",
     "StateFeedbackDesign": "synthesis",

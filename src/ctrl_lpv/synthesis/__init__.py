@@ -76,7 +76,7 @@ from .paper import (
     quadratic_stabilization,
 )
 from .results import Certificate, StateFeedbackDesign
-from .specs import H2, GainBound, Hinf
+from .specs import H2, GainBound, Hinf, Saturation
 
 __all__ = [
     "StateFeedbackDesign",
@@ -90,4 +90,5 @@ __all__ = [
     "Hinf",
     "H2",
     "GainBound",
+    "Saturation",
 ]

@@ -28,7 +28,7 @@ from .ladder import run_ladder
 from .options import validated_options, validated_regions
 from .parametric import lyapunov_structure
 from .results import StateFeedbackDesign
-from .specs import H2, PERFORMANCE, GainBound
+from .specs import H2, PERFORMANCE, GainBound, Saturation
 
 __all__ = ["synthesize", "h2_state_feedback"]
 
@@ -69,8 +69,9 @@ def synthesize(
     constraints : spec or sequence of specs, optional
         `Hinf` and `H2` specs with a ``bound`` (mixed objectives), pole
         regions (`halfplane`, `disk`, `sector`; in discrete time only
-        disks inside the unit circle, in the z-plane) and at most one
-        `GainBound`.
+        disks inside the unit circle, in the z-plane), at most one
+        `GainBound` and at most one `Saturation` (continuous time: a region
+        of attraction under input saturation containing given states).
     gains : {"common", "scheduled"}, optional
         One gain for the whole polytope, or one per vertex scheduled with
         the parameter (default "common").
@@ -103,7 +104,8 @@ def synthesize(
     `StateFeedbackDesign`
         ``.gamma`` the certified bound of the objective (None without one),
         ``.gamma_opt`` the raw optimum, ``.bounds`` the certified bound of
-        every `Hinf` and `H2` spec.
+        every `Hinf` and `H2` spec (for a `Saturation` spec with points, the
+        largest ``x0' P x0``, below 1).
 
     Raises
     ------
@@ -134,13 +136,14 @@ def synthesize(
         raise TypeError(
             f"objective: expected None, Hinf(...) or H2(...), got {objective!r}"
         )
-    performance, regions, gain_bound = _split_constraints(constraints)
+    performance, regions, gain_bound, saturation = _split_constraints(constraints)
     continuous = not sys.isdtime(strict=True)
     if (
         continuous
         and lyapunov == "constant"
         and rate_bounds is None
         and not performance
+        and saturation is None
         and not isinstance(objective, H2)
     ):
         hinf = objective is not None
@@ -169,6 +172,20 @@ def synthesize(
             "are not implemented (the extended LMIs have no region form here); "
             "use gains='scheduled' or a constant Lyapunov matrix"
         )
+    if saturation is not None:
+        if not continuous:
+            raise ValueError(
+                "constraints: Saturation is implemented for continuous time only"
+            )
+        if not lyap.constant and not scheduled:
+            raise ValueError(
+                "constraints: Saturation with a common gain and lyapunov='affine' is "
+                "not implemented (the extended LMIs have no sector form here); use "
+                "gains='scheduled' or a constant Lyapunov matrix"
+            )
+        if not iu:
+            raise ValueError("constraints: Saturation needs control inputs u")
+        saturation.check_sizes(sys.nstates, len(iu))
     if gain_bound is not None and not lyap.constant:
         raise ValueError(
             "constraints: GainBound is implemented for a constant Lyapunov matrix only"
@@ -180,13 +197,13 @@ def synthesize(
     method = _describe(objective, performance, scheduled, lyapunov, continuous)
     return run_general(
         sys, iu, specs, channels, objective, regions, gain_bound, scheduled, lyap,
-        continuous, backoff, margin, chain, time_limit, method, suspects,
+        continuous, backoff, margin, chain, time_limit, method, suspects, saturation,
     )  # fmt: skip
 
 
 def _split_constraints(constraints):
-    """Performance specs, regions and the gain bound of `constraints`."""
-    if isinstance(constraints, (LMIRegion, GainBound, *PERFORMANCE)):
+    """Performance specs, regions, the gain bound and the saturation spec."""
+    if isinstance(constraints, (LMIRegion, GainBound, Saturation, *PERFORMANCE)):
         constraints = (constraints,)
     try:
         constraints = tuple(constraints)
@@ -194,7 +211,7 @@ def _split_constraints(constraints):
         raise TypeError(
             f"constraints: expected a spec or a sequence of specs, got {constraints!r}"
         ) from None
-    performance, regions, gain_bounds = [], [], []
+    performance, regions, gain_bounds, saturations = [], [], [], []
     for item in constraints:
         if isinstance(item, PERFORMANCE):
             if item.bound is None:
@@ -207,14 +224,23 @@ def _split_constraints(constraints):
             regions.append(item)
         elif isinstance(item, GainBound):
             gain_bounds.append(item.bound)
+        elif isinstance(item, Saturation):
+            saturations.append(item)
         else:
             raise TypeError(
-                f"constraints: expected Hinf, H2, GainBound or pole regions, got "
-                f"{item!r}"
+                f"constraints: expected Hinf, H2, GainBound, Saturation or pole "
+                f"regions, got {item!r}"
             )
     if len(gain_bounds) > 1:
         raise ValueError("constraints: at most one GainBound")
-    return performance, tuple(regions), (gain_bounds[0] if gain_bounds else None)
+    if len(saturations) > 1:
+        raise ValueError("constraints: at most one Saturation")
+    return (
+        performance,
+        tuple(regions),
+        gain_bounds[0] if gain_bounds else None,
+        saturations[0] if saturations else None,
+    )
 
 
 def _require_unit_disk(region: LMIRegion) -> None:

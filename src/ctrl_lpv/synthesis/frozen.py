@@ -59,10 +59,23 @@ def _moved(job, Ws, delta, p, rate):
     )
 
 
-def verify_frozen(job, sol, gains, values, Ws, Zs) -> Certificate:
-    """Frozen closed loops in the model's units at vertices and samples."""
+def verify_frozen(job, sol, gains, values, Ws, Zs):
+    """Frozen closed loops in the model's units at vertices and samples.
+
+    Returns the `Certificate` and, with a `Saturation` spec, the largest
+    ``x0' P x0`` over its points (None without one).
+    """
     sc, lyap = job.scaling, job.lyap
     worst_eig = worst_lyap = worst_spec = -np.inf
+    saturation = job.saturation
+    level = None
+    if saturation is not None:
+        Zgs = [getattr(sol, f"Zg{k}") for k in range(len(Zs))]
+        # The sector multiplier in the model's units (see Saturation.residual):
+        # T = (a / w_factor) Su^-1 S~^-1 Su^-1.
+        S = np.asarray(sol.S, float).reshape(-1)
+        T_sector = np.diag(sc.a / sc.w_factor / (sc.Su**2 * S))
+        level = 0.0 if saturation.points else None
     npoints = 0
     performance = job.specs or [Stability()]
     bounds = values or (None,)
@@ -117,7 +130,17 @@ def verify_frozen(job, sol, gains, values, Ws, Zs) -> Certificate:
             worst_lyap = max(
                 worst_lyap, Stability().residual(loop, None, job.continuous)
             )
-    return Certificate(
+            if saturation is not None:
+                Zg = mix(Zgs) if job.scheduled else Zgs[0]
+                G = sc.unscale_K(Zg @ np.linalg.inv(W_here))
+                sector = (Acl, B2, K, G, T_sector, P, P_moved, W)
+                worst_spec = max(
+                    worst_spec, saturation.residual(sector, job.continuous)
+                )
+                for point in saturation.points:
+                    x0 = np.array(point)
+                    level = max(level, float(x0 @ P @ x0))
+    certificate = Certificate(
         lmi_checks=sol.checks,
         margin=job.lmi.margin,
         max_closed_loop_real=float(worst_eig),
@@ -125,6 +148,7 @@ def verify_frozen(job, sol, gains, values, Ws, Zs) -> Certificate:
         npoints=npoints,
         max_original_eig=float(worst_spec),
     )
+    return certificate, level
 
 
 def _sym_inv(W):

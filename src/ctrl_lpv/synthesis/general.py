@@ -54,6 +54,7 @@ _GIVEN_W_MAX = (1e3, 1e6, 1e9)
 def run_general(
     sys, iu, specs, channels, objective, regions, gain_bound, scheduled, lyap,
     continuous, backoff, margin, chain, time_limit, method, suspects,
+    saturation=None,
 ):  # fmt: skip
     """Run the ladder; a certified `StateFeedbackDesign` or an exception."""
     start = time.perf_counter()
@@ -80,7 +81,7 @@ def run_general(
         job = _Job(
             sys, original, specs, objective, regions, gain_bound, scheduled, lyap,
             continuous, name == "balanced", backoff, margin * factor, chain,
-            deadline, attempts,
+            deadline, attempts, saturation,
         )  # fmt: skip
         try:
             found = job.run()
@@ -109,7 +110,8 @@ def run_general(
             regions=regions,
             ladder=tuple(record),
             lyapunov="constant" if lyap.constant else "affine",
-            bounds=dict(zip(specs, point.values)),
+            bounds=dict(zip(specs, point.values))
+            | ({} if saturation is None else {saturation: point.level}),
             rational=point.rational,
         )
     hint = "".join(f"; weakly controllable: {m}" for m in suspects)
@@ -150,6 +152,7 @@ class _Point:
     values: tuple  # certified bound of every spec
     P: object
     rational: tuple | None
+    level: float | None = None  # largest x0' P x0 of a Saturation spec
 
 
 class _Job:
@@ -158,8 +161,10 @@ class _Job:
     def __init__(
         self, sys, original, specs, objective, regions, gain_bound, scheduled, lyap,
         continuous, balance, backoff, margin, chain, deadline, attempts,
+        saturation=None,
     ):  # fmt: skip
         self.sys = sys
+        self.saturation = saturation
         self.original = original
         self.specs = specs
         self.objective = objective
@@ -271,13 +276,17 @@ class _Job:
 
     def _stabilize(self):
         best = None
-        for z_max in STABILIZE_Z_MAX:
-            self.lmi.set_parameter("z_max", z_max)
-            sol = self._solve("stabilize", lambda v: -v.t[0, 0], proof=self._proves)
-            best = self.accept(sol, f"stabilize (z_max {z_max:g})")
-            if best is not None:
-                break
-        return None if best is None else self._gain_stage(best, None)
+        # Points of a Saturation spec fix W's scale: W <= I may exclude them.
+        w_bounds = (1.0,) if self.saturation is None else (1.0, *_GIVEN_W_MAX)
+        for w_max in w_bounds:
+            self.lmi.set_parameter("w_max", w_max)
+            for z_max in STABILIZE_Z_MAX:
+                self.lmi.set_parameter("z_max", z_max)
+                sol = self._solve("stabilize", lambda v: -v.t[0, 0], proof=self._proves)
+                best = self.accept(sol, f"stabilize (w_max {w_max:g}, z_max {z_max:g})")
+                if best is not None:
+                    return self._gain_stage(best, None)
+        return None
 
     def _given(self):
         best = None
@@ -392,7 +401,7 @@ class _Job:
                 tuple(factor * (sc.Su[:, None] * Z * sc.T) for Z in Zs),
                 tuple(sc.unscale_W(Ws[self.lyap.index[j]]) for j in range(nZ)),
             )
-        certificate = verify_frozen(self, sol, gains, values, Ws, Zs)
+        certificate, level = verify_frozen(self, sol, gains, values, Ws, Zs)
         if not certificate.verified:
             self.notes.append(
                 f"{label}: closed-loop verification failed ({certificate})"
@@ -404,4 +413,4 @@ class _Job:
             if self.lyap.constant
             else tuple(Ps[self.lyap.index[j]] for j in range(self.sys.nvertices))
         )
-        return _Point(sol, gains, certificate, values, P, rational)
+        return _Point(sol, gains, certificate, values, P, rational, level)

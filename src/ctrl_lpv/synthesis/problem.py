@@ -69,6 +69,11 @@ def build_problem(job) -> LMIProblem:
         if isinstance(spec, H2):
             nz = data[0][(i, "Cz")].shape[0]
             lmi.variable(f"Y{i}", (nz, nz), symmetric=True)
+    saturation = job.saturation
+    if saturation is not None:
+        for k in range(nZ):
+            lmi.variable(f"Zg{k}", (m, n))
+        lmi.variable("S", (m, 1))
     for name in ("t", "kappa"):
         lmi.variable(name, (1, 1))
     if job.slack:
@@ -78,9 +83,15 @@ def build_problem(job) -> LMIProblem:
     lmi.parameter("w_max", nonneg=True, value=1.0)
     lmi.parameter("z_max", nonneg=True, value=1.0)
 
+    prescaled = (
+        {}
+        if saturation is None
+        else {saturation: saturation.prescale(job.scaling, n, m)}
+    )
+
     def terms(v, c, r):
         return Terms(v, c, r, job.lyap, data, job.index, rho, job.scheduled,
-                     job.continuous)  # fmt: skip
+                     job.continuous, prescaled)  # fmt: skip
 
     zero = SimpleNamespace(**{
         name: np.zeros(item.shape)
@@ -101,6 +112,16 @@ def build_problem(job) -> LMIProblem:
                         return spec.lmis(terms(v, c, r), job.continuous)[q][1]
 
                     lmi.add(f"{name}{tag} {at}", blocks)
+            if saturation is not None:
+                named = saturation.lmis(terms(zero, c, r), job.continuous)
+                # The inclusions do not depend on the rate: once.
+                count = 1 if r is not job.rates[0] else len(named)
+                for q, (name, _) in enumerate(named[:count]):
+
+                    def blocks(v, q=q, c=c, r=r):
+                        return saturation.lmis(terms(v, c, r), job.continuous)[q][1]
+
+                    lmi.add(f"{name} {at}", blocks)
             if not job.specs:
                 # The decay of the stabilization stage, as in Lemma 1.
                 def decay(v, c=c, r=r):

@@ -38,10 +38,13 @@ class Terms:
     scheduled : bool
         One ``Z`` per vertex.
     continuous : bool
+    prescaled : dict, optional
+        Spec -> its constants in prescaled units (`Saturation.prescale`).
     """
 
     def __init__(self, v, coefficient: Coefficient, rate, lyapunov: LyapunovStructure,
-                 data, specs, rho, scheduled: bool, continuous: bool):  # fmt: skip
+                 data, specs, rho, scheduled: bool, continuous: bool,
+                 prescaled=None):  # fmt: skip
         self.v = v
         self.c = coefficient
         self.rate = rate
@@ -51,6 +54,7 @@ class Terms:
         self.weights = rho
         self.scheduled = scheduled
         self.continuous = continuous
+        self.scaled = prescaled or {}
         self.n = data[0]["A"].shape[0]
         self.m = data[0]["B2"].shape[1]
 
@@ -127,6 +131,21 @@ class Terms:
         """``Cz(delta) W(delta) + Dzu(delta) Z(delta)``, i.e. ``C_cl W``."""
         i = self.specs[spec]
         return self._product((i, "Cz"), (i, "Dzu"))
+
+    def B2(self):
+        """``B2(delta)`` (degree one)."""
+        return sum(self.d[j]["B2"] for j in self.c.linear)
+
+    def linear(self, name):
+        """A gain-like variable (``Z``, ``Zg``): one per vertex when scheduled
+        (degree one), else constant (degree zero)."""
+        if self.scheduled:
+            return sum(getattr(self.v, f"{name}{j}") for j in self.c.linear)
+        return self.c.const * getattr(self.v, f"{name}0")
+
+    def prescaled(self, spec):
+        """A spec's constants in prescaled units."""
+        return self.scaled[spec]
 
     def data(self, spec, key):
         """A channel's datum (``"Bw"``, ``"Dzw"``) as a degree-one sum."""
