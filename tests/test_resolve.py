@@ -162,7 +162,10 @@ def test_backoff_sweep_bounds_gamma():
 
 def test_weight_sweep_gamma_grows_with_the_weight():
     # Scaling a performance output up cannot lower the optimal gamma, and
-    # it does not change the structure: one compilation for the sweep.
+    # it does not change the structure: one compilation for the sweep. (Here
+    # w and u share a channel, so the infimum is the effort weight 0.1 for
+    # every x weight: high gain makes u cancel w. The estimates agree to
+    # 1e-6, not strictly increase.)
     gammas = []
     for weight in (1.0, 2.0, 4.0):
         sys = msd(x_weight=weight)
@@ -170,7 +173,9 @@ def test_weight_sweep_gamma_grows_with_the_weight():
         assert frozen_hinf_norms(sys, design).max() <= design.gamma
         gammas.append(design.gamma_opt)
     assert synthesis_cache.info()["misses"] == 1
-    assert gammas[0] < gammas[1] < gammas[2]
+    assert gammas[0] <= gammas[1] * (1 + 1e-6)
+    assert gammas[1] <= gammas[2] * (1 + 1e-6)
+    assert gammas[0] == pytest.approx(0.1, rel=1e-4)
 
 
 def test_rescaled_states_rebuild_only_what_they_must():

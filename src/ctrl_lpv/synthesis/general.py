@@ -70,7 +70,7 @@ def run_general(
         original.append(vertex)
     for i, spec in enumerate(specs):
         spec.check_data([{"Dzw": v[(i, "Dzw")]} for v in original], continuous)
-    _guard(sys, original, specs, regions, lyap, time_limit)
+    _guard(sys, original, specs, regions, lyap, time_limit, saturation)
     record, attempts = [], []
     rungs = [(name, f) for name in ("balanced", "none") for f in MARGIN_FACTORS]
     for name, factor in rungs:
@@ -124,12 +124,16 @@ def run_general(
     )
 
 
-def _guard(sys, original, specs, regions, lyap, time_limit) -> None:
+def _guard(sys, original, specs, regions, lyap, time_limit, saturation) -> None:
     """The size guard of the paper's engine, on this engine's LMI count."""
-    n = original[0]["A"].shape[0]
+    n, m = original[0]["B2"].shape
     per_point = sum(2 if isinstance(s, H2) else 1 for s in specs) or 1
+    per_coefficient = len(regions)
+    if saturation is not None:
+        per_point += 1
+        per_coefficient += m + len(saturation.points)
     ncoef = len(coefficients(sys.domain, sys.nvertices))
-    nlmis = ncoef * (len(lyap.rates) * per_point + len(regions))
+    nlmis = ncoef * (len(lyap.rates) * per_point + per_coefficient)
     channels = max(
         [original[0][(i, "Bw")].shape[1] + original[0][(i, "Cz")].shape[0]
          for i in range(len(specs))] or [0]
