@@ -228,3 +228,48 @@ def test_extended_lmis_refusal_is_not_a_proof(plant):
             rate_bounds={"p": 0.0},
         )  # fmt: skip
     assert isinstance(info.value, lpv.CertificationError)
+
+
+def _frozen_loop(Acl, K, W):
+    """The fields the constraint specs' residuals read, for a fixed W."""
+    from ctrl_lpv.synthesis.frozen import FrozenLoop
+
+    P = np.linalg.inv(W)
+    zero = np.zeros_like(W)
+    B2 = np.ones((Acl.shape[0], K.shape[0]))
+    eig = np.linalg.eigvals(Acl)
+    return FrozenLoop(Acl + B2 @ K, B2, K, Acl, eig, P, zero, W, zero)
+
+
+def test_region_residual_is_a_fact_about_the_eigenvalues():
+    from scipy.linalg import solve_continuous_lyapunov
+
+    Acl = np.array([[-1.0, 3.0], [0.0, -2.0]])
+    K = np.zeros((1, 2))
+    # (Acl + d I) W + W (Acl + d I)' = -I: the decay-d region LMI holds.
+    W = solve_continuous_lyapunov(Acl + 0.5 * np.eye(2), -np.eye(2))
+    loop = _frozen_loop(Acl, K, W)
+    assert lpv.halfplane(0.5).residual(loop, True) < 0
+    # The eigenvalue -1 is outside Re(s) < -1.5 whatever W is.
+    assert lpv.halfplane(1.5).residual(loop, True) > 0
+    assert lpv.disk(2.5).residual(loop, True) < lpv.disk(1.5).residual(loop, True)
+    assert lpv.disk(1.5).residual(loop, True) > 0
+
+
+def test_gain_bound_residual_is_the_relative_excess_of_the_norm():
+    K = np.array([[3.0, 4.0]])  # ||K||_2 = 5
+    loop = _frozen_loop(-np.eye(2), K, np.eye(2))
+    assert lpv.GainBound(4.0).residual(loop, True) == pytest.approx(0.25)
+    assert lpv.GainBound(10.0).residual(loop, True) == pytest.approx(-0.5)
+
+
+def test_general_engine_regions_hold_on_frozen_loops(plant):
+    design = lpv.synthesize(
+        plant, "u", objective=lpv.H2("w"), constraints=[lpv.halfplane(1.0),
+        lpv.sector(np.pi / 4), lpv.halfplane(1.0)], gains="scheduled",
+    )  # fmt: skip
+    for p in np.linspace(-1.0, 1.0, 11):
+        A = design.closed_loop({"p": p})[0]
+        eig = np.linalg.eigvals(A)
+        assert eig.real.max() < -1.0
+        assert np.all(np.abs(eig.imag) < -eig.real)

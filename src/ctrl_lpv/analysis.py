@@ -456,7 +456,7 @@ def _general_analysis(cl, spec, lyapunov, rate_bounds, margin):
     specs = [] if spec is None else [spec]
     channels = [(list(range(cl.ninputs)), [], list(range(cl.noutputs)))] * len(specs)
     return run_general(
-        cl, [], specs, channels, spec, (), None, False, lyap,
+        cl, [], specs, channels, spec, (), False, lyap,
         not cl.isdtime(strict=True), None, margin, solver_chain(None), None,
         "analysis", (),
     )  # fmt: skip

@@ -307,6 +307,19 @@ def assemble(blocks, xp=np):
     return 0.5 * (full + full.T)
 
 
+def normalized_max_eig(M) -> float:
+    """Largest ``lambda_max(D M D)`` over a stack, ``D = |diag M|^-1/2``.
+
+    The Jacobi normalisation makes the test scale-free; a nonnegative
+    diagonal entry (no strict inequality possible) gives ``inf``.
+    """
+    diag = np.diagonal(M, axis1=1, axis2=2)
+    if not np.all(diag < 0):
+        return float("inf")
+    d = 1.0 / np.sqrt(-diag)
+    return float(np.linalg.eigvalsh(M * d[:, :, None] * d[:, None, :])[:, -1].max())
+
+
 @functools.cache
 def _installed_solvers() -> frozenset[str]:
     # cvxpy probes every solver it knows by importing it, about 10 ms a

@@ -62,13 +62,16 @@ Data flow one way through the package:
 -> ``assembly`` (the LMIs as a parametrised cvxpy problem) -> ``ladder``
 (solvers, prescalings, margins, stages) -> ``verification`` (float64
 checks) -> ``results`` (`StateFeedbackDesign`, `Certificate`); ``paper``
-holds the four public functions. `synthesize` (``compose``) takes the
-specs of ``specs`` and sends the paper's cases to ``ladder``, the others to
-``general``, which assembles them over the relaxation of ``parametric``
-with ``terms``.
+holds the four public functions, thin wrappers of `synthesize`
+(``compose``). It takes the performance specs of ``specs`` and the
+constraint specs of ``constraints`` (and `~ctrl_lpv.regions.LMIRegion`),
+and sends the paper's cases to ``ladder``, the others to ``general``, which
+assembles them over the relaxation of ``parametric`` with ``terms`` and
+checks them with ``frozen``.
 """
 
 from .compose import h2_state_feedback, synthesize
+from .constraints import GainBound, Saturation
 from .paper import (
     gain_scheduled_hinf,
     gain_scheduled_stabilization,
@@ -76,7 +79,7 @@ from .paper import (
     quadratic_stabilization,
 )
 from .results import Certificate, StateFeedbackDesign
-from .specs import H2, GainBound, Hinf, Saturation
+from .specs import H2, Hinf
 
 __all__ = [
     "StateFeedbackDesign",

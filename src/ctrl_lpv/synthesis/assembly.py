@@ -9,26 +9,8 @@ import cvxpy as cp
 import numpy as np
 
 from ..lmi import LMIProblem
-
-
-def region_block(L, M, W, q, twice):
-    """``twice kron(L, W) + 2 kron(M, q)`` of a pole region.
-
-    Its symmetric part, the only part `assemble` keeps, is the region's
-    ``twice kron(L, W) + kron(M, q) + kron(M', q')``. With cvxpy objects it
-    is assembled from the blocks ``twice L[a, b] W + 2 M[a, b] q``: cvxpy's
-    ``kron`` of a constant and an expression with parameters is not DPP, a
-    scalar times it is.
-    """
-    if isinstance(W, np.ndarray):
-        return twice * np.kron(L, W) + 2 * np.kron(M, q)
-    k = M.shape[0]
-
-    def block(a, b):
-        out = twice * L[a, b] * W
-        return out + 2 * M[a, b] * q if M[a, b] else out
-
-    return cp.bmat([[block(a, b) for b in range(k)] for a in range(k)])
+from ..regions import region_block
+from .constraints import GainBound
 
 
 def vertex_pairs(N, scheduled):
@@ -245,19 +227,15 @@ def build(s: Structure) -> Compiled:
         # Normalised ||K_k||^2 <= kappa in original units (see _gain_tangent).
         lmi.add(
             f"||K{k}||^2 <= kappa",
-            lambda v, k=k: [
-                [
-                    -(
-                        scales["T"] @ v.W @ v.gain_Ginv
-                        + v.gain_Ginv.T @ v.W @ scales["T"].T
-                        - np.eye(n)
-                    )
-                ],
-                [
-                    scales["Su"] @ getattr(v, f"Z{k}") @ v.gain_Ginv_K,
-                    -v.kappa[0, 0] * np.eye(m),
-                ],
-            ],  # fmt: skip
+            lambda v, k=k: GainBound.tangent(
+                v.W,
+                getattr(v, f"Z{k}"),
+                v.gain_Ginv,
+                v.gain_Ginv_K,
+                v.kappa[0, 0],
+                scales["T"],
+                scales["Su"],
+            ),  # fmt: skip
             strict=False,
             stages=("gain",),
         )

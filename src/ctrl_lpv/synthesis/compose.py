@@ -23,12 +23,13 @@ from ..regions import LMIRegion
 from ..stabilizability import check_stabilizability
 from ..systems import PolytopicStateSpace
 from .channels import require_pss, resolve_channels
+from .constraints import GainBound, Saturation
 from .general import run_general
 from .ladder import run_ladder
 from .options import validated_options, validated_regions
 from .parametric import lyapunov_structure
 from .results import StateFeedbackDesign
-from .specs import H2, PERFORMANCE, GainBound, Saturation
+from .specs import H2, PERFORMANCE
 
 __all__ = ["synthesize", "h2_state_feedback"]
 
@@ -136,7 +137,10 @@ def synthesize(
         raise TypeError(
             f"objective: expected None, Hinf(...) or H2(...), got {objective!r}"
         )
-    performance, regions, gain_bound, saturation = _split_constraints(constraints)
+    performance, constraints = _split_constraints(constraints)
+    regions = tuple(c for c in constraints if isinstance(c, LMIRegion))
+    gain_bound = next((c for c in constraints if isinstance(c, GainBound)), None)
+    saturation = next((c for c in constraints if isinstance(c, Saturation)), None)
     continuous = not sys.isdtime(strict=True)
     if (
         continuous
@@ -150,15 +154,16 @@ def synthesize(
         design = run_ladder(
             sys, objective.w if hinf else None, u, objective.z if hinf else None,
             _METHODS[(scheduled, hinf)], scheduled,
-            objective.bound if hinf else None, regions, backoff, gain_bound,
-            margin, solvers, time_limit, hinf=hinf,
+            objective.bound if hinf else None, regions, backoff,
+            None if gain_bound is None else gain_bound.bound, margin, solvers,
+            time_limit, hinf=hinf,
         )  # fmt: skip
         bounds = {objective: design.gamma} if hinf else {}
         return dataclasses.replace(design, bounds=bounds)
 
     lyap = lyapunov_structure(sys, lyapunov, rate_bounds)
-    regions, backoff, _, gain_bound, margin, chain, time_limit = validated_options(
-        regions, backoff, None, gain_bound, margin, solvers, time_limit
+    _, backoff, _, _, margin, chain, time_limit = validated_options(
+        (), backoff, None, None, margin, solvers, time_limit
     )
     if not continuous:
         for region in regions:
@@ -196,13 +201,13 @@ def synthesize(
         suspects = ()
     method = _describe(objective, performance, scheduled, lyapunov, continuous)
     return run_general(
-        sys, iu, specs, channels, objective, regions, gain_bound, scheduled, lyap,
-        continuous, backoff, margin, chain, time_limit, method, suspects, saturation,
+        sys, iu, specs, channels, objective, constraints, scheduled, lyap,
+        continuous, backoff, margin, chain, time_limit, method, suspects,
     )  # fmt: skip
 
 
 def _split_constraints(constraints):
-    """Performance specs, regions, the gain bound and the saturation spec."""
+    """The performance specs, and the other constraint specs."""
     if isinstance(constraints, (LMIRegion, GainBound, Saturation, *PERFORMANCE)):
         constraints = (constraints,)
     try:
@@ -211,7 +216,7 @@ def _split_constraints(constraints):
         raise TypeError(
             f"constraints: expected a spec or a sequence of specs, got {constraints!r}"
         ) from None
-    performance, regions, gain_bounds, saturations = [], [], [], []
+    performance, others = [], []
     for item in constraints:
         if isinstance(item, PERFORMANCE):
             if item.bound is None:
@@ -220,27 +225,17 @@ def _split_constraints(constraints):
                     "minimised)"
                 )
             performance.append(item)
-        elif isinstance(item, LMIRegion):
-            regions.append(item)
-        elif isinstance(item, GainBound):
-            gain_bounds.append(item.bound)
-        elif isinstance(item, Saturation):
-            saturations.append(item)
+        elif isinstance(item, (LMIRegion, GainBound, Saturation)):
+            others.append(item)
         else:
             raise TypeError(
                 f"constraints: expected Hinf, H2, GainBound, Saturation or pole "
                 f"regions, got {item!r}"
             )
-    if len(gain_bounds) > 1:
-        raise ValueError("constraints: at most one GainBound")
-    if len(saturations) > 1:
-        raise ValueError("constraints: at most one Saturation")
-    return (
-        performance,
-        tuple(regions),
-        gain_bounds[0] if gain_bounds else None,
-        saturations[0] if saturations else None,
-    )
+    for kind in (GainBound, Saturation):
+        if sum(isinstance(item, kind) for item in others) > 1:
+            raise ValueError(f"constraints: at most one {kind.__name__}")
+    return performance, tuple(others)
 
 
 def _require_unit_disk(region: LMIRegion) -> None:

@@ -1,14 +1,16 @@
 """Checks of a point of the general engine on frozen closed loops, in model units.
 
 At the vertices, random parameter points and the centre, and at every
-vertex of the rate box: closed-loop eigenvalues (Hurwitz or Schur), the
-pole regions, and each spec's inequality written with the returned
-Lyapunov matrix and gains in the model's units (`spec.residual`). These are
+vertex of the rate box: closed-loop eigenvalues (Hurwitz or Schur), and
+each spec's statements written with the returned Lyapunov matrix and gains
+in the model's units (``spec.residual`` of a `FrozenLoop`). These are
 recomputed from the model's data, independently of the relaxation whose
 coefficients `ctrl_lpv.lmi.LMIProblem` checks.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -59,6 +61,36 @@ def _moved(job, Ws, delta, p, rate):
     )
 
 
+@dataclass(frozen=True)
+class FrozenLoop:
+    """A frozen closed loop in the model's units, as the specs' residuals
+    read it.
+
+    ``Acl = A - B2 K``; ``P`` and ``W = P^-1`` the Lyapunov matrix at this
+    point, ``P_moved`` and ``W_moved`` their derivatives along the rate
+    (continuous time) or their values at the next sample (discrete time).
+    A performance spec's channel: ``Bw``, ``Cz`` (closed loop, ``Cz - Dzu
+    K``), ``Dzw`` and its certified ``bound``; a `Saturation` spec's
+    auxiliary gain ``G`` and sector multiplier ``T``.
+    """
+
+    A: np.ndarray
+    B2: np.ndarray
+    K: np.ndarray
+    Acl: np.ndarray
+    eig: np.ndarray
+    P: np.ndarray
+    P_moved: np.ndarray
+    W: np.ndarray
+    W_moved: np.ndarray
+    Bw: np.ndarray | None = None
+    Cz: np.ndarray | None = None
+    Dzw: np.ndarray | None = None
+    bound: float | None = None
+    G: np.ndarray | None = None
+    T: np.ndarray | None = None
+
+
 def verify_frozen(job, sol, gains, values, Ws, Zs):
     """Frozen closed loops in the model's units at vertices and samples.
 
@@ -68,14 +100,9 @@ def verify_frozen(job, sol, gains, values, Ws, Zs):
     sc, lyap = job.scaling, job.lyap
     worst_eig = worst_lyap = worst_spec = -np.inf
     saturation = job.saturation
-    level = None
     if saturation is not None:
-        Zgs = [getattr(sol, f"Zg{k}") for k in range(len(Zs))]
-        # The sector multiplier in the model's units (see Saturation.residual):
-        # T = (a / w_factor) Su^-1 S~^-1 Su^-1.
-        S = np.asarray(sol.S, float).reshape(-1)
-        T_sector = np.diag(sc.a / sc.w_factor / (sc.Su**2 * S))
-        level = 0.0 if saturation.points else None
+        Zgs, T_sector = saturation.unscale(sol, sc, len(Zs))
+    level = None
     npoints = 0
     performance = job.specs or [Stability()]
     bounds = values or (None,)
@@ -86,11 +113,11 @@ def verify_frozen(job, sol, gains, values, Ws, Zs):
 
         A = mix([v["A"] for v in job.original])
         B2 = mix([v["B2"] for v in job.original])
+        W_here = mix([Ws[lyap.index[j]] for j in range(len(delta))])
         if not Zs:
             K = np.zeros((0, A.shape[0]))
         elif job.scheduled and not lyap.constant:
-            Wt = mix([Ws[lyap.index[j]] for j in range(len(delta))])
-            K = sc.unscale_K(-mix(Zs) @ np.linalg.inv(Wt))
+            K = sc.unscale_K(-mix(Zs) @ np.linalg.inv(W_here))
         elif job.scheduled:
             K = mix(gains)
         else:
@@ -99,12 +126,10 @@ def verify_frozen(job, sol, gains, values, Ws, Zs):
         eig = np.linalg.eigvals(Acl)
         worst_eig = max(worst_eig, (eig.real.max() if job.continuous
                                     else np.abs(eig).max() - 1))  # fmt: skip
-        for region in job.regions:
-            L = region.L * sc.a
-            for s in eig:
-                F = L + region.M * s + region.M.T * np.conj(s)
-                worst_spec = max(worst_spec, float(np.linalg.eigvalsh(F)[-1]))
-        W_here = mix([Ws[lyap.index[j]] for j in range(len(delta))])
+        sector = {}
+        if saturation is not None:
+            Zg = mix(Zgs) if job.scheduled else Zgs[0]
+            sector = {"G": sc.unscale_K(Zg @ np.linalg.inv(W_here)), "T": T_sector}
         P = sc.unscale_P(np.linalg.inv(W_here))
         W = sc.unscale_W(W_here)
         for rate in lyap.rates:
@@ -115,31 +140,23 @@ def verify_frozen(job, sol, gains, values, Ws, Zs):
             else:
                 P_moved = _sym_inv(W_moved) if not lyap.constant else P
             npoints += 1
-            loop = (Acl, None, None, None, P, P_moved, W, W_moved)
+            loop = FrozenLoop(A, B2, K, Acl, eig, P, P_moved, W, W_moved, **sector)
             for i, (spec, bound) in enumerate(zip(performance, bounds)):
-                frozen = loop
+                channel = loop
                 if not isinstance(spec, Stability):
                     Bw, Cz, Dzu, Dzw = (
                         mix([v[(i, key)] for v in job.original])
                         for key in ("Bw", "Cz", "Dzu", "Dzw")
                     )
-                    frozen = (Acl, Bw, Cz - Dzu @ K, Dzw, P, P_moved, W, W_moved)
-                worst_spec = max(
-                    worst_spec, spec.residual(frozen, bound, job.continuous)
-                )
-            worst_lyap = max(
-                worst_lyap, Stability().residual(loop, None, job.continuous)
-            )
-            if saturation is not None:
-                Zg = mix(Zgs) if job.scheduled else Zgs[0]
-                G = sc.unscale_K(Zg @ np.linalg.inv(W_here))
-                sector = (Acl, B2, K, G, T_sector, P, P_moved, W)
-                worst_spec = max(
-                    worst_spec, saturation.residual(sector, job.continuous)
-                )
-                for point in saturation.points:
-                    x0 = np.array(point)
-                    level = max(level, float(x0 @ P @ x0))
+                    channel = replace(
+                        loop, Bw=Bw, Cz=Cz - Dzu @ K, Dzw=Dzw, bound=bound
+                    )
+                worst_spec = max(worst_spec, spec.residual(channel, job.continuous))
+            worst_lyap = max(worst_lyap, Stability().residual(loop, job.continuous))
+            for spec in job.constraints:
+                worst_spec = max(worst_spec, spec.residual(loop, job.continuous))
+        if saturation is not None and saturation.points:
+            level = max(level or 0.0, saturation.level(P))
     certificate = Certificate(
         lmi_checks=sol.checks,
         margin=job.lmi.margin,

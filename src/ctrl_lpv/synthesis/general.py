@@ -30,6 +30,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..exceptions import CertificationError, InfeasibleError
+from ..regions import LMIRegion
+from .constraints import GainBound, Saturation
 from .frozen import verify_frozen
 from .ladder import (
     GAIN_ITERATIONS,
@@ -52,11 +54,14 @@ _GIVEN_W_MAX = (1e3, 1e6, 1e9)
 
 
 def run_general(
-    sys, iu, specs, channels, objective, regions, gain_bound, scheduled, lyap,
-    continuous, backoff, margin, chain, time_limit, method, suspects,
-    saturation=None,
+    sys, iu, specs, channels, objective, constraints, scheduled, lyap, continuous,
+    backoff, margin, chain, time_limit, method, suspects,
 ):  # fmt: skip
-    """Run the ladder; a certified `StateFeedbackDesign` or an exception."""
+    """Run the ladder; a certified `StateFeedbackDesign` or an exception.
+
+    `constraints` are the constraint specs (pole regions, at most one
+    `GainBound`, at most one `Saturation`), in the model's units.
+    """
     start = time.perf_counter()
     deadline = None if time_limit is None else start + time_limit
     original = []
@@ -70,7 +75,7 @@ def run_general(
         original.append(vertex)
     for i, spec in enumerate(specs):
         spec.check_data([{"Dzw": v[(i, "Dzw")]} for v in original], continuous)
-    _guard(sys, original, specs, regions, lyap, time_limit, saturation)
+    _guard(sys, original, specs, constraints, lyap, time_limit)
     record, attempts = [], []
     rungs = [(name, f) for name in ("balanced", "none") for f in MARGIN_FACTORS]
     for name, factor in rungs:
@@ -79,9 +84,9 @@ def run_general(
             record.append(f"{rung}: not tried (time_limit {time_limit:g} s)")
             continue
         job = _Job(
-            sys, original, specs, objective, regions, gain_bound, scheduled, lyap,
+            sys, original, specs, objective, constraints, scheduled, lyap,
             continuous, name == "balanced", backoff, margin * factor, chain,
-            deadline, attempts, saturation,
+            deadline, attempts,
         )  # fmt: skip
         try:
             found = job.run()
@@ -107,11 +112,11 @@ def run_general(
             attempts=tuple(attempts),
             timing={"total": time.perf_counter() - start},
             backoff=backoff,
-            regions=regions,
+            regions=tuple(c for c in constraints if isinstance(c, LMIRegion)),
             ladder=tuple(record),
             lyapunov="constant" if lyap.constant else "affine",
             bounds=dict(zip(specs, point.values))
-            | ({} if saturation is None else {saturation: point.level}),
+            | ({} if job.saturation is None else {job.saturation: point.level}),
             rational=point.rational,
         )
     hint = "".join(f"; weakly controllable: {m}" for m in suspects)
@@ -124,11 +129,13 @@ def run_general(
     )
 
 
-def _guard(sys, original, specs, regions, lyap, time_limit, saturation) -> None:
+def _guard(sys, original, specs, constraints, lyap, time_limit) -> None:
     """The size guard of the paper's engine, on this engine's LMI count."""
     n, m = original[0]["B2"].shape
     per_point = sum(2 if isinstance(s, H2) else 1 for s in specs) or 1
+    regions = [c for c in constraints if isinstance(c, LMIRegion)]
     per_coefficient = len(regions)
+    saturation = _saturation(constraints)
     if saturation is not None:
         per_point += 1
         per_coefficient += m + len(saturation.points)
@@ -140,6 +147,10 @@ def _guard(sys, original, specs, regions, lyap, time_limit, saturation) -> None:
     )  # fmt: skip
     largest = max([2 * n + channels] + [r.M.shape[0] * n for r in regions])
     guard_estimate(nlmis, nlmis * largest**2, largest, time_limit)
+
+
+def _saturation(constraints):
+    return next((c for c in constraints if isinstance(c, Saturation)), None)
 
 
 # Margin of the solve that only estimates the optimum, relative to the margin.
@@ -163,12 +174,15 @@ class _Job:
     """One rung: a prescaling and a margin, every stage."""
 
     def __init__(
-        self, sys, original, specs, objective, regions, gain_bound, scheduled, lyap,
+        self, sys, original, specs, objective, constraints, scheduled, lyap,
         continuous, balance, backoff, margin, chain, deadline, attempts,
-        saturation=None,
     ):  # fmt: skip
         self.sys = sys
-        self.saturation = saturation
+        self.constraints = constraints
+        self.saturation = _saturation(constraints)
+        self.gain_bound = next(
+            (c for c in constraints if isinstance(c, GainBound)), None
+        )
         self.original = original
         self.specs = specs
         self.objective = objective
@@ -176,7 +190,6 @@ class _Job:
         self.lyap = lyap
         self.continuous = continuous
         self.backoff = backoff
-        self.gain_bound = gain_bound
         self.margin = margin
         self.chain = chain
         self.deadline = deadline
@@ -208,7 +221,6 @@ class _Job:
                 for v in original
             ]  # fmt: skip
             self.channel.append(list(channel_scales(data, base.T, base.Su, base.a)))
-        self.regions = tuple(r.time_scaled(base.a) for r in regions)
         self.coefficients = coefficients(sys.domain, sys.nvertices)
         self.rates = [r / base.a for r in lyap.rates]
         self.index = {spec: i for i, spec in enumerate(specs)}
@@ -356,7 +368,7 @@ class _Job:
         for _ in range(GAIN_ITERATIONS):
             sol = best.solution
             Z = [getattr(sol, f"Z{k}") for k in range(nZ)]
-            gain_tangent(self.lmi, self.scaling, sol.W0, Z, self.gain_bound)
+            gain_tangent(self.lmi, self.scaling, sol.W0, Z, self.gain_bound.bound)
             candidate = self.accept(
                 self._solve("gain", lambda v: v.kappa[0, 0]), "gain stage"
             )
@@ -366,10 +378,9 @@ class _Job:
             if float(candidate.solution.kappa[0, 0]) > 1 - GAIN_RTOL:
                 break
         worst = max(np.linalg.norm(K, 2) for K in best.gains)
-        if worst > self.gain_bound:
+        if worst > self.gain_bound.bound:
             self.notes.append(
-                f"final point: gain norm {worst:.4g} above gain_bound "
-                f"{self.gain_bound:g}"
+                f"final point: gain norm {worst:.4g} above {self.gain_bound}"
             )
             return None
         return best, gamma_opt

@@ -4,13 +4,14 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+from .._checks import real_number
 from ..regions import LMIRegion
 from ..systems import PolytopicStateSpace
 from .compose import synthesize
-from .ladder import run_ladder
+from .constraints import GainBound
 from .options import validated_regions
 from .results import StateFeedbackDesign
-from .specs import GainBound, Hinf
+from .specs import Hinf
 
 
 def quadratic_stabilization(
@@ -85,7 +86,7 @@ def quadratic_stabilization(
     True
     """
     return _paper(
-        sys, None, u, None, "Lemma 1", False, None, regions, None, gain_bound,
+        sys, None, u, None, False, None, regions, None, gain_bound,
         margin, solvers, time_limit,
     )  # fmt: skip
 
@@ -154,7 +155,7 @@ def gain_scheduled_stabilization(
         If no certified design was found, with every fallback tried.
     """
     return _paper(
-        sys, None, u, None, "Theorem 1", True, None, regions, None, gain_bound,
+        sys, None, u, None, True, None, regions, None, gain_bound,
         margin, solvers, time_limit,
     )  # fmt: skip
 
@@ -237,7 +238,7 @@ def hinf_state_feedback(
         If no certified design was found (with what was tried).
     """
     return _paper(
-        sys, w, u, z, "Lemma 2", False, gamma, regions, backoff, gain_bound,
+        sys, w, u, z, False, gamma, regions, backoff, gain_bound,
         margin, solvers, time_limit, hinf=True,
     )  # fmt: skip
 
@@ -320,25 +321,27 @@ def gain_scheduled_hinf(
         If no certified design was found (with what was tried).
     """
     return _paper(
-        sys, w, u, z, "Theorem 2", True, gamma, regions, backoff, gain_bound,
+        sys, w, u, z, True, gamma, regions, backoff, gain_bound,
         margin, solvers, time_limit, hinf=True,
     )  # fmt: skip
 
 
 def _paper(
-    sys, w, u, z, method, scheduled, gamma, regions, backoff, gain_bound, margin,
+    sys, w, u, z, scheduled, gamma, regions, backoff, gain_bound, margin,
     solvers, time_limit, hinf=False,
 ):  # fmt: skip
-    """The paper's engine, or `synthesize` for a discrete-time system."""
-    if not (isinstance(sys, PolytopicStateSpace) and sys.isdtime(strict=True)):
-        return run_ladder(
-            sys, w, u, z, method, scheduled, gamma, regions, backoff, gain_bound,
-            margin, solvers, time_limit, hinf=hinf,
-        )  # fmt: skip
-    regions = validated_regions(regions)
+    """The paper's function as a call of `synthesize`.
+
+    `synthesize` sends the paper's cases (continuous time, a constant
+    Lyapunov matrix) to the engine tuned for them. The options are checked
+    here first, so that an error names this function's arguments.
+    """
+    gamma = real_number(gamma, "gamma", allow_none=True, positive=True, below=1e150)
+    gain_bound = real_number(gain_bound, "gain_bound", allow_none=True, positive=True)
     bound = (GainBound(gain_bound),) if gain_bound is not None else ()
     return synthesize(
         sys, u, objective=Hinf(w, z, bound=gamma) if hinf else None,
-        constraints=regions + bound, gains="scheduled" if scheduled else "common",
-        backoff=backoff, margin=margin, solvers=solvers, time_limit=time_limit,
+        constraints=validated_regions(regions) + bound,
+        gains="scheduled" if scheduled else "common", backoff=backoff,
+        margin=margin, solvers=solvers, time_limit=time_limit,
     )  # fmt: skip

@@ -17,7 +17,6 @@ from types import SimpleNamespace
 import numpy as np
 
 from ..lmi import LMIProblem
-from .assembly import region_block
 from .specs import H2, Stability
 from .terms import Terms
 
@@ -69,11 +68,9 @@ def build_problem(job) -> LMIProblem:
         if isinstance(spec, H2):
             nz = data[0][(i, "Cz")].shape[0]
             lmi.variable(f"Y{i}", (nz, nz), symmetric=True)
-    saturation = job.saturation
-    if saturation is not None:
-        for k in range(nZ):
-            lmi.variable(f"Zg{k}", (m, n))
-        lmi.variable("S", (m, 1))
+    for spec in job.constraints:
+        if hasattr(spec, "variables"):
+            spec.variables(lmi, n, m, nZ)
     for name in ("t", "kappa"):
         lmi.variable(name, (1, 1))
     if job.slack:
@@ -83,11 +80,15 @@ def build_problem(job) -> LMIProblem:
     lmi.parameter("w_max", nonneg=True, value=1.0)
     lmi.parameter("z_max", nonneg=True, value=1.0)
 
-    prescaled = (
-        {}
-        if saturation is None
-        else {saturation: saturation.prescale(job.scaling, n, m)}
-    )
+    # Keyed by identity: a region holds arrays and is not hashable.
+    prescaled = {
+        id(spec): spec.prescale(job.scaling, n, m)
+        for spec in job.constraints
+        if hasattr(spec, "prescale")
+    }
+    names = [str(spec) for spec in job.constraints]
+    # Equal constraints (a region given twice) are told apart by position.
+    tags = [f" #{q}" if names.count(x) > 1 else "" for q, x in enumerate(names)]
 
     def terms(v, c, r):
         return Terms(v, c, r, job.lyap, data, job.index, rho, job.scheduled,
@@ -112,16 +113,10 @@ def build_problem(job) -> LMIProblem:
                         return spec.lmis(terms(v, c, r), job.continuous)[q][1]
 
                     lmi.add(f"{name}{tag} {at}", blocks)
-            if saturation is not None:
-                named = saturation.lmis(terms(zero, c, r), job.continuous)
-                # The inclusions do not depend on the rate: once.
-                count = 1 if r is not job.rates[0] else len(named)
-                for q, (name, _) in enumerate(named[:count]):
-
-                    def blocks(v, q=q, c=c, r=r):
-                        return saturation.lmis(terms(v, c, r), job.continuous)[q][1]
-
-                    lmi.add(f"{name} {at}", blocks)
+            for spec, tag in zip(job.constraints, tags):
+                if hasattr(spec, "lmis"):
+                    _add(lmi, spec.lmis, lambda v, c=c, r=r: terms(v, c, r),
+                         job.continuous, zero, f"{tag} {at}")  # fmt: skip
             if not job.specs:
                 # The decay of the stabilization stage, as in Lemma 1.
                 def decay(v, c=c, r=r):
@@ -130,13 +125,11 @@ def build_problem(job) -> LMIProblem:
 
                 lmi.add(f"decay {at}", decay, strict=False,
                         stages=("stabilize",), normalization=True)  # fmt: skip
-        for q, region in enumerate(job.regions):
-
-            def region_lmi(v, c=c, region=region):
-                t = terms(v, c, job.rates[0])
-                return [[region_block(region.L, region.M, t.W(), t.AW(), 1.0)]]
-
-            lmi.add(f"region {q} {c.label}", region_lmi)
+        for spec, tag in zip(job.constraints, tags):
+            if hasattr(spec, "coefficient_lmis"):
+                _add(lmi, spec.coefficient_lmis,
+                     lambda v, c=c: terms(v, c, job.rates[0]), job.continuous,
+                     zero, f"{tag} {c.label}")  # fmt: skip
     for i, spec in enumerate(job.specs):
         g = f"g{i}"
         if isinstance(spec, H2):
@@ -170,16 +163,13 @@ def build_problem(job) -> LMIProblem:
         lmi.parameter("gain_Ginv", (n, n), value=np.eye(n))
         lmi.parameter("gain_Ginv_K", (n, n), value=np.eye(n))
         lmi.parameter("kappa_max", nonneg=True, value=1.0)
-        # As in the paper's engine (see `gain_tangent`).
         for k in range(nZ):
 
             def gain_lmi(v, k=k):
-                G = v.gain_Ginv
-                return [
-                    [-(T @ v.W0 @ G + G.T @ v.W0 @ T - np.eye(n))],
-                    [Su @ getattr(v, f"Z{k}") @ v.gain_Ginv_K,
-                     -v.kappa[0, 0] * np.eye(m)],
-                ]  # fmt: skip
+                return job.gain_bound.tangent(
+                    v.W0, getattr(v, f"Z{k}"), v.gain_Ginv, v.gain_Ginv_K,
+                    v.kappa[0, 0], T, Su,
+                )  # fmt: skip
 
             lmi.add(f"||K{k}||^2 <= kappa", gain_lmi, strict=False,
                     stages=("gain",))  # fmt: skip
@@ -187,6 +177,17 @@ def build_problem(job) -> LMIProblem:
                 lambda v: [[v.kappa - v.kappa_max * np.eye(1)]],
                 strict=False, stages=("gain",))  # fmt: skip
     return lmi
+
+
+def _add(lmi, method, terms_of, continuous, zero, at) -> None:
+    """Add the named blocks of a spec method (``lmis`` or
+    ``coefficient_lmis``), built once per name from fresh terms."""
+    for q, (name, _) in enumerate(method(terms_of(zero), continuous)):
+
+        def blocks(v, q=q):
+            return method(terms_of(v), continuous)[q][1]
+
+        lmi.add(f"{name}{at}", blocks)
 
 
 # -- stages ----------------------------------------------------------

@@ -48,7 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._checks import real_number
-from .verification import normalized_max_eig
+from ..lmi import normalized_max_eig
 
 
 def _channel(value, name):
@@ -133,13 +133,15 @@ class Hinf(_Performance):
             ]
         return [("H-infinity", blocks)]
 
-    def residual(self, frozen, gamma, continuous) -> float:
+    def residual(self, loop, continuous) -> float:
         """Largest normalised eigenvalue of the bounded-real inequality.
 
-        Continuous time the primal form with ``P``; discrete time the dual
-        form with ``W`` and its next value ``W+``.
+        At a `~ctrl_lpv.synthesis.frozen.FrozenLoop` with this spec's
+        channel; continuous time the primal form with ``P``, discrete time
+        the dual form with ``W`` and its next value ``W+``.
         """
-        A, Bw, Cz, Dzw, P, P_moved, W, W_moved = frozen
+        A, Bw, Cz, Dzw, gamma = loop.Acl, loop.Bw, loop.Cz, loop.Dzw, loop.bound
+        P, P_moved, W, W_moved = loop.P, loop.P_moved, loop.W, loop.W_moved
         n, nw, nz = A.shape[0], Bw.shape[1], Cz.shape[0]
         if continuous:
             M = np.block([
@@ -204,14 +206,15 @@ class H2(_Performance):
             trace = [[-Y], [CX.T, -X], [Dzw.T, 0, -eye_w]]
         return [("H2 Gramian", gramian), ("H2 trace", trace)]
 
-    def residual(self, frozen, gamma, continuous) -> float:
+    def residual(self, loop, continuous) -> float:
         """Largest normalised eigenvalue of the Gramian inequalities.
 
         ``A W + W A' - dW/dt + Bw Bw' < 0`` (or ``A W A' - W+ + Bw Bw' < 0``)
         and the trace bound ``trace(Cz W Cz') < gamma^2`` (plus
         ``trace(Dzw Dzw')`` in discrete time), as a relative excess.
         """
-        A, Bw, Cz, Dzw, _, _, W, W_moved = frozen
+        A, Bw, Cz, Dzw, gamma = loop.Acl, loop.Bw, loop.Cz, loop.Dzw, loop.bound
+        W, W_moved = loop.W, loop.W_moved
         if continuous:
             M = A @ W + W @ A.T - W_moved + Bw @ Bw.T
             energy = np.trace(Cz @ W @ Cz.T)
@@ -220,174 +223,6 @@ class H2(_Performance):
             energy = np.trace(Cz @ W @ Cz.T + Dzw @ Dzw.T)
         excess = (energy - gamma**2) / gamma**2
         return max(normalized_max_eig(M[None]), excess)
-
-
-@dataclass(frozen=True)
-class GainBound:
-    """Bound on the spectral norm of every gain, in the model's units.
-
-    Parameters
-    ----------
-    bound : float
-        Upper bound on ``||K||_2`` (every vertex gain when scheduled).
-
-    Notes
-    -----
-    Imposed by convex-concave iterations from the first certified point (a
-    sufficient condition); a design whose gain stays above the bound is
-    not returned.
-    """
-
-    bound: float
-
-    def __post_init__(self):
-        object.__setattr__(
-            self, "bound", real_number(self.bound, "bound", positive=True)
-        )
-
-    def __str__(self) -> str:
-        return f"GainBound({self.bound:g})"
-
-
-@dataclass(frozen=True)
-class Saturation:
-    """Certified region of attraction under actuator saturation.
-
-    The plant sees ``sat(u)``, each input clipped at ``|u_i| <= u_max_i``,
-    with ``u = -K x``. The spec certifies that the ellipsoid
-    ``E = {x : x' P x <= 1}`` of the design's Lyapunov matrix ``P`` lies in
-    the region of attraction of the saturated closed loop (``w = 0``, every
-    admissible parameter trajectory), and contains the given `points`.
-
-    Parameters
-    ----------
-    u_max : float or sequence of float
-        Saturation level of each control input (one value for all).
-    points : sequence of array_like, optional
-        States (model units) that must lie in ``E``: initial conditions
-        from which convergence is certified despite saturation.
-
-    Notes
-    -----
-    The generalized sector condition (Gomes da Silva and Tarbouriech, IEEE
-    TAC 50(1), 2005; Tarbouriech, Garcia, Gomes da Silva and Queinnec,
-    *Stability and Stabilization of Linear Systems with Saturating
-    Actuators*, 2011, chapter 3): with the dead zone ``psi = u - sat(u)``
-    and an auxiliary gain ``G``, ``psi' T (psi + G x) <= 0`` for every
-    diagonal ``T > 0`` wherever ``|((K - G) x)_i| <= u_max_i``. With
-    ``W = P^-1``, ``Z = -K W``, ``Zg = G W`` and ``S = T^-1`` the LMIs are
-
-    ``[[sym(A W + B2 Z) - dW/dt, *], [-S B2' - Zg, -2 S]] < 0`` (decrease of
-    ``V = x' P x`` in the sector) and ``[[u_max_i^2, *], [-(Z + Zg)_i', W]]
-    > 0`` (``E`` inside the sector's region), ``[[1, *], [x0, W]] > 0`` for
-    each point. ``E`` shares ``P`` with the performance specs: with an
-    `Hinf` objective ``E`` is also the set that the linear loop's states
-    reach with unit disturbance energy, so a larger region costs gamma.
-    Continuous time, with a constant or a scheduled ``W``.
-    """
-
-    u_max: tuple
-    points: tuple = ()
-
-    def __post_init__(self):
-        levels = np.atleast_1d(np.asarray(self.u_max, dtype=object))
-        if levels.ndim != 1 or levels.size == 0:
-            raise ValueError(
-                f"u_max: expected a level or a sequence, got {self.u_max!r}"
-            )
-        levels = tuple(
-            real_number(x, "u_max", positive=True, below=1e150) for x in levels
-        )
-        object.__setattr__(self, "u_max", levels)
-        try:
-            points = tuple(
-                tuple(real_number(x, "points", below=1e150) for x in np.ravel(p))
-                for p in self.points
-            )
-        except TypeError:
-            raise TypeError(
-                f"points: expected a sequence of state vectors, got {self.points!r}"
-            ) from None
-        object.__setattr__(self, "points", points)
-
-    def __str__(self) -> str:
-        return f"Saturation(u_max={list(self.u_max)}, {len(self.points)} points)"
-
-    def check_sizes(self, n: int, m: int) -> np.ndarray:
-        """The levels, one per input; refuse sizes that do not fit."""
-        levels = np.array(self.u_max * (m if len(self.u_max) == 1 else 1), float)
-        if levels.size != m:
-            raise ValueError(f"u_max: {len(self.u_max)} levels for {m} control inputs")
-        for point in self.points:
-            if len(point) != n:
-                raise ValueError(f"points: a point has {len(point)} entries, not {n}")
-        return levels
-
-    def prescale(self, scaling, n: int, m: int) -> dict:
-        """Levels and points in the prescaled units of a job.
-
-        With ``W = k T W~ T'`` and ``K = Su K~ T^-1`` (``k`` the scaling's
-        `w_factor`), ``(K - G) W (K - G)' = k Su (Z~ + Zg~) W~^-1 (.)' Su``
-        and ``x0' W^-1 x0 = x~0' W~^-1 x~0 / k`` with ``x~0 = T^-1 x0``.
-        """
-        k = scaling.w_factor
-        levels = self.check_sizes(n, m) ** 2 / (k * scaling.Su**2)
-        Ti = np.linalg.inv(scaling.matrix)
-        points = [Ti @ np.array(p) / np.sqrt(k) for p in self.points]
-        return {"levels": levels, "points": points}
-
-    def lmis(self, t, continuous):
-        """The LMI blocks at one coefficient (see the class notes)."""
-        m = t.m
-        S = t.const(sum(t.v.S[i, 0] * _unit(m, i) for i in range(m)))
-        sector = [
-            [2 * t.AW() - t.W_moved()],
-            [-S @ t.B2().T - t.linear("Zg"), -2 * S],
-        ]
-        out = [("saturation sector", sector)]
-        scaled = t.prescaled(self)
-        Zsum = t.linear("Z") + t.linear("Zg")
-        for i, level in enumerate(scaled["levels"]):
-            out.append((
-                f"saturation level {i}",
-                [[-t.const(level * np.eye(1))], [Zsum[i : i + 1, :].T, -t.W()]],
-            ))  # fmt: skip
-        for q, x0 in enumerate(scaled["points"]):
-            out.append((
-                f"saturation point {q}",
-                [[-t.identity(1)], [t.const(x0[:, None]), -t.W()]],
-            ))  # fmt: skip
-        return out
-
-    def residual(self, loop, continuous) -> float:
-        """Largest excess, in the model's units, of the certified statements.
-
-        `loop` is ``(Acl, B2, K, G, T, P, P_moved, W)``: the sector
-        inequality ``[[sym(P Acl) + dP/dt, -(P B2 + G' T)], [*, -2 T]] < 0``
-        (Jacobi-normalised eigenvalue), and the relative excesses of
-        ``(K - G)_i W (K - G)_i' <= u_max_i^2`` and ``x0' P x0 <= 1``.
-        """
-        Acl, B2, K, G, T, P, P_moved, W = loop
-        m = B2.shape[1]
-        M = np.block([
-            [Acl.T @ P + P @ Acl + P_moved, -(P @ B2 + G.T @ T)],
-            [-(B2.T @ P + T @ G), -2 * T],
-        ])  # fmt: skip
-        worst = normalized_max_eig(M[None])
-        levels = self.check_sizes(Acl.shape[0], m)
-        F = K - G
-        for i in range(m):
-            worst = max(worst, float(F[i] @ W @ F[i]) / levels[i] ** 2 - 1)
-        for point in self.points:
-            x0 = np.array(point)
-            worst = max(worst, float(x0 @ P @ x0) - 1)
-        return worst
-
-
-def _unit(m, i):
-    E = np.zeros((m, m))
-    E[i, i] = 1.0
-    return E
 
 
 PERFORMANCE = (Hinf, H2)
@@ -410,9 +245,9 @@ class Stability:
             return [("Lyapunov", [[2 * t.AW() - t.W_moved()]])]
         return [("Lyapunov", [[-t.W()], [t.AW(), -t.W_moved()]])]
 
-    def residual(self, frozen, gamma, continuous) -> float:
+    def residual(self, loop, continuous) -> float:
         """Largest normalised eigenvalue of the primal Lyapunov inequality."""
-        A, _, _, _, P, P_moved, _, _ = frozen
+        A, P, P_moved = loop.Acl, loop.P, loop.P_moved
         if continuous:
             M = A.T @ P + P @ A + P_moved
         else:

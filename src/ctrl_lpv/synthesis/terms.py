@@ -39,7 +39,8 @@ class Terms:
         One ``Z`` per vertex.
     continuous : bool
     prescaled : dict, optional
-        Spec -> its constants in prescaled units (`Saturation.prescale`).
+        ``id(spec)`` -> a constraint's constants in prescaled units (its
+        ``prescale``).
     """
 
     def __init__(self, v, coefficient: Coefficient, rate, lyapunov: LyapunovStructure,
@@ -145,7 +146,7 @@ class Terms:
 
     def prescaled(self, spec):
         """A spec's constants in prescaled units."""
-        return self.scaled[spec]
+        return self.scaled[id(spec)]
 
     def data(self, spec, key):
         """A channel's datum (``"Bw"``, ``"Dzw"``) as a degree-one sum."""

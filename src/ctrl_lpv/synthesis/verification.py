@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..lmi import normalized_max_eig
 from .assembly import vertex_pairs
 from .results import Certificate
 
@@ -65,16 +66,3 @@ def verify(original, data, sol, gains, margin, scheduled, P, gamma) -> Certifica
         npoints=len(deltas),
         max_original_eig=normalized_max_eig(M),
     )
-
-
-def normalized_max_eig(M) -> float:
-    """Largest ``lambda_max(D M D)`` over a stack, ``D = |diag M|^-1/2``.
-
-    The Jacobi normalisation makes the test scale-free; a nonnegative
-    diagonal entry (no strict inequality possible) gives ``inf``.
-    """
-    diag = np.diagonal(M, axis1=1, axis2=2)
-    if not np.all(diag < 0):
-        return float("inf")
-    d = 1.0 / np.sqrt(-diag)
-    return float(np.linalg.eigvalsh(M * d[:, :, None] * d[:, None, :])[:, -1].max())
