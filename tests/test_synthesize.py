@@ -61,13 +61,12 @@ def test_pdl_stability_where_no_constant_lyapunov_matrix_exists():
         lpv.quadratic_stability(sys)
     result = lpv.quadratic_stability(sys, lyapunov="affine", rate_bounds={"k": 0.0})
     P_lower, P_upper = result.P
-    # Independent check: P(k) = (sum delta_j P_j^-1)^-1 > 0 with
+    # Independent check: P(k) = delta P_lower + (1 - delta) P_upper > 0 with
     # A(k)' P(k) + P(k) A(k) < 0 at every frozen k of a fine grid.
     for k in np.linspace(1.0, 10.0, 201):
         delta = (10.0 - k) / 9.0
-        P = np.linalg.inv(
-            delta * np.linalg.inv(P_lower) + (1 - delta) * np.linalg.inv(P_upper)
-        )
+        P = delta * P_lower + (1 - delta) * P_upper
+        assert result.lyapunov_matrix({"k": k}) == pytest.approx(P, rel=1e-12)
         A = np.array([[0.0, 1.0], [-k, -0.5]])
         assert np.linalg.eigvalsh(P).min() > 0
         assert np.linalg.eigvalsh(A.T @ P + P @ A).max() < 0

@@ -32,6 +32,7 @@ _EXPORTS = {
     "H2": "synthesis",
     "GainBound": "synthesis",
     "Saturation": "synthesis",
+    "Peak": "synthesis",
     "check_stabilizability": "stabilizability",
     "ModeResidual": "stabilizability",
     "StateFeedbackDesign": "synthesis",

@@ -31,9 +31,11 @@ class _LyapunovResult:
     def lyapunov_matrix(self, p=None) -> np.ndarray:
         """The Lyapunov matrix ``P(p)`` of ``V = x' P(p) x``.
 
-        Constant, or for ``lyapunov="affine"`` ``P(p) = W(p)^-1`` with
-        ``W(p) = sum_j delta_j(p) P_j^-1`` multi-affine (the dual
-        parametrization of `ctrl_lpv.synthesize`).
+        Constant, or for ``lyapunov="affine"`` in continuous time
+        ``P(p) = sum_j delta_j(p) P_j``, multi-affine in the box parameters;
+        in discrete time ``P(p) = W(p)^-1`` with ``W(p) = sum_j delta_j(p)
+        P_j^-1`` multi-affine (the dual parametrization of
+        `ctrl_lpv.synthesize`).
 
         Parameters
         ----------
@@ -49,6 +51,8 @@ class _LyapunovResult:
         if p is None:
             raise ValueError("p: an affine Lyapunov function needs the parameter value")
         delta = self.system.weights(p)
+        if not self.system.isdtime(strict=True):
+            return sum(d * Pj for d, Pj in zip(delta, self.P))
         P = np.linalg.inv(sum(d * np.linalg.inv(Pj) for d, Pj in zip(delta, self.P)))
         return 0.5 * (P + P.T)
 
@@ -228,8 +232,8 @@ def quadratic_stability(
     _require_stable_vertices(sys, As)
     if lyapunov != "constant" or rate_bounds is not None or sys.isdtime(strict=True):
         cl = _autonomous(sys, As)
-        design = _general_analysis(cl, None, lyapunov, rate_bounds, margin)
-        return QuadraticStability(design.P, design.certificate.lmi_checks, sys)
+        _, P, checks = _general_analysis(cl, None, lyapunov, rate_bounds, margin)
+        return QuadraticStability(P, checks, sys)
     scale = max(1.0, max(np.linalg.norm(A, 2) for A in As))
     As = [A / scale for A in As]
     n = sys.nstates
@@ -299,8 +303,8 @@ def l2_gain_bound(
         from .synthesis import Hinf
 
         cl = _closed_loop(sys, gains, iw, iu, iz, lyapunov)
-        design = _general_analysis(cl, Hinf(), lyapunov, rate_bounds, margin)
-        return L2GainBound(design.gamma, design.P, design.certificate.lmi_checks, sys)
+        gamma, P, checks = _general_analysis(cl, Hinf(), lyapunov, rate_bounds, margin)
+        return L2GainBound(gamma, P, checks, sys)
     data = []
     for A, B, C, D in sys.vertex_data():
         data.append(
@@ -394,8 +398,8 @@ def h2_bound(
     iw = signal_indices(w, sys.physical_inputs, "w")
     iz = signal_indices(z, sys.output_labels, "z")
     cl = _closed_loop(sys, gains, iw, iu, iz, lyapunov)
-    design = _general_analysis(cl, H2(), lyapunov, rate_bounds, margin)
-    return H2Bound(design.gamma, design.P, design.certificate.lmi_checks, sys)
+    gamma, P, checks = _general_analysis(cl, H2(), lyapunov, rate_bounds, margin)
+    return H2Bound(gamma, P, checks, sys)
 
 
 def _require_stable_vertices(sys, As) -> None:
@@ -447,19 +451,44 @@ def _closed_loop(sys, gains, iw, iu, iz, lyapunov):
 
 
 def _general_analysis(cl, spec, lyapunov, rate_bounds, margin):
-    """The bound of `spec` (None: stability) for a closed loop without inputs."""
+    """The bound of `spec` (None: stability) of a closed loop without inputs.
+
+    Returns ``(gamma, P, checks)``, ``P`` the Lyapunov matrix or its vertex
+    matrices (see `_LyapunovResult.lyapunov_matrix`).
+
+    The engine writes its LMIs in the dual variable ``W``. In continuous
+    time with ``lyapunov="affine"`` it analyses the transposed loop
+    ``(A', C', B', D')``: its dual inequalities in ``W`` are the primal ones
+    of the loop in ``P = W`` (bounded-real, Lyapunov, and the H2 bound
+    ``trace(B' P B)`` with ``A' P + P A + dP/dt + C' C < 0``), up to the
+    sign of ``dP/dt``, which the symmetric rate box ``|dp/dt| <= nu``
+    covers. So ``P(p)`` itself is multi-affine, the parametrization of
+    Gahinet, Apkarian and Chilali (1996) and of the literature's examples.
+    """
     from .lmi import solver_chain
     from .synthesis.general import run_general
     from .synthesis.parametric import lyapunov_structure
 
     lyap = lyapunov_structure(cl, lyapunov, rate_bounds)
+    primal = not lyap.constant and not cl.isdtime(strict=True)
+    if primal:
+        vertices = [(A.T, C.T, B.T, D.T) for A, B, C, D in cl.vertex_data()]
+        cl = PolytopicStateSpace(vertices, domain=cl.domain, dt=cl.dt)
     specs = [] if spec is None else [spec]
     channels = [(list(range(cl.ninputs)), [], list(range(cl.noutputs)))] * len(specs)
-    return run_general(
+    design = run_general(
         cl, [], specs, channels, spec, (), False, lyap,
         not cl.isdtime(strict=True), None, margin, solver_chain(None), None,
         "analysis", (),
     )  # fmt: skip
+    P = design.P
+    if primal:
+        P = tuple(_sym(np.linalg.inv(Pj)) for Pj in P)
+    return design.gamma, P, design.certificate.lmi_checks
+
+
+def _sym(M):
+    return 0.5 * (M + M.T)
 
 
 def frozen_sweep(

@@ -79,7 +79,7 @@ from .paper import (
     quadratic_stabilization,
 )
 from .results import Certificate, StateFeedbackDesign
-from .specs import H2, Hinf
+from .specs import H2, Hinf, Peak
 
 __all__ = [
     "StateFeedbackDesign",
@@ -94,4 +94,5 @@ __all__ = [
     "H2",
     "GainBound",
     "Saturation",
+    "Peak",
 ]

@@ -29,7 +29,7 @@ from .ladder import run_ladder
 from .options import validated_options, validated_regions
 from .parametric import lyapunov_structure
 from .results import StateFeedbackDesign
-from .specs import H2, PERFORMANCE
+from .specs import H2, PERFORMANCE, Peak
 
 __all__ = ["synthesize", "h2_state_feedback"]
 
@@ -135,7 +135,8 @@ def synthesize(
     scheduled = gains == "scheduled"
     if objective is not None and not isinstance(objective, PERFORMANCE):
         raise TypeError(
-            f"objective: expected None, Hinf(...) or H2(...), got {objective!r}"
+            f"objective: expected None, Hinf(...), H2(...) or Peak(...), got "
+            f"{objective!r}"
         )
     performance, constraints = _split_constraints(constraints)
     regions = tuple(c for c in constraints if isinstance(c, LMIRegion))
@@ -148,7 +149,7 @@ def synthesize(
         and rate_bounds is None
         and not performance
         and saturation is None
-        and not isinstance(objective, H2)
+        and not isinstance(objective, (H2, Peak))
     ):
         hinf = objective is not None
         design = run_ladder(
@@ -191,6 +192,14 @@ def synthesize(
         if not iu:
             raise ValueError("constraints: Saturation needs control inputs u")
         saturation.check_sizes(sys.nstates, len(iu))
+    if sum(isinstance(s, Peak) for s in specs) > 1:
+        raise ValueError("constraints: at most one Peak spec (one invariant ellipsoid)")
+    if any(isinstance(s, Peak) for s in specs) and not lyap.constant and not scheduled:
+        raise ValueError(
+            "constraints: Peak with a common gain and lyapunov='affine' is not "
+            "implemented (the extended LMIs have no invariance form here); use "
+            "gains='scheduled' or a constant Lyapunov matrix"
+        )
     if gain_bound is not None and not lyap.constant:
         raise ValueError(
             "constraints: GainBound is implemented for a constant Lyapunov matrix only"
@@ -229,8 +238,8 @@ def _split_constraints(constraints):
             others.append(item)
         else:
             raise TypeError(
-                f"constraints: expected Hinf, H2, GainBound, Saturation or pole "
-                f"regions, got {item!r}"
+                f"constraints: expected Hinf, H2, Peak, GainBound, Saturation or "
+                f"pole regions, got {item!r}"
             )
     for kind in (GainBound, Saturation):
         if sum(isinstance(item, kind) for item in others) > 1:

@@ -24,6 +24,7 @@ import numpy as np
 
 from .._checks import real_number
 from ..lmi import normalized_max_eig
+from .specs import Peak
 
 
 @dataclass(frozen=True)
@@ -59,9 +60,25 @@ class GainBound:
         With ``K = Su Z W^-1 T^-1`` in prescaled units, the bound is
         ``(Su Z)'(Su Z) <= kappa kappa0 (T W)'(T W)``, whose right side is
         bounded below by its tangent at ``G0 = T W0``; a Schur complement
-        and the congruence with ``G0^-1`` give the block below, sufficient
-        everywhere and exact at ``W0`` (``Ginv = G0^-1``, ``Ginv_K =
-        G0^-1 / sqrt(kappa0)``). See `ctrl_lpv.synthesis.ladder.gain_tangent`.
+        and the congruence with ``G0^-1`` give the block returned,
+        sufficient everywhere and exact at ``W0``. The gain iterations set
+        ``Ginv`` and ``Ginv_K`` at each new point (`ladder.gain_tangent`).
+
+        Parameters
+        ----------
+        W, Z : ndarray or cvxpy expression
+            The prescaled Lyapunov matrix and gain variable.
+        Ginv, Ginv_K : ndarray or cvxpy parameter
+            ``G0^-1`` and ``G0^-1 / sqrt(kappa0)``.
+        kappa : float or cvxpy expression
+            The squared gain relative to ``kappa0``, the previous point's.
+        T, Su : ndarray
+            The state and input scalings (matrices).
+
+        Returns
+        -------
+        list of list
+            The lower-triangular blocks of an LMI ``<= 0``.
         """
         n, m = W.shape[0], Z.shape[0]
         return [
@@ -105,7 +122,11 @@ class Saturation:
     ``[[sym(A W + B2 Z) - dW/dt, *], [-S B2' - Zg, -2 S]] < 0`` (decrease of
     ``V = x' P x`` in the sector) and ``[[u_max_i^2, *], [-(Z + Zg)_i', W]]
     > 0`` (``E`` inside the sector's region), ``[[1, *], [x0, W]] > 0`` for
-    each point. ``E`` shares ``P`` with the performance specs: with an
+    each point. With a `Peak` spec the sector inequality also carries its
+    decay ``lambda W`` and disturbance column, so that ``E`` is invariant for
+    the saturated loop under every disturbance of peak ``w_max``: the
+    ultimate-bound certificate of the servo. ``E`` shares ``P`` with the
+    performance specs: with an
     `Hinf` objective ``E`` is also the set that the linear loop's states
     reach with unit disturbance energy, so a larger region costs gamma.
     Continuous time, with a constant or a scheduled ``W``.
@@ -176,6 +197,11 @@ class Saturation:
             [2 * t.AW() - t.W_moved()],
             [-S @ t.B2().T - t.linear("Zg"), -2 * S],
         ]
+        peak = next((spec for spec in t.specs if isinstance(spec, Peak)), None)
+        if peak is not None:
+            # E must be invariant for the saturated loop under the disturbance.
+            sector[0][0] = sector[0][0] + t.v.lam * t.W()
+            sector.append([t.data(peak, "Bw").T, 0, peak.disturbance(t)])
         return [("saturation sector", sector)]
 
     def coefficient_lmis(self, t, continuous):
@@ -226,6 +252,14 @@ class Saturation:
             [Acl.T @ P + P @ Acl + loop.P_moved, -(P @ B2 + G.T @ T)],
             [-(B2.T @ P + T @ G), -2 * T],
         ])  # fmt: skip
+        if loop.lam is not None:
+            # With a Peak spec: its decay and disturbance (see `lmis`).
+            nw = loop.Bd.shape[1]
+            M[: len(P), : len(P)] += loop.lam * P
+            M = np.block([
+                [M, np.vstack([P @ loop.Bd, np.zeros((m, nw))])],
+                [loop.Bd.T @ P, np.zeros((nw, m)), -np.diag(loop.mu_w)],
+            ])  # fmt: skip
         worst = normalized_max_eig(M[None])
         levels = self.check_sizes(Acl.shape[0], m)
         F = K - G

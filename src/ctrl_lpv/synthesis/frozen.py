@@ -71,7 +71,9 @@ class FrozenLoop:
     (continuous time) or their values at the next sample (discrete time).
     A performance spec's channel: ``Bw``, ``Cz`` (closed loop, ``Cz - Dzu
     K``), ``Dzw`` and its certified ``bound``; a `Saturation` spec's
-    auxiliary gain ``G`` and sector multiplier ``T``.
+    auxiliary gain ``G`` and sector multiplier ``T``. With a `Peak` spec:
+    its disturbance input ``Bd``, decay ``lam`` and weights ``mu_w = mu /
+    w_max^2`` (model units), which a `Saturation` sector also reads.
     """
 
     A: np.ndarray
@@ -89,6 +91,9 @@ class FrozenLoop:
     bound: float | None = None
     G: np.ndarray | None = None
     T: np.ndarray | None = None
+    Bd: np.ndarray | None = None
+    lam: float | None = None
+    mu_w: np.ndarray | None = None
 
 
 def verify_frozen(job, sol, gains, values, Ws, Zs):
@@ -103,6 +108,15 @@ def verify_frozen(job, sol, gains, values, Ws, Zs):
     if saturation is not None:
         Zgs, T_sector = saturation.unscale(sol, sc, len(Zs))
     level = None
+    peak = job.peak
+    if peak is not None:
+        ip = job.index[peak]
+        nw = job.original[0][(ip, "Bw")].shape[1]
+        # mu = a mu~, lambda = a lambda~ (a = 1 in discrete time).
+        disturbance = {
+            "lam": job.lam * sc.a,
+            "mu_w": sc.a * np.asarray(sol.mu, float).ravel() * peak.weights(nw),
+        }
     npoints = 0
     performance = job.specs or [Stability()]
     bounds = values or (None,)
@@ -127,9 +141,12 @@ def verify_frozen(job, sol, gains, values, Ws, Zs):
         worst_eig = max(worst_eig, (eig.real.max() if job.continuous
                                     else np.abs(eig).max() - 1))  # fmt: skip
         sector = {}
+        if peak is not None:
+            Bd = mix([v[(ip, "Bw")] for v in job.original])
+            sector = {"Bd": Bd, **disturbance}
         if saturation is not None:
             Zg = mix(Zgs) if job.scheduled else Zgs[0]
-            sector = {"G": sc.unscale_K(Zg @ np.linalg.inv(W_here)), "T": T_sector}
+            sector |= {"G": sc.unscale_K(Zg @ np.linalg.inv(W_here)), "T": T_sector}
         P = sc.unscale_P(np.linalg.inv(W_here))
         W = sc.unscale_W(W_here)
         for rate in lyap.rates:

@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..exceptions import CertificationError, InfeasibleError
+from ..lmi import default_solvers
 from ..regions import LMIRegion
 from .constraints import GainBound, Saturation
 from .frozen import verify_frozen
@@ -47,7 +48,19 @@ from .parametric import coefficients
 from .problem import EPSILONS, build_problem
 from .results import Certificate, StateFeedbackDesign
 from .scaling import Scaling, channel_scales, pow2
-from .specs import H2
+from .specs import H2, Peak
+
+# The decays of a Peak spec tried (prescaled time units in continuous time,
+# where the data are of order one; the contraction factor in discrete time).
+_LAMBDAS = {
+    True: tuple(10.0 ** np.arange(-3.0, 2.01, 0.5)),
+    # Up to 0.999: with |w| <= 1 the bound tends to the exact one as lambda
+    # tends to 1 (x+ = w: 1 / sqrt(lambda)).
+    False: (0.02, 0.05, 0.1, 0.2, 0.35, 0.5, 0.7, 0.9, 0.97, 0.99, 0.999),
+}
+
+# Grid decays, best first, at which the stages run after the refined one.
+_LAMBDA_TRIES = 2
 
 # Bounds W <= w_max I (scaled units) tried in turn for a given bound.
 _GIVEN_W_MAX = (1e3, 1e6, 1e9)
@@ -132,7 +145,7 @@ def run_general(
 def _guard(sys, original, specs, constraints, lyap, time_limit) -> None:
     """The size guard of the paper's engine, on this engine's LMI count."""
     n, m = original[0]["B2"].shape
-    per_point = sum(2 if isinstance(s, H2) else 1 for s in specs) or 1
+    per_point = sum(2 if isinstance(s, (H2, Peak)) else 1 for s in specs) or 1
     regions = [c for c in constraints if isinstance(c, LMIRegion)]
     per_coefficient = len(regions)
     saturation = _saturation(constraints)
@@ -227,6 +240,8 @@ class _Job:
         # A common gain with a parameter-dependent W: the extended LMIs.
         self.slack = not (lyap.constant or scheduled) and self._nZ() > 0
         self.eps = EPSILONS[0]
+        self.peak = next((s for s in specs if isinstance(s, Peak)), None)
+        self.lam = _LAMBDAS[continuous][0]
 
     def _nZ(self) -> int:
         """Number of ``Z`` variables (none for an analysis, without inputs)."""
@@ -245,12 +260,14 @@ class _Job:
         """
         _, sz = self.channel[i]
         a, kappa = self.scaling.a, self.scaling.w_factor
-        if isinstance(self.specs[i], H2):
+        if isinstance(self.specs[i], (H2, Peak)):
             return kappa * sz**2
         return kappa * sz**2 / a
 
     def run(self):
         self.lmi = build_problem(self)
+        if self.peak is not None:
+            return self._search_lambda()
         if not (self.slack and self.continuous):
             return self._stages()
         # The extended LMIs hold for each fixed eps; none is best for every
@@ -271,6 +288,73 @@ class _Job:
                 best = found
         return best
 
+    def _set_lambda(self, lam) -> None:
+        # Kept on the job: a rebuild (the bound's rescaling) reads it.
+        self.lam = lam
+        self.lmi.set_parameter("lam", lam)
+
+    def _raw_optimum(self, lam) -> float:
+        """The objective's raw optimum at a decay of a `Peak` spec (inf if
+        none)."""
+        self._set_lambda(lam)
+        # The search uses the first solver only, as the servo's does.
+        chain, self.chain = self.chain, (self.chain or default_solvers())[:1]
+        try:
+            raw = self._solve("optimal", lambda v: v.g0[0, 0], certify=False)
+        finally:
+            self.chain = chain
+        value = np.inf if raw is None else float((raw.nominal or raw).g0[0, 0])
+        return value if np.isfinite(value) and value > 0 else np.inf
+
+    def _search_lambda(self):
+        """The stages at the decay ``lambda`` of the `Peak` spec.
+
+        Each ``lambda`` gives LMIs; the best is not known in advance. To
+        minimise an objective, the raw optimum is evaluated on a grid and
+        refined by golden section between the grid neighbours of the best
+        (in ``log lambda`` in continuous time); the stages then run at the
+        best ``lambda``, then at the next best of the grid.
+        Otherwise the grid is tried in turn until a point certifies.
+        """
+        grid = _LAMBDAS[self.continuous]
+        order = list(grid)
+        if self.objective is not None and self.objective.bound is None:
+            values = [self._raw_optimum(lam) for lam in grid]
+            # The stages (back-off, verification) at the three best decays.
+            order = [grid[i] for i in np.argsort(values) if np.isfinite(values[i])]
+            order = order[:_LAMBDA_TRIES]
+            if order:
+                best = grid.index(order[0])
+                lo, hi = grid[max(best - 1, 0)], grid[min(best + 1, len(grid) - 1)]
+                order.insert(0, self._golden(lo, hi))
+        for lam in order:
+            self._set_lambda(lam)
+            found = self._stages()
+            if found is not None:
+                return found
+            self.notes.append(
+                f"Peak decay lambda = {lam * self.scaling.a:.3g}: no certified point"
+            )
+        return None
+
+    def _golden(self, lo, hi, iterations=8):
+        """Golden-section minimum of `_raw_optimum` on ``[lo, hi]``."""
+        to, back = (np.log, np.exp) if self.continuous else (float, float)
+        a, b = to(lo), to(hi)
+        ratio = (np.sqrt(5.0) - 1) / 2
+        c, d = b - ratio * (b - a), a + ratio * (b - a)
+        fc, fd = self._raw_optimum(back(c)), self._raw_optimum(back(d))
+        for _ in range(iterations):
+            if fc <= fd:
+                b, d, fd = d, c, fc
+                c = b - ratio * (b - a)
+                fc = self._raw_optimum(back(c))
+            else:
+                a, c, fc = c, d, fd
+                d = a + ratio * (b - a)
+                fd = self._raw_optimum(back(d))
+        return float(back(c if fc <= fd else d))
+
     def _stages(self):
         if self.objective is None:
             return self._stabilize()
@@ -282,10 +366,10 @@ class _Job:
     def _proves(self) -> bool:
         """Whether a refutation of this job's LMIs refutes the problem's LMIs.
 
-        Not for the extended LMIs: they are posed at one fixed eps, and
-        another may be feasible.
+        Not for the extended LMIs, nor with a `Peak` spec: they are posed
+        at one fixed eps or lambda, and another may be feasible.
         """
-        return not (self.slack and self.continuous)
+        return not (self.slack and self.continuous) and self.peak is None
 
     def _solve(self, stage, objective, certify=True, proof=False):
         return solve_stage(self, stage, objective, certify, proof)

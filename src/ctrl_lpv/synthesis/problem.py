@@ -17,7 +17,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from ..lmi import LMIProblem
-from .specs import H2, Stability
+from .specs import H2, Peak, Stability
 from .terms import Terms
 
 # A given bound is posed as bound^2 (1 - BOUND_SLACK), met strictly.
@@ -68,6 +68,14 @@ def build_problem(job) -> LMIProblem:
         if isinstance(spec, H2):
             nz = data[0][(i, "Cz")].shape[0]
             lmi.variable(f"Y{i}", (nz, nz), symmetric=True)
+        if isinstance(spec, Peak):
+            ones = np.ones((1, data[0][(i, "Bw")].shape[1]))
+            lmi.variable("mu", (ones.size, 1))
+            # The decay of the invariance inequality, searched by the job.
+            lmi.parameter("lam", nonneg=True, value=job.lam)
+            lmi.add("sum(mu) <= lambda",
+                    lambda v, ones=ones: [[ones @ v.mu - v.lam * np.eye(1)]],
+                    strict=False)  # fmt: skip
     for spec in job.constraints:
         if hasattr(spec, "variables"):
             spec.variables(lmi, n, m, nZ)
@@ -83,12 +91,17 @@ def build_problem(job) -> LMIProblem:
     # Keyed by identity: a region holds arrays and is not hashable.
     prescaled = {
         id(spec): spec.prescale(job.scaling, n, m)
-        for spec in job.constraints
+        for spec in (*job.specs, *job.constraints)
         if hasattr(spec, "prescale")
     }
+    performance = job.specs or [Stability()]
+    # Specs of one kind (two Hinf channels) are told apart by name, equal
+    # constraints (a region given twice) by position.
     names = [str(spec) for spec in job.constraints]
-    # Equal constraints (a region given twice) are told apart by position.
-    tags = [f" #{q}" if names.count(x) > 1 else "" for q, x in enumerate(names)]
+    tagged = [(spec, f" [{spec}]" if len(performance) > 1 else "")
+              for spec in performance]  # fmt: skip
+    tagged += [(spec, f" #{q}" if names.count(x) > 1 else "")
+               for q, (spec, x) in enumerate(zip(job.constraints, names))]  # fmt: skip
 
     def terms(v, c, r):
         return Terms(v, c, r, job.lyap, data, job.index, rho, job.scheduled,
@@ -98,22 +111,11 @@ def build_problem(job) -> LMIProblem:
         name: np.zeros(item.shape)
         for name, item in (*lmi._vars.items(), *lmi._params.items())
     })  # fmt: skip
-    performance = job.specs or [Stability()]
     for c in job.coefficients:
         for r in job.rates:
             at = c.label + (f", rate {np.round(r * job.scaling.a, 12).tolist()}"
                             if len(job.rates) > 1 else "")  # fmt: skip
-            for spec in performance:
-                # Specs of one kind (two Hinf channels) are told apart.
-                tag = f" [{spec}]" if len(performance) > 1 else ""
-                named = spec.lmis(terms(zero, c, r), job.continuous)
-                for q, (name, _) in enumerate(named):
-
-                    def blocks(v, spec=spec, q=q, c=c, r=r):
-                        return spec.lmis(terms(v, c, r), job.continuous)[q][1]
-
-                    lmi.add(f"{name}{tag} {at}", blocks)
-            for spec, tag in zip(job.constraints, tags):
+            for spec, tag in tagged:
                 if hasattr(spec, "lmis"):
                     _add(lmi, spec.lmis, lambda v, c=c, r=r: terms(v, c, r),
                          job.continuous, zero, f"{tag} {at}")  # fmt: skip
@@ -125,7 +127,7 @@ def build_problem(job) -> LMIProblem:
 
                 lmi.add(f"decay {at}", decay, strict=False,
                         stages=("stabilize",), normalization=True)  # fmt: skip
-        for spec, tag in zip(job.constraints, tags):
+        for spec, tag in tagged:
             if hasattr(spec, "coefficient_lmis"):
                 _add(lmi, spec.coefficient_lmis,
                      lambda v, c=c: terms(v, c, job.rates[0]), job.continuous,

@@ -225,7 +225,153 @@ class H2(_Performance):
         return max(normalized_max_eig(M[None]), excess)
 
 
-PERFORMANCE = (Hinf, H2)
+@dataclass(frozen=True)
+class Peak(_Performance):
+    """Peak bound on `z` under peak-bounded `w` (an invariant ellipsoid).
+
+    For every ``w`` with ``|w_i(t)| <= w_max_i`` at all times and every
+    admissible parameter trajectory, the ellipsoid ``E = {x : x' P x <= 1}``
+    of the design's ``P`` is invariant, and on it ``|z| <= bound`` (the
+    Euclidean norm of ``z(t)``): from ``x(0)`` in ``E`` (for example 0),
+    ``|z(t)| <= bound`` for all ``t``. The bound is an upper bound of the
+    peak-to-peak gain (the ``*``-norm bound of Abedor, Nagpal and Poolla,
+    1996) and of the ultimate size of ``z``.
+
+    Parameters
+    ----------
+    w : str, int or sequence, optional
+        Exogenous inputs; default every physical input that is not a
+        control input.
+    z : str, int or sequence, optional
+        Performance outputs; default all outputs.
+    bound : float, optional
+        Required bound, met strictly; None (only for the objective) asks for
+        the smallest one.
+    w_max : float or sequence of float, optional
+        Peak of each input of `w` (one value for all), default 1.
+
+    Notes
+    -----
+    With ``W = P^-1``, ``Z = -K W``, a decay ``lambda > 0`` and multipliers
+    ``mu_i >= 0``: ``V' <= -lambda V + sum_i mu_i (w_i / w_max_i)^2`` with
+    ``sum_i mu_i <= lambda`` makes ``E`` invariant. The LMIs are
+
+    ``[[sym(A W + B2 Z) - dW/dt + lambda W, *], [Bw', -diag(mu / w_max^2)]]
+    < 0`` (continuous time), ``[[-W+, *, *], [(A W + B2 Z)', -(1 - lambda)
+    W, *], [Bw', 0, -diag(mu / w_max^2)]] < 0`` (discrete time, ``0 <
+    lambda < 1``), ``sum(mu) <= lambda`` and ``[[g I, *], [(Cz W + Dzu
+    Z)', W]] >= 0`` with ``bound^2 = g``. For a fixed ``lambda`` they are
+    LMIs; `synthesize` searches ``lambda`` (a grid, refined around the best
+    raw optimum; Nazin, Polyak and Topunov 2007 give the same one-parameter
+    family). With a `Saturation` constraint the disturbance also enters
+    its sector inequality, so that ``E`` is invariant for the *saturated*
+    loop. The feedthrough from `w` to `z` must be zero (a `ValueError`
+    says so). At most one `Peak` spec per design, with a constant
+    Lyapunov matrix or scheduled gains.
+    """
+
+    w_max: tuple = (1.0,)
+
+    def __post_init__(self):
+        super().__post_init__()
+        levels = np.atleast_1d(np.asarray(self.w_max, dtype=object))
+        if levels.ndim != 1 or levels.size == 0:
+            raise ValueError(
+                f"w_max: expected a level or a sequence, got {self.w_max!r}"
+            )
+        levels = tuple(
+            real_number(x, "w_max", positive=True, below=1e150) for x in levels
+        )
+        object.__setattr__(self, "w_max", levels)
+
+    def __str__(self) -> str:
+        return super().__str__()[:-1] + f", w_max={list(self.w_max)})"
+
+    def check_data(self, channels, continuous) -> None:
+        if any(np.any(d["Dzw"] != 0) for d in channels):
+            raise ValueError(
+                f"{self}: the feedthrough from w to z is not zero; the peak bound "
+                "is written for z = Cz x + Dzu u"
+            )
+        nw = channels[0]["Dzw"].shape[1]
+        if len(self.w_max) not in (1, nw):
+            raise ValueError(f"w_max: {len(self.w_max)} levels for {nw} inputs w")
+
+    def weights(self, nw: int) -> np.ndarray:
+        """``1 / w_max_i^2``, one per input of `w`."""
+        levels = np.array(self.w_max * (nw if len(self.w_max) == 1 else 1), float)
+        return 1.0 / levels**2
+
+    def prescale(self, scaling, n: int, m: int) -> dict:
+        """The time scaling: ``mu~ = mu / a`` and ``lambda~ = lambda / a``."""
+        return {"a": scaling.a}
+
+    def disturbance(self, t):
+        """The ``(w, w)`` block ``-diag(mu / w_max^2)`` in prescaled units.
+
+        Congruent to the model's as `Hinf`'s identity block (weight
+        ``rho``), with ``mu = a mu~`` for the prescaled variable ``mu~``.
+        """
+        weights = self.weights(t.nw(self)) * t.rho(self) * t.prescaled(self)["a"]
+        mu = t.v.mu
+        D = sum(weights[i] * mu[i, 0] * _unit(len(weights), i)
+                for i in range(len(weights)))  # fmt: skip
+        return -t.const(D)
+
+    def lmis(self, t, continuous):
+        """The invariance inequality at one coefficient and rate."""
+        Bw, lam = t.data(self, "Bw"), t.v.lam
+        AX, W = t.AW(), t.W()
+        if continuous:
+            blocks = [[2 * AX - t.W_moved() + lam * W], [Bw.T, self.disturbance(t)]]
+        else:
+            blocks = [
+                [-t.W_moved()],
+                [AX.T, -(1 - lam) * W],
+                [Bw.T, 0, self.disturbance(t)],
+            ]
+        return [("peak invariance", blocks)]
+
+    def coefficient_lmis(self, t, continuous):
+        """The peak of ``z`` on ``E``: ``[[g I, *], [C_cl W', W]] >= 0``."""
+        g = t.const(t.g(self)[0, 0] * np.eye(t.nz(self)))
+        return [("peak output", [[-g], [t.CW(self).T, -t.W()]])]
+
+    def residual(self, loop, continuous) -> float:
+        """Largest excess of the invariance and peak inequalities.
+
+        At a `~ctrl_lpv.synthesis.frozen.FrozenLoop` with this spec's
+        channel, its disturbance ``Bd`` and the model-unit ``lam`` and
+        ``mu_w = mu / w_max^2``: the
+        primal invariance inequality with ``P`` (Jacobi-normalised), the
+        relative excess of ``sum(mu) <= lambda`` and of ``Cz W Cz' <=
+        bound^2 I``.
+        """
+        A, Bw, Cz, P, lam = loop.Acl, loop.Bd, loop.Cz, loop.P, loop.lam
+        Mw = np.diag(loop.mu_w)
+        if continuous:
+            M = np.block([
+                [A.T @ P + P @ A + loop.P_moved + lam * P, P @ Bw],
+                [Bw.T @ P, -Mw],
+            ])  # fmt: skip
+        else:
+            Pn = loop.P_moved
+            M = np.block([
+                [A.T @ Pn @ A - (1 - lam) * P, A.T @ Pn @ Bw],
+                [Bw.T @ Pn @ A, Bw.T @ Pn @ Bw - Mw],
+            ])  # fmt: skip
+        mu = loop.mu_w / self.weights(Bw.shape[1])
+        peak = np.linalg.eigvalsh(Cz @ loop.W @ Cz.T)[-1] / loop.bound**2 - 1
+        return max(normalized_max_eig(M[None]), float(mu.sum() / lam - 1), peak)
+
+
+def _unit(m, i):
+    E = np.zeros((m, m))
+    E[i, i] = 1.0
+    return E
+
+
+PERFORMANCE = (Hinf, H2, Peak)
 
 
 class Stability:
