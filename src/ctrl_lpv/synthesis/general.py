@@ -319,7 +319,17 @@ class _Job:
         grid = _LAMBDAS[self.continuous]
         order = list(grid)
         if self.objective is not None and self.objective.bound is None:
+            start = len(self.notes)
             values = [self._raw_optimum(lam) for lam in grid]
+            # One note for the grid, not one per decay.
+            failed = self.notes[start:]
+            del self.notes[start:]
+            if failed:
+                self.notes.append(
+                    f"Peak decay search: {len(failed)} of {len(grid)} decays gave no "
+                    f"optimum (at lambda = {grid[0] * self.scaling.a:.3g}: "
+                    f"{failed[0]})"
+                )
             # The stages (back-off, verification) at the three best decays.
             order = [grid[i] for i in np.argsort(values) if np.isfinite(values[i])]
             order = order[:_LAMBDA_TRIES]
