@@ -178,3 +178,35 @@ def test_peak_refusals_name_the_reason(plant):
     )
     with pytest.raises(ValueError, match="feedthrough"):
         lpv.synthesize(feedthrough, "u", objective=lpv.Peak("w"))
+
+
+def test_hinf_objective_with_a_peak_constraint(plant):
+    alone = lpv.synthesize(plant, "u", objective=lpv.Peak("w"), backoff=None)
+    peak = lpv.Peak("w", bound=1.5 * alone.gamma_opt)
+    design = lpv.synthesize(plant, "u", objective=lpv.Hinf("w"), constraints=[peak])
+    assert design.bounds[peak] < peak.bound
+    for p in np.linspace(1.0, 3.0, 9):
+        A, B, C, D = design.closed_loop({"p": p})
+        assert ct.linfnorm(ct.ss(A, B, C, D))[0] <= design.gamma
+        steady = -C @ np.linalg.solve(A, B[:, 0])
+        assert np.linalg.norm(steady) < peak.bound
+
+
+@pytest.mark.parametrize("gains", ["common", "scheduled"])
+def test_discrete_polytopic_peak(plant, gains):
+    sampled = lpv.PolytopicStateSpace(
+        [ct.c2d(v, 0.1) for v in plant.vertices], domain=plant.domain
+    )
+    design = lpv.synthesize(sampled, "u", objective=lpv.Peak("w"), gains=gains)
+    rng = np.random.default_rng(3)
+    for p in np.linspace(1.0, 3.0, 9):
+        A, B, C, D = design.closed_loop({"p": p})
+        assert np.abs(np.linalg.eigvals(A)).max() < 1
+        # A bounded input of random signs from rest: |z[k]| stays below.
+        x, worst = np.zeros(2), 0.0
+        for w in rng.choice([-1.0, 1.0], size=400):
+            worst = max(worst, np.linalg.norm(C @ x + D[:, 0] * w))
+            x = A @ x + B[:, 0] * w
+        assert worst <= design.gamma
+        steady = C @ np.linalg.solve(np.eye(2) - A, B[:, 0])
+        assert np.linalg.norm(steady) < design.gamma
