@@ -66,8 +66,9 @@ holds the four public functions, thin wrappers of `synthesize`
 (``compose``). It takes the performance specs of ``specs`` and the
 constraint specs of ``constraints`` (and `~ctrl_lpv.regions.LMIRegion`),
 and sends the paper's cases to ``ladder``, the others to ``general``, which
-assembles them over the relaxation of ``parametric`` with ``terms`` and
-checks them with ``frozen``.
+assembles them over the relaxation of ``parametric`` with ``terms`` (and
+``problem``), searches the decay of a `Peak` spec with ``decay`` and checks
+each point with ``frozen``.
 """
 
 from .compose import h2_state_feedback, synthesize

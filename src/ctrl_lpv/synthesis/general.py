@@ -30,9 +30,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..exceptions import CertificationError, InfeasibleError
-from ..lmi import default_solvers
 from ..regions import LMIRegion
 from .constraints import GainBound, Saturation
+from .decay import LAMBDAS, search_decay
 from .frozen import verify_frozen
 from .ladder import (
     GAIN_ITERATIONS,
@@ -49,18 +49,6 @@ from .problem import EPSILONS, build_problem
 from .results import Certificate, StateFeedbackDesign
 from .scaling import Scaling, channel_scales, pow2
 from .specs import H2, Peak
-
-# The decays of a Peak spec tried (prescaled time units in continuous time,
-# where the data are of order one; the contraction factor in discrete time).
-_LAMBDAS = {
-    True: tuple(10.0 ** np.arange(-3.0, 2.01, 0.5)),
-    # Up to 0.999: with |w| <= 1 the bound tends to the exact one as lambda
-    # tends to 1 (x+ = w: 1 / sqrt(lambda)).
-    False: (0.02, 0.05, 0.1, 0.2, 0.35, 0.5, 0.7, 0.9, 0.97, 0.99, 0.999),
-}
-
-# Grid decays, best first, at which the stages run after the refined one.
-_LAMBDA_TRIES = 2
 
 # Bounds W <= w_max I (scaled units) tried in turn for a given bound.
 _GIVEN_W_MAX = (1e3, 1e6, 1e9)
@@ -241,7 +229,7 @@ class _Job:
         self.slack = not (lyap.constant or scheduled) and self._nZ() > 0
         self.eps = EPSILONS[0]
         self.peak = next((s for s in specs if isinstance(s, Peak)), None)
-        self.lam = _LAMBDAS[continuous][0]
+        self.lam = LAMBDAS[continuous][0]
 
     def _nZ(self) -> int:
         """Number of ``Z`` variables (none for an analysis, without inputs)."""
@@ -267,9 +255,9 @@ class _Job:
     def run(self):
         self.lmi = build_problem(self)
         if self.peak is not None:
-            return self._search_lambda()
+            return search_decay(self)
         if not (self.slack and self.continuous):
-            return self._stages()
+            return self.stages()
         # The extended LMIs hold for each fixed eps; none is best for every
         # problem: a feasibility problem takes the first that certifies, a
         # minimisation the smallest certified bound.
@@ -278,7 +266,7 @@ class _Job:
             # Kept on the job: a rebuild (the bound's rescaling) reads it.
             self.eps = eps
             self.lmi.set_parameter("eps", eps)
-            found = self._stages()
+            found = self.stages()
             if found is None:
                 self.notes.append(f"extended LMIs, eps = {eps:g}: no certified point")
                 continue
@@ -288,84 +276,7 @@ class _Job:
                 best = found
         return best
 
-    def _set_lambda(self, lam) -> None:
-        # Kept on the job: a rebuild (the bound's rescaling) reads it.
-        self.lam = lam
-        self.lmi.set_parameter("lam", lam)
-
-    def _raw_optimum(self, lam) -> float:
-        """The objective's raw optimum at a decay of a `Peak` spec (inf if
-        none)."""
-        self._set_lambda(lam)
-        # The search uses the first solver only, as the servo's does.
-        chain, self.chain = self.chain, (self.chain or default_solvers())[:1]
-        try:
-            raw = self._solve("optimal", lambda v: v.g0[0, 0], certify=False)
-        finally:
-            self.chain = chain
-        value = np.inf if raw is None else float((raw.nominal or raw).g0[0, 0])
-        return value if np.isfinite(value) and value > 0 else np.inf
-
-    def _search_lambda(self):
-        """The stages at the decay ``lambda`` of the `Peak` spec.
-
-        Each ``lambda`` gives LMIs; the best is not known in advance. To
-        minimise an objective, the raw optimum is evaluated on a grid and
-        refined by golden section between the grid neighbours of the best
-        (in ``log lambda`` in continuous time); the stages then run at the
-        best ``lambda``, then at the next best of the grid.
-        Otherwise the grid is tried in turn until a point certifies.
-        """
-        grid = _LAMBDAS[self.continuous]
-        order = list(grid)
-        if self.objective is not None and self.objective.bound is None:
-            start = len(self.notes)
-            values = [self._raw_optimum(lam) for lam in grid]
-            # One note for the grid, not one per decay.
-            failed = self.notes[start:]
-            del self.notes[start:]
-            if failed:
-                self.notes.append(
-                    f"Peak decay search: {len(failed)} of {len(grid)} decays gave no "
-                    f"optimum (at lambda = {grid[0] * self.scaling.a:.3g}: "
-                    f"{failed[0]})"
-                )
-            # The stages (back-off, verification) at the three best decays.
-            order = [grid[i] for i in np.argsort(values) if np.isfinite(values[i])]
-            order = order[:_LAMBDA_TRIES]
-            if order:
-                best = grid.index(order[0])
-                lo, hi = grid[max(best - 1, 0)], grid[min(best + 1, len(grid) - 1)]
-                order.insert(0, self._golden(lo, hi))
-        for lam in order:
-            self._set_lambda(lam)
-            found = self._stages()
-            if found is not None:
-                return found
-            self.notes.append(
-                f"Peak decay lambda = {lam * self.scaling.a:.3g}: no certified point"
-            )
-        return None
-
-    def _golden(self, lo, hi, iterations=8):
-        """Golden-section minimum of `_raw_optimum` on ``[lo, hi]``."""
-        to, back = (np.log, np.exp) if self.continuous else (float, float)
-        a, b = to(lo), to(hi)
-        ratio = (np.sqrt(5.0) - 1) / 2
-        c, d = b - ratio * (b - a), a + ratio * (b - a)
-        fc, fd = self._raw_optimum(back(c)), self._raw_optimum(back(d))
-        for _ in range(iterations):
-            if fc <= fd:
-                b, d, fd = d, c, fc
-                c = b - ratio * (b - a)
-                fc = self._raw_optimum(back(c))
-            else:
-                a, c, fc = c, d, fd
-                d = a + ratio * (b - a)
-                fd = self._raw_optimum(back(d))
-        return float(back(c if fc <= fd else d))
-
-    def _stages(self):
+    def stages(self):
         if self.objective is None:
             return self._stabilize()
         if self.objective.bound is not None:
@@ -381,7 +292,7 @@ class _Job:
         """
         return not (self.slack and self.continuous) and self.peak is None
 
-    def _solve(self, stage, objective, certify=True, proof=False):
+    def solve(self, stage, objective, certify=True, proof=False):
         return solve_stage(self, stage, objective, certify, proof)
 
     def _stabilize(self):
@@ -392,7 +303,7 @@ class _Job:
             self.lmi.set_parameter("w_max", w_max)
             for z_max in STABILIZE_Z_MAX:
                 self.lmi.set_parameter("z_max", z_max)
-                sol = self._solve("stabilize", lambda v: -v.t[0, 0], proof=self._proves)
+                sol = self.solve("stabilize", lambda v: -v.t[0, 0], proof=self._proves)
                 best = self.accept(sol, f"stabilize (w_max {w_max:g}, z_max {z_max:g})")
                 if best is not None:
                     return self._gain_stage(best, None)
@@ -402,14 +313,14 @@ class _Job:
         best = None
         for w_max in _GIVEN_W_MAX:
             self.lmi.set_parameter("w_max", w_max)
-            sol = self._solve("center", lambda v: -v.t[0, 0], proof=self._proves)
+            sol = self.solve("center", lambda v: -v.t[0, 0], proof=self._proves)
             best = self.accept(sol, f"bound given (w_max {w_max:g})")
             if best is not None:
                 break
         return None if best is None else self._gain_stage(best, None)
 
     def _optimal(self):
-        raw = self._solve("optimal", lambda v: v.g0[0, 0], certify=False)
+        raw = self.solve("optimal", lambda v: v.g0[0, 0], certify=False)
         if raw is None:
             return None
         g_opt = float((raw.nominal or raw).g0[0, 0])
@@ -424,7 +335,7 @@ class _Job:
             # of z, whose block the bound sits on.
             self.channel[0][1] *= pow2(np.sqrt(g_opt))
             self.lmi = build_problem(self)
-            raw = self._solve("optimal", lambda v: v.g0[0, 0], certify=False)
+            raw = self.solve("optimal", lambda v: v.g0[0, 0], certify=False)
             if raw is None:
                 return None
             g_opt = float((raw.nominal or raw).g0[0, 0])
@@ -434,7 +345,7 @@ class _Job:
         # after); the estimate needs no certificate, the designs keep the
         # margin.
         self.lmi.margin = self.margin * _ESTIMATE_MARGIN
-        estimate = self._solve("optimal", lambda v: v.g0[0, 0], certify=False)
+        estimate = self.solve("optimal", lambda v: v.g0[0, 0], certify=False)
         self.lmi.margin = self.margin
         if estimate is not None:
             g_est = float((estimate.nominal or estimate).g0[0, 0])
@@ -464,7 +375,7 @@ class _Job:
             Z = [getattr(sol, f"Z{k}") for k in range(nZ)]
             gain_tangent(self.lmi, self.scaling, sol.W0, Z, self.gain_bound.bound)
             candidate = self.accept(
-                self._solve("gain", lambda v: v.kappa[0, 0]), "gain stage"
+                self.solve("gain", lambda v: v.kappa[0, 0]), "gain stage"
             )
             if candidate is None:
                 break
