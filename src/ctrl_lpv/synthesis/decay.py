@@ -9,6 +9,8 @@ the design is, never whether it is certified.
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+
 import numpy as np
 from scipy.optimize import minimize_scalar
 
@@ -28,16 +30,28 @@ _TRIES = 2
 _REFINE_EVALUATIONS = 10
 
 
-def _raw_optimum(job, lam) -> float:
-    """The objective's raw optimum at the decay `lam` (inf if none)."""
-    job.lam = lam  # kept on the job: a rebuild (the bound's rescaling) reads it
-    job.lmi.set_parameter("lam", lam)
-    # The search uses the first solver only, as the servo's does.
+@contextmanager
+def _first_solver(job):
+    """The job's solves with its first solver only (the servo's search
+    does the same): a fallback such as SCS may take a minute per solve where
+    the first fails, and the search solves dozens of times."""
     chain, job.chain = job.chain, (job.chain or default_solvers())[:1]
     try:
-        raw = job.solve("optimal", lambda v: v.g0[0, 0], certify=False)
+        yield
     finally:
         job.chain = chain
+
+
+def _set(job, lam) -> None:
+    job.lam = lam  # kept on the job: a rebuild (the bound's rescaling) reads it
+    job.lmi.set_parameter("lam", lam)
+
+
+def _raw_optimum(job, lam) -> float:
+    """The objective's raw optimum at the decay `lam` (inf if none)."""
+    _set(job, lam)
+    with _first_solver(job):
+        raw = job.solve("optimal", lambda v: v.g0[0, 0], certify=False)
     value = np.inf if raw is None else float((raw.nominal or raw).g0[0, 0])
     return value if np.isfinite(value) and value > 0 else np.inf
 
@@ -69,7 +83,8 @@ def search_decay(job):
     refined between the grid neighbours of the best; the stages (back-off,
     verification) then run at the refined decay, then at the best of the
     grid. For a given bound or stability alone, the grid is tried in turn
-    until a point certifies.
+    until a point certifies. All with the first solver; then the first
+    decay once more with the whole solver chain.
     """
     grid = LAMBDAS[job.continuous]
     order = list(grid)
@@ -91,12 +106,15 @@ def search_decay(job):
             penalty = 2 * max(v for v in values if np.isfinite(v))
             order.insert(0, _refine(job, lo, hi, penalty))
     for lam in order:
-        job.lam = lam
-        job.lmi.set_parameter("lam", lam)
-        found = job.stages()
+        _set(job, lam)
+        with _first_solver(job):
+            found = job.stages()
         if found is not None:
             return found
         job.notes.append(
             f"Peak decay lambda = {lam * job.scaling.a:.3g}: no certified point"
         )
-    return None
+    if not order or len(job.chain or default_solvers()) == 1:
+        return None
+    _set(job, order[0])
+    return job.stages()
