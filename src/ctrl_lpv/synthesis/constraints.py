@@ -24,7 +24,7 @@ import numpy as np
 
 from .._checks import real_number
 from ..lmi import normalized_max_eig
-from .specs import Peak
+from .specs import Peak, per_input, positive_levels, unit
 
 
 @dataclass(frozen=True)
@@ -136,15 +136,7 @@ class Saturation:
     points: tuple = ()
 
     def __post_init__(self):
-        levels = np.atleast_1d(np.asarray(self.u_max, dtype=object))
-        if levels.ndim != 1 or levels.size == 0:
-            raise ValueError(
-                f"u_max: expected a level or a sequence, got {self.u_max!r}"
-            )
-        levels = tuple(
-            real_number(x, "u_max", positive=True, below=1e150) for x in levels
-        )
-        object.__setattr__(self, "u_max", levels)
+        object.__setattr__(self, "u_max", positive_levels(self.u_max, "u_max"))
         try:
             points = tuple(
                 tuple(real_number(x, "points", below=1e150) for x in np.ravel(p))
@@ -161,13 +153,11 @@ class Saturation:
 
     def check_sizes(self, n: int, m: int) -> np.ndarray:
         """The levels, one per input; refuse sizes that do not fit."""
-        levels = np.array(self.u_max * (m if len(self.u_max) == 1 else 1), float)
-        if levels.size != m:
-            raise ValueError(f"u_max: {len(self.u_max)} levels for {m} control inputs")
+        out = per_input(self.u_max, m, "u_max", "control inputs")
         for point in self.points:
             if len(point) != n:
                 raise ValueError(f"points: a point has {len(point)} entries, not {n}")
-        return levels
+        return out
 
     def prescale(self, scaling, n: int, m: int) -> dict:
         """Levels and points in the prescaled units of a job.
@@ -192,7 +182,7 @@ class Saturation:
     def lmis(self, t, continuous):
         """The sector inequality at one coefficient and rate."""
         m = t.m
-        S = t.const(sum(t.v.S[i, 0] * _unit(m, i) for i in range(m)))
+        S = t.const(sum(t.v.S[i, 0] * unit(m, i) for i in range(m)))
         sector = [
             [2 * t.AW() - t.W_moved()],
             [-S @ t.B2().T - t.linear("Zg"), -2 * S],
@@ -267,9 +257,3 @@ class Saturation:
             worst = max(worst, float(F[i] @ loop.W @ F[i]) / levels[i] ** 2 - 1)
         level = self.level(P)
         return worst if level is None else max(worst, level - 1)
-
-
-def _unit(m, i):
-    E = np.zeros((m, m))
-    E[i, i] = 1.0
-    return E

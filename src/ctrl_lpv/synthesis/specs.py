@@ -274,15 +274,7 @@ class Peak(_Performance):
 
     def __post_init__(self):
         super().__post_init__()
-        levels = np.atleast_1d(np.asarray(self.w_max, dtype=object))
-        if levels.ndim != 1 or levels.size == 0:
-            raise ValueError(
-                f"w_max: expected a level or a sequence, got {self.w_max!r}"
-            )
-        levels = tuple(
-            real_number(x, "w_max", positive=True, below=1e150) for x in levels
-        )
-        object.__setattr__(self, "w_max", levels)
+        object.__setattr__(self, "w_max", positive_levels(self.w_max, "w_max"))
 
     def __str__(self) -> str:
         return super().__str__()[:-1] + f", w_max={list(self.w_max)})"
@@ -293,14 +285,11 @@ class Peak(_Performance):
                 f"{self}: the feedthrough from w to z is not zero; the peak bound "
                 "is written for z = Cz x + Dzu u"
             )
-        nw = channels[0]["Dzw"].shape[1]
-        if len(self.w_max) not in (1, nw):
-            raise ValueError(f"w_max: {len(self.w_max)} levels for {nw} inputs w")
+        self.weights(channels[0]["Dzw"].shape[1])
 
     def weights(self, nw: int) -> np.ndarray:
         """``1 / w_max_i^2``, one per input of `w`."""
-        levels = np.array(self.w_max * (nw if len(self.w_max) == 1 else 1), float)
-        return 1.0 / levels**2
+        return 1.0 / per_input(self.w_max, nw, "w_max", "inputs w") ** 2
 
     def prescale(self, scaling, n: int, m: int) -> dict:
         """The time scaling: ``mu~ = mu / a`` and ``lambda~ = lambda / a``."""
@@ -314,7 +303,7 @@ class Peak(_Performance):
         """
         weights = self.weights(t.nw(self)) * t.rho(self) * t.prescaled(self)["a"]
         mu = t.v.mu
-        D = sum(weights[i] * mu[i, 0] * _unit(len(weights), i)
+        D = sum(weights[i] * mu[i, 0] * unit(len(weights), i)
                 for i in range(len(weights)))  # fmt: skip
         return -t.const(D)
 
@@ -365,10 +354,29 @@ class Peak(_Performance):
         return max(normalized_max_eig(M[None]), float(mu.sum() / lam - 1), peak)
 
 
-def _unit(m, i):
+def unit(m, i):
+    """The ``m x m`` matrix with a one at ``(i, i)`` (builds diagonal
+    multipliers from scalar variables, which cvxpy's ``diag`` would not keep
+    DPP)."""
     E = np.zeros((m, m))
     E[i, i] = 1.0
     return E
+
+
+def positive_levels(value, name) -> tuple:
+    """Positive levels (a number or a sequence of them) as a tuple."""
+    items = np.atleast_1d(np.asarray(value, dtype=object))
+    if items.ndim != 1 or items.size == 0:
+        raise ValueError(f"{name}: expected a level or a sequence, got {value!r}")
+    return tuple(real_number(x, name, positive=True, below=1e150) for x in items)
+
+
+def per_input(values, count, name, what) -> np.ndarray:
+    """One level per input: a single level is repeated `count` times."""
+    out = np.array(values * (count if len(values) == 1 else 1), float)
+    if out.size != count:
+        raise ValueError(f"{name}: {len(values)} levels for {count} {what}")
+    return out
 
 
 PERFORMANCE = (Hinf, H2, Peak)
