@@ -19,6 +19,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..budget import DEFAULT_TIME_LIMIT, time_budget
 from ..regions import LMIRegion
 from ..stabilizability import check_stabilizability
 from ..systems import PolytopicStateSpace
@@ -41,6 +42,7 @@ _METHODS = {
 }
 
 
+@time_budget
 def synthesize(
     sys: PolytopicStateSpace,
     u=None,
@@ -53,7 +55,7 @@ def synthesize(
     backoff: float | None = 0.2,
     margin: float = 1e-6,
     solvers=None,
-    time_limit: float | None = None,
+    time_limit: float | None = DEFAULT_TIME_LIMIT,
 ) -> StateFeedbackDesign:
     """Certified state feedback ``u = -K x`` for composable specifications.
 
@@ -97,8 +99,12 @@ def synthesize(
     solvers : str or sequence, optional
         A solver name, or names or ``(name, options)`` pairs tried in turn;
         default Clarabel, then SCS (then CVXOPT and MOSEK if installed).
-    time_limit : float, optional
-        Wall-time limit of the call in seconds (default none).
+    time_limit : float or None, optional
+        Wall-time budget of the call in seconds (default 600,
+        `ctrl_lpv.budget.DEFAULT_TIME_LIMIT`; None for no limit). Solvers
+        get the time left; when it runs out the call ends with a
+        `CertificationError` whose first line is ``time_limit: ... s
+        reached`` with the best point reached.
 
     Returns
     -------
@@ -278,6 +284,7 @@ def _describe(objective, performance, scheduled, lyapunov, continuous) -> str:
     )
 
 
+@time_budget
 def h2_state_feedback(
     sys: PolytopicStateSpace,
     w=None,
@@ -291,7 +298,7 @@ def h2_state_feedback(
     gain_bound: float | None = None,
     margin: float = 1e-6,
     solvers=None,
-    time_limit: float | None = None,
+    time_limit: float | None = DEFAULT_TIME_LIMIT,
 ) -> StateFeedbackDesign:
     """State feedback with a certified H2 bound (quadratic, constant ``P``).
 
@@ -322,8 +329,12 @@ def h2_state_feedback(
         Margin of the strict LMIs (prescaled units), default 1e-6.
     solvers : str or sequence, optional
         Solvers tried in turn (see `synthesize`).
-    time_limit : float, optional
-        Wall-time limit of the call, in seconds.
+    time_limit : float or None, optional
+        Wall-time budget of the call in seconds (default 600,
+        `ctrl_lpv.budget.DEFAULT_TIME_LIMIT`; None for no limit). Solvers
+        get the time left; when it runs out the call ends with a
+        `CertificationError` whose first line is ``time_limit: ... s
+        reached`` with the best point reached.
 
     Returns
     -------

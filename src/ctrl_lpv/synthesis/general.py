@@ -29,7 +29,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import budget
 from ..exceptions import CertificationError, InfeasibleError
+from ..lmi import default_solvers
 from ..regions import LMIRegion
 from .constraints import GainBound, Saturation
 from .decay import LAMBDAS, search_decay
@@ -44,7 +46,7 @@ from .ladder import (
     solve_stage,
 )
 from .options import guard_estimate
-from .parametric import coefficients
+from .parametric import coefficient_count, coefficients
 from .problem import EPSILONS, build_problem
 from .results import Certificate, StateFeedbackDesign
 from .scaling import Scaling, channel_scales, pow2
@@ -64,7 +66,7 @@ def run_general(
     `GainBound`, at most one `Saturation`), in the model's units.
     """
     start = time.perf_counter()
-    deadline = None if time_limit is None else start + time_limit
+    deadline = budget.deadline()  # the call's (`ctrl_lpv.budget`)
     original = []
     for A, B, C, D in sys.vertex_data():
         vertex = {"A": A, "B2": B[:, iu]}
@@ -78,16 +80,29 @@ def run_general(
         spec.check_data([{"Dzw": v[(i, "Dzw")]} for v in original], continuous)
     _guard(sys, original, specs, constraints, lyap, time_limit)
     record, attempts = [], []
-    rungs = [(name, f) for name in ("balanced", "none") for f in MARGIN_FACTORS]
-    for name, factor in rungs:
-        rung = f"{name} scaling, margin {margin * factor:g}"
+    # The first solver in every rung, the slower ones once after it (first
+    # prescaling, nominal margin), as in the paper's ladder: SCS to 1e-9
+    # takes seconds where Clarabel takes milliseconds, and an SCS fallback
+    # in every stage of every rung made a refusal take minutes (a discrete
+    # design in disk(1e-3): 183 s, 80 SCS attempts, none certified). The
+    # decay search of a Peak spec chooses its solvers itself.
+    solvers = list(chain or default_solvers())
+    peak = any(isinstance(spec, Peak) for spec in specs)
+    first = solvers if peak else solvers[:1]
+    rungs = [(name, f, first) for name in ("balanced", "none")
+             for f in MARGIN_FACTORS]  # fmt: skip
+    if not peak:
+        rungs += [("balanced", MARGIN_FACTORS[0], [one]) for one in solvers[1:]]
+    for name, factor, rung_solvers in rungs:
+        rung = f"{rung_solvers[0][0]}, {name} scaling, margin {margin * factor:g}"
         if deadline is not None and time.perf_counter() > deadline:
-            record.append(f"{rung}: not tried (time_limit {time_limit:g} s)")
+            record.append(f"{rung}: not tried (time_limit reached)")
             continue
+        budget.progress("rung %s", rung, rung=rung)
         job = _Job(
             sys, original, specs, objective, constraints, scheduled, lyap,
-            continuous, name == "balanced", backoff, margin * factor, chain,
-            deadline, attempts,
+            continuous, name == "balanced", backoff, margin * factor,
+            rung_solvers, deadline, attempts,
         )  # fmt: skip
         try:
             found = job.run()
@@ -121,10 +136,11 @@ def run_general(
             rational=point.rational,
         )
     hint = "".join(f"; weakly controllable: {m}" for m in suspects)
-    reasons = "; ".join(dict.fromkeys(note.split(": ", 1)[-1] for note in record))
+    reasons = budget.digest("; ".join(note.split(": ", 1)[-1] for note in record))
     raise CertificationError(
         f"{method}: no certified solution found after {len(rungs)} rungs "
-        f"(prescalings balanced and none, margins "
+        f"(solvers {[one for one, _ in solvers]}, prescalings balanced and none, "
+        "margins "
         f"{[margin * f for f in MARGIN_FACTORS]}); what failed: {reasons}{hint}",
         attempts,
     )
@@ -140,7 +156,7 @@ def _guard(sys, original, specs, constraints, lyap, time_limit) -> None:
     if saturation is not None:
         per_point += 1
         per_coefficient += m + len(saturation.points)
-    ncoef = len(coefficients(sys.domain, sys.nvertices))
+    ncoef = coefficient_count(sys.domain, sys.nvertices)
     nlmis = ncoef * (len(lyap.rates) * per_point + per_coefficient)
     channels = max(
         [original[0][(i, "Bw")].shape[1] + original[0][(i, "Cz")].shape[0]
@@ -427,6 +443,11 @@ class _Job:
                 f"{label}: closed-loop verification failed ({certificate})"
             )
             return None
+        budget.reached(
+            f"a certified point ({label})"
+            + "".join(f", {s} {v:.6g}" for s, v in zip(self.specs, values)),
+            values[0] if values and self.objective is not None else None,
+        )
         Ps = tuple(sc.unscale_P(np.linalg.inv(W)) for W in Ws)
         P = (
             Ps[0]
