@@ -111,9 +111,7 @@ CALLS = {
     "quadratic_stability": lambda s: lpv.quadratic_stability(_closed_loop(s)),
     "l2_gain_bound": lambda s: lpv.l2_gain_bound(s, GAIN, "w", "u", ["x", "uw"]),
     "h2_bound": lambda s: lpv.h2_bound(s, GAIN, "w", "u", ["x", "uw"]),
-    "saturated_state_feedback": lambda s: lpv.saturated_state_feedback(
-        s, "u", 1.0
-    ),
+    "saturated_state_feedback": lambda s: lpv.saturated_state_feedback(s, "u", 1.0),
     "saturation_region": lambda s: lpv.saturation_region(s, GAIN, "u", 1.0),
     "ultimate_bound": lambda s: lpv.ultimate_bound(s, w="w", output="x"),
 }
@@ -244,7 +242,7 @@ def test_compilation_that_would_not_fit_is_not_started(plant, monkeypatch):
     monkeypatch.setattr(cp.Problem, "get_problem_data", get_problem_data)
     monkeypatch.setattr(budget, "compile_seconds", lambda nlmis, entries: 1e9)
     for call in (CALLS["synthesize"], CALLS["synthesize (H2)"], CALLS["h2_bound"]):
-        with pytest.raises(lpv.CertificationError, match="^time_limit: 600 s too short in "):
+        with pytest.raises(lpv.CertificationError, match="^time_limit: 600 s too"):
             call(plant)
     assert compiled == []
 

@@ -88,7 +88,10 @@ def synthesize(
         ``{name: nu}``: ``|dp/dt| <= nu`` (continuous) or
         ``|p[k+1] - p[k]| <= nu`` (discrete); ``nu = 0`` for a
         time-invariant parameter. A parameter not listed (or ``inf``) may
-        vary arbitrarily fast and the Lyapunov matrix does not depend on it.
+        vary arbitrarily fast and the Lyapunov matrix does not depend on it;
+        nor on a parameter whose bound exceeds 1e3 crossings of its
+        interval per time unit of the data, or whose interval is too narrow
+        to change the data (sound: see `ctrl_lpv.synthesis.parametric`).
     backoff : float or None, optional
         Relax the minimum bound by this fraction (default 0.2) and re-solve
         for a well-conditioned Lyapunov matrix; None or 0 returns the raw
