@@ -154,12 +154,13 @@ def lpv_model(
     if not integral:
         return sys
     sys = integral_augmentation(sys, "e_l", name="twomass_tracking_integral")
-    # Weighted integral state as a third performance output.
+    # Weighted integral state as a third performance output (in place of
+    # the unweighted one integral_augmentation appends).
     vertices = []
     for A, B, Cv, Dv in sys.vertex_data():
         row = np.zeros((1, A.shape[0]))
         row[0, -1] = integral_weight
-        vertices.append((A, B, np.vstack([Cv, row]), np.vstack([Dv, np.zeros((1, 2))])))
+        vertices.append((A, B, np.vstack([Cv[:-1], row]), Dv))
     return PolytopicStateSpace(
         vertices, sys.domain, inputs=["Td", "Tm"],
         outputs=["e_l", "Tm_w", "int_e_l_w"], states=sys.state_labels,
