@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import control as ct
 import numpy as np
 
-from ._checks import signal_indices
+from ._checks import flag, signal_indices, signal_name
 from .interconnection import BlockKernel, kernel_nlsys
 from .systems import PolytopicStateSpace
 
@@ -105,6 +105,9 @@ def state_feedback(
     sys = design.system
     labels = list(design.states)
     n = len(labels)
+    reference = flag(reference, "reference")
+    if name is not None:
+        signal_name(name, "name")
     if integrals is None:
         integrals = getattr(sys, "integral_signals", None) or {}
     if not isinstance(integrals, Mapping):

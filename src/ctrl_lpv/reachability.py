@@ -132,7 +132,8 @@ class Ellipsoid:
 
     def scaled(self, factor: float) -> Ellipsoid:
         """The set ``factor * E`` (level times ``factor**2``)."""
-        return Ellipsoid(self.P, self.level * float(factor) ** 2)
+        factor = real_number(factor, "factor", positive=True)
+        return Ellipsoid(self.P, self.level * factor**2)
 
 
 @dataclass(frozen=True)

@@ -9,7 +9,7 @@ from collections.abc import Callable, Mapping, Sequence
 import numpy as np
 from control import NonlinearIOSystem, StateSpace
 
-from ._checks import as_ss_data, signal_labels, signal_name
+from ._checks import as_ss_data, flag, real_number, signal_labels, signal_name
 from .exceptions import NominalPointWarning, ParameterClipWarning
 from .polytope import ParameterBox, Polytope, Simplex
 
@@ -579,7 +579,7 @@ class PolytopicStateSpace(StateSpace):
         ValueError
             If `p` has the wrong size or lies outside the domain.
         """
-        return self.domain.weights(p, clip=clip)
+        return self.domain.weights(p, clip=flag(clip, "clip"))
 
     def _combine(self, delta: np.ndarray) -> tuple[np.ndarray, ...]:
         return tuple(
@@ -684,18 +684,7 @@ class PolytopicStateSpace(StateSpace):
             )
         values = []
         for name, nominal in zip(names, self.nominal):
-            value = params.get(name, nominal)
-            try:
-                if isinstance(value, (str, bytes, complex)):
-                    raise TypeError
-                value = float(value)
-            except (TypeError, ValueError):
-                raise TypeError(
-                    f"params[{name!r}]: expected a real number, got {value!r}"
-                ) from None
-            if not np.isfinite(value):
-                raise ValueError(f"params[{name!r}]: must be finite, got {value}")
-            values.append(value)
+            values.append(real_number(params.get(name, nominal), f"params[{name!r}]"))
         return np.array(values), [name for name in names if name not in params]
 
     def _inside_or_raise(self, point: np.ndarray, label: str = "params") -> None:
@@ -1143,7 +1132,6 @@ class PolytopicStateSpace(StateSpace):
         """
         import control as _ct
 
-        from ._checks import real_number
         from .discretization import sampled_vertex_data
 
         if not self.isctime(strict=True):
