@@ -589,11 +589,14 @@ def ultimate_bound(
     Raises
     ------
     InfeasibleError
-        If a vertex is not Hurwitz (no such ellipsoid exists).
+        If a vertex is not Hurwitz (no such ellipsoid exists), e.g. a zero
+        row or column of ``A`` (a state without dynamics: the eigenvalue 0).
     CertificationError
-        If no certified point was found for any rate tried.
+        If no certified point was found for any rate tried, or a vertex has
+        an eigenvalue on the imaginary axis up to rounding.
     ValueError, TypeError
-        For bad arguments (naming them).
+        For bad arguments (naming them), and a discrete-time `sys` (the
+        discrete-time bound is not implemented).
 
     Examples
     --------

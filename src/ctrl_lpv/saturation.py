@@ -502,7 +502,9 @@ def saturated_state_feedback(
     Parameters
     ----------
     sys : `PolytopicStateSpace`
-        Plant; all states are measured.
+        Continuous-time plant; all states are measured. A discrete-time
+        plant is refused (`ValueError`): the certificate's LMIs are
+        continuous-time ones.
     u : str, int or list
         Saturated control inputs.
     u_max : float or array_like
@@ -562,7 +564,8 @@ def saturated_state_feedback(
     CertificationError
         No returned point passed the float64 checks.
     ValueError, TypeError
-        For bad arguments.
+        For bad arguments, and for a discrete-time `sys` (the discrete-time
+        certificate is not implemented).
 
     Examples
     --------
@@ -610,7 +613,8 @@ def saturation_region(
     Parameters
     ----------
     sys : `PolytopicStateSpace`
-        Plant.
+        Continuous-time plant (a discrete-time one is refused, as by
+        `saturated_state_feedback`).
     gain : array_like or sequence of array_like
         ``m x n`` gain of ``u = -K x``, or one per vertex (scheduled).
     u : str, int or list
@@ -671,7 +675,8 @@ def saturation_region(
     CertificationError
         No returned point passed the float64 checks.
     ValueError, TypeError
-        For bad arguments.
+        For bad arguments, and for a discrete-time `sys` (the discrete-time
+        certificate is not implemented).
     """
     prob = _setup(
         sys, u, u_max, shape, points, output, beta_min, decay, w, w_max, margin

@@ -1132,6 +1132,7 @@ class PolytopicStateSpace(StateSpace):
         """
         import control as _ct
 
+        from ._checks import real_number
         from .discretization import sampled_vertex_data
 
         if not self.isctime(strict=True):
