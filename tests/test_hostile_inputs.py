@@ -16,7 +16,7 @@ import pytest
 import ctrl_lpv as lpv
 from ctrl_lpv.reachability import Ellipsoid
 from ctrl_lpv.simulation import simulate
-from ctrl_lpv.twomass import paper_gain, servo_design
+from ctrl_lpv.twomass import lpv_model, paper_gain, servo_design
 
 A2 = np.array([[0.0, 1.0], [-2.0, -1.0]])
 B2 = np.array([[0.0], [1.0]])
@@ -177,6 +177,24 @@ CASES = [
      TypeError, r"^params\['p0'\]: expected a real number"),
     ("string clip", lambda: affine_box(1).weights([0.5], clip="no"),
      TypeError, r"^clip: expected True or False"),
+    ("string parameter bound", lambda: lpv.ParameterBox({"k": ("1", 4.0)}),
+     TypeError, r"^bounds\['k'\]: expected a real number, got '1'"),
+    ("string parameter point", lambda: affine_box(1).at({"p0": "0.5"}),
+     TypeError, r"^p: expected a real number"),
+    ("bool parameter point", lambda: affine_box(1).weights([True]),
+     TypeError, r"^p: expected a real number"),
+    # pole regions and the two-mass model
+    ("string half-plane decay", lambda: lpv.halfplane("1"),
+     TypeError, r"^decay: expected a real number, got '1'"),
+    ("string disk radius", lambda: lpv.disk("1"),
+     TypeError, r"^radius: expected a real number"),
+    ("lpv_model integral 'no'",
+     lambda: lpv_model(formulation="tracking", integral="no"),
+     TypeError, r"^integral: expected True or False, got 'no'"),
+    ("lpv_model string p_bounds", lambda: lpv_model(p_bounds=("-0.5", 0.0)),
+     TypeError, r"^p_bounds: expected a real number"),
+    ("lpv_model string weight", lambda: lpv_model(torque_weight="1e-3"),
+     TypeError, r"^torque_weight: expected a real number"),
     # interconnect
     ("interconnect empty list", lambda: lpv.interconnect([]),
      ValueError, r"^syslist: the list is empty"),
