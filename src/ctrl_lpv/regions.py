@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import cvxpy as cp
 import numpy as np
 
+from ._checks import real_number
 from .lmi import normalized_max_eig
 
 __all__ = ["LMIRegion", "halfplane", "disk", "sector"]
@@ -202,10 +203,5 @@ def sector(angle: float) -> LMIRegion:
 
 
 def _finite(value, name: str, positive: bool = True) -> float:
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise TypeError(f"{name}: expected a number, got {value!r}") from None
-    if not np.isfinite(value) or (positive and value < 0):
-        raise ValueError(f"{name}: expected a finite nonnegative number, got {value}")
-    return value
+    """A finite real number (nonnegative unless ``positive=False``)."""
+    return real_number(value, name, minimum=0.0 if positive else None)

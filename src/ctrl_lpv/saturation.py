@@ -71,7 +71,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.linalg import eigh
 
-from ._checks import as_matrix, signal_indices
+from ._checks import (
+    as_matrix,
+    per_input,
+    positive_levels,
+    real_number,
+    signal_indices,
+)
 from .exceptions import CertificationError, InfeasibleError, SynthesisError
 from .lmi import LMIProblem, SolveAttempt, default_solvers, solver_chain
 from .reachability import (
@@ -247,15 +253,9 @@ class SaturatedDesign:
 # Argument handling and prescaling
 # ----------------------------------------------------------------------
 def _positive_vector(value, size, name):
-    arr = np.asarray(value, float)
-    if arr.ndim == 0:
-        arr = np.full(size, float(arr))
-    arr = arr.reshape(-1)
-    if arr.shape != (size,) or not np.all(np.isfinite(arr)) or np.any(arr <= 0):
-        raise ValueError(
-            f"{name}: expected {size} positive finite values, got {value!r}"
-        )
-    return arr
+    """Positive levels, one per input (a single level for all)."""
+    levels = positive_levels(np.ravel(np.asarray(value, dtype=object)), name)
+    return per_input(levels, size, name, "inputs")
 
 
 def _region_target(shape, points, n):
@@ -502,7 +502,9 @@ def saturated_state_feedback(
     Parameters
     ----------
     sys : `PolytopicStateSpace`
-        Plant; all states are measured.
+        Continuous-time plant; all states are measured. A discrete-time
+        plant is refused (`ValueError`): the certificate's LMIs are
+        continuous-time ones.
     u : str, int or list
         Saturated control inputs.
     u_max : float or array_like
@@ -562,7 +564,8 @@ def saturated_state_feedback(
     CertificationError
         No returned point passed the float64 checks.
     ValueError, TypeError
-        For bad arguments.
+        For bad arguments, and for a discrete-time `sys` (the discrete-time
+        certificate is not implemented).
 
     Examples
     --------
@@ -572,12 +575,9 @@ def saturated_state_feedback(
     >>> 0.9 < d.beta < 1.0    # true region of attraction: |x| < 1
     True
     """
-    if gains not in ("common", "scheduled"):
+    if not isinstance(gains, str) or gains not in ("common", "scheduled"):
         raise ValueError(f"gains: expected 'common' or 'scheduled', got {gains!r}")
-    if backoff is not None and not (np.isfinite(backoff) and backoff >= 0):
-        raise ValueError(
-            f"backoff: must be None or a nonnegative number, got {backoff}"
-        )
+    backoff = real_number(backoff, "backoff", allow_none=True, minimum=0.0)
     from .stabilizability import check_stabilizability
 
     prob = _setup(
@@ -613,7 +613,8 @@ def saturation_region(
     Parameters
     ----------
     sys : `PolytopicStateSpace`
-        Plant.
+        Continuous-time plant (a discrete-time one is refused, as by
+        `saturated_state_feedback`).
     gain : array_like or sequence of array_like
         ``m x n`` gain of ``u = -K x``, or one per vertex (scheduled).
     u : str, int or list
@@ -674,7 +675,8 @@ def saturation_region(
     CertificationError
         No returned point passed the float64 checks.
     ValueError, TypeError
-        For bad arguments.
+        For bad arguments, and for a discrete-time `sys` (the discrete-time
+        certificate is not implemented).
     """
     prob = _setup(
         sys, u, u_max, shape, points, output, beta_min, decay, w, w_max, margin
@@ -706,6 +708,7 @@ def _setup(sys, u, u_max, shape, points, output, beta_min, decay, w, w_max, marg
             f"sys: expected a PolytopicStateSpace, got {type(sys).__name__}; wrap an "
             "LTI system as PolytopicStateSpace([sys])"
         )
+    _continuous_or_raise(sys)
     inputs = sys.physical_inputs
     if u is None:
         raise ValueError("u: name the saturated control input(s)")
@@ -724,10 +727,9 @@ def _setup(sys, u, u_max, shape, points, output, beta_min, decay, w, w_max, marg
         if w_max is not None:
             raise ValueError("w_max: given without w")
         wmax = np.zeros(0)
-    if not (np.isfinite(decay) and decay >= 0):
-        raise ValueError(f"decay: must be a nonnegative number, got {decay}")
-    if not (np.isfinite(margin) and 0 < margin < 1):
-        raise ValueError(f"margin: must be in (0, 1), got {margin}")
+    decay = real_number(decay, "decay", minimum=0.0)
+    margin = real_number(margin, "margin", positive=True, below=1.0)
+    beta_min = real_number(beta_min, "beta_min", allow_none=True, positive=True)
     n = sys.nstates
     R, V = _region_target(shape, points, n)
     data = sys.vertex_data()
@@ -738,8 +740,6 @@ def _setup(sys, u, u_max, shape, points, output, beta_min, decay, w, w_max, marg
     if beta_min is not None:
         if output is None:
             raise ValueError("beta_min: only with output (the region is maximised)")
-        if not (np.isfinite(beta_min) and beta_min > 0):
-            raise ValueError(f"beta_min: must be a positive number, got {beta_min}")
     if output is not None and not iw:
         raise ValueError(
             "output: minimising the size needs a disturbance w (without one the "
@@ -751,9 +751,28 @@ def _setup(sys, u, u_max, shape, points, output, beta_min, decay, w, w_max, marg
             raise ValueError(f"output: expected nonzero rows of {n} entries")
     scaled = _prescale(As, Bs, Es, umax, wmax, R, V, C=C, beta_min=beta_min)
     return dict(
-        sys=sys, iu=iu, iw=iw, umax=umax, wmax=wmax, decay=float(decay), R=R, V=V,
+        sys=sys, iu=iu, iw=iw, umax=umax, wmax=wmax, decay=decay, R=R, V=V,
         As=As, Bs=Bs, Es=Es, scaled=scaled, margin=margin, C=C,
     )  # fmt: skip
+
+
+def _continuous_or_raise(sys):
+    """Refuse a discrete-time plant: the LMIs here are continuous-time ones.
+
+    Certifying a sampled plant with them would be a wrong certificate (a
+    contractive ellipsoid of ``dx/dt = A x + B sat(u)`` says nothing about
+    ``x+ = A x + B sat(u)``).
+    """
+    if sys.isdtime(strict=True):
+        raise ValueError(
+            f"sys: discrete-time plant (dt = {sys.dt!r}); the saturation "
+            "certificate (region of attraction under saturation) is implemented "
+            "for continuous time only, the discrete-time one is not. Design on "
+            "the continuous-time model (saturated_state_feedback, or synthesize "
+            "with a Saturation constraint) and sample the controller afterwards "
+            "(check the sampled loop by simulation), or use synthesize on the "
+            "discrete-time plant for a linear design without the saturation region"
+        )
 
 
 class _Rescale(Exception):

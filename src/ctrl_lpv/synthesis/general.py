@@ -78,7 +78,13 @@ def run_general(
             vertex[(i, "Dzu")] = D[np.ix_(iz, iu)]
         original.append(vertex)
     for i, spec in enumerate(specs):
-        spec.check_data([{"Dzw": v[(i, "Dzw")]} for v in original], continuous)
+        iw, _, iz = channels[i]  # names for the messages
+        w_names = [sys.physical_inputs[k] for k in iw]
+        z_names = [sys.output_labels[k] for k in iz]
+        spec.check_data(
+            [{"Dzw": v[(i, "Dzw")], "w": w_names, "z": z_names} for v in original],
+            continuous,
+        )
     _guard(sys, original, specs, constraints, lyap, time_limit)
     record, attempts = [], []
     scalings = _prescalings(original, specs, continuous)
