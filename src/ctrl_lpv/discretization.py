@@ -63,7 +63,7 @@ max_j mu_S(M_j)``. At the end ``||X||_2 <= kappa ||X||_S``, ``kappa =
 
        e \le \kappa \frac{T^2}{2}\, e^{T \mu^*} \max_{j, l} \|M_j - M_l\|_S^2 .
 
-4. *Box, sampled* (the bound reported on a box). Cut the box into
+4. *Box, sampled*. Cut the box into
    ``c^k`` equal cells (``c + 1`` points per coordinate, at most about 1000
    points in all) and let ``G = F - I F`` be the error. On a cell,
    the multilinear interpolation ``J`` from the cell's corners reproduces
@@ -75,19 +75,34 @@ max_j mu_S(M_j)``. At the end ``||X||_2 <= kappa ||X||_S``, ``kappa =
    grid points from `scipy.linalg.expm` and a rounding allowance of
    ``100 eps (||F(p)|| + ||I F(p)||)`` added at each point.
 
+5. *Simplex, sampled* (`Simplex`, ``N = d + 1`` vertices). The same with
+   the lattice ``a / c`` of convex coordinates (``a >= 0`` integer, ``sum
+   a = c``, at most about 1000 points): the simplex is the union of the
+   cells of its Freudenthal triangulation, whose vertices are lattice
+   points and whose edges are sums of at most ``r = ceil(d / 2)`` vectors
+   ``(v_j - v_l) / c``, so each cell's vertex-pair changes are at most ``r
+   / c`` of the simplex's, and ``e <= max_grid ||G|| + (r / c)^2 e_3`` with
+   ``e_3`` the bound of step 3. A `Polytope` has no grid (steps 2 and 3
+   only).
+
 Step 1 with ``S = I`` (the 2-norm) is tight only for well-scaled data: on a
 quarter car (states in m and m/s, tyre stiffness over unsprung mass 4750
 s^-2) ``mu_2`` is about 2400 s^-1, so ``exp(T mu*)`` alone is 120 at
 ``T = 2 ms``. The norms tried are the 2-norm, ``S' S = P`` with ``P`` the
 Lyapunov matrix of the mean ``M`` shifted past its spectral abscissa (and
 the sum of the vertices' own), and a diagonal balance; the smallest bound
-is kept. Step 4 then leaves the sampled maximum plus a remainder that
-shrinks as ``c^-2``: on the quarter car and the two-mass drive the box
-bound is within 1 % to 30 % of the largest error measured on a 41-point
-grid per parameter (``benchmarks/study_discretization_bound.py``). On a
-`Simplex` or a `Polytope` (no grid) steps 2 and 3 alone apply: 2 to 30
-times the measured error on random polytopes at ``T mu`` below 1, more for
-longer periods.
+is kept. Measured (``benchmarks/study_discretization_bound.py``, periods
+0.5 to 10 ms): the 2-norm bound was 108 to 1.3e11 times the error on the
+quarter car and 1.5e5 to 5e29 times on the two-mass drive; in the scaled
+norms, 6 to 90 (``Phi``) and 12 to 1.9e4 (``Gamma``) times; with the grid
+of steps 4 and 5, 1.00 to 1.16 times with one or two parameters and 1.1 to
+2.9 times with three (9 cells per axis), the loosest at the shortest
+period. The grid coarsens with the number of parameters (4 cells per axis
+for 4 parameters, 2 for 6, none from 7 on) and the remainder grows with ``exp(T
+mu*)``, so the bound is loose for many parameters, for long periods
+(``T`` times the spectral radius above about 1), and on a `Polytope`
+(the quarter car's box as a `Polytope`, 0.5, 2 and 10 ms: 36 to 49 times for
+``Phi``, 45 to 600 for ``Gamma``).
 
 For ``e_Phi`` the same argument runs with ``A`` in place of ``M`` (``Phi =
 expm(T A)``). For ``e_Gamma`` the bound with ``M`` (it bounds the whole
