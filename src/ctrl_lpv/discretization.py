@@ -146,8 +146,8 @@ from .polytope import ParameterBox, Simplex
 
 __all__ = ["DiscretizationBound", "sampled_vertex_data"]
 
-# Sampled refinement on a box: at most this many exact ZOHs (one stacked
-# expm, milliseconds for small systems).
+# Sampled refinement on a box or a simplex: at most this many exact ZOHs
+# (one stacked expm, milliseconds for small systems).
 _GRID_POINTS = 1025
 # Rounding allowance per grid point, relative to the norms of the matrices
 # compared (scipy's expm is accurate to a small multiple of eps there).
@@ -226,8 +226,10 @@ def _norms(mats) -> list[_Norm]:
     for shift in _SHIFTS:
         groups = [[mean]] + ([mats] if len(mats) <= _LYAPUNOV_VERTICES else [])
         for group in groups:
-            P = sum(_lyapunov(M, shift * radius) for M in group)
-            S = _factor(P)
+            try:
+                S = _factor(sum(_lyapunov(M, shift * radius) for M in group))
+            except (np.linalg.LinAlgError, ValueError):
+                continue  # no candidate from this group: the others remain
             if S is not None:
                 out.append(_Norm(S, np.linalg.inv(S)))
     _, (scale, _) = scipy.linalg.matrix_balance(mean, permute=False, separate=True)
