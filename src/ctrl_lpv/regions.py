@@ -131,7 +131,12 @@ def halfplane(decay: float) -> LMIRegion:
     Returns
     -------
     `LMIRegion`
-        The region, for the ``regions`` argument of the synthesis functions.
+        The region: pass it in ``constraints=[...]`` to `synthesize`, or in
+        ``regions=`` to `quadratic_stabilization`,
+        `gain_scheduled_stabilization`, `hinf_state_feedback`,
+        `gain_scheduled_hinf` and `h2_state_feedback`. Continuous time
+        only: an s-plane region is refused for a discrete-time plant
+        (use `disk` there).
 
     Examples
     --------

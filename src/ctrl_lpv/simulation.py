@@ -267,7 +267,7 @@ def simulate(
     state_bound: float | None = 1e12,
     timeout: float | None = None,
 ) -> ct.TimeResponseData:
-    """Simulate an I/O system, faster than input_output_response.
+    """Simulate an I/O system, with tighter tolerances than python-control.
 
     Parameters
     ----------

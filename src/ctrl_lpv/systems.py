@@ -1077,14 +1077,25 @@ class PolytopicStateSpace(StateSpace):
         `DiscretizationBound` with ``phi >= sup_p ||Phi(p) - sum_j
         delta_j(p) Phi_j||_2`` and ``gamma`` the same for ``Gamma``, where
         ``Phi(p), Gamma(p)`` is the ZOH of ``sys.at(p)`` (``C, D`` are
-        unchanged, hence exact). With ``e = T^2/8 exp(T mu*) sum_i d_i^2``
-        on a `ParameterBox` (``d_i`` the largest change of the vertex data
-        along an edge of coordinate ``i``, ``mu*`` the largest logarithmic
-        norm of a vertex) and ``T^2/2 exp(T mu*) max_{j,l} ||M_j -
-        M_l||^2`` on any domain; the derivation is in
-        `ctrl_lpv.discretization`. The bound is 0 for a single vertex (an
-        LTI system) and for ``method="euler"``, whose model ``(I + T A_j,
-        T B_j)`` is affine in the vertex data, hence exactly polytopic.
+        unchanged, hence exact). The bound is second order in the period
+        and the parameter range, derived in scaled norms (Lyapunov and
+        balanced) where the 2-norm's logarithmic norm would overstate the
+        growth; on a `ParameterBox` or a `Simplex` it is the error computed
+        on a grid of about 1000 points plus a rigorous remainder for the
+        cells between them (the derivation is in
+        `ctrl_lpv.discretization`). Measured on a quarter car and on the
+        two-mass drive at 0.5 to 10 ms
+        (``benchmarks/study_discretization_bound.py``): 1.00 to 1.16 times
+        the largest error on a dense grid with one or two parameters, up to
+        2.9 times with three. It is looser with many parameters (the grid
+        coarsens: none from 7 parameters on), for long periods, and on a
+        `Polytope` (no grid: 36 to 49 times for ``Phi``, 45 to 600 for
+        ``Gamma`` on the quarter car at 0.5, 2 and 10 ms). The bound is 0 for a
+        single vertex (an LTI system) and for ``method="euler"``, whose
+        model ``(I + T A_j, T B_j)`` is affine in the vertex data, hence
+        exactly polytopic. A period too long for a meaningful bound gives a
+        `UserWarning` (and ``inf`` where the growth factor overflows, never
+        NaN).
 
         Use the bound to account for the sampling: the true sampled frozen
         system is ``sum_j delta_j (Phi_j, Gamma_j) + (E_Phi, E_Gamma)`` with
@@ -1128,7 +1139,14 @@ class PolytopicStateSpace(StateSpace):
         ------
         ValueError
             If this system is already discrete time, `Ts` is not positive,
-            or `method` is not ``"zoh"`` or ``"euler"``.
+            `method` is not ``"zoh"`` or ``"euler"``, or the ZOH of a vertex
+            overflows (`Ts` too long for an unstable vertex).
+
+        Warns
+        -----
+        UserWarning
+            If a bound is not below the largest norm of the sampled vertex
+            matrices, or is ``inf``: `Ts` is too long for a meaningful bound.
         """
         import control as _ct
 
