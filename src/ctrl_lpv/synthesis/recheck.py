@@ -9,7 +9,10 @@ built in the model's units (a `~ctrl_lpv.synthesis.frozen.FrozenLoop`) and
 checked with the specs' own residuals: the statements
 `~ctrl_lpv.synthesis.frozen.verify_frozen` checks after a solve, with the
 same acceptance (``ORIGINAL_UNITS_TOL`` after a Jacobi normalisation, a
-rounding level).
+rounding level). Stability is asked with a rounding margin: the recorded
+``max_closed_loop_real`` and ``max_lyapunov_eig`` include it, so that a
+mode within rounding of the boundary (an uncontrollable eigenvalue at 0)
+is not taken for a stable one.
 """
 
 from __future__ import annotations
@@ -27,6 +30,10 @@ from .specs import Hinf, Stability
 
 # A positive definite P needs lambda_min / lambda_max above rounding.
 _PD_TOL = 4 * np.finfo(float).eps
+# Rounding level per unit of size and norm: closed-loop eigenvalues must
+# be below -_ROUNDING n ||A_cl|| (continuous; below 1 by as much in
+# discrete time), the normalised Lyapunov inequality below -_ROUNDING n.
+_ROUNDING = 16 * np.finfo(float).eps
 
 
 @dataclass(frozen=True)
@@ -90,6 +97,9 @@ def recheck(design, performance=()) -> Recheck:
         Acl = A - B2 @ K
         eig = np.linalg.eigvals(Acl)
         stab = eig.real.max() if continuous else np.abs(eig).max() - 1.0
+        # An eigenvalue within rounding of the boundary is not a proof of
+        # stability (an uncontrollable mode at 0 computes as -3e-15).
+        stab += _ROUNDING * len(eig) * max(np.linalg.norm(Acl, 2), 1.0)
         worst["eig"] = max(worst["eig"], (float(stab), where), key=_first)
         if Wd is None:
             npoints += 1
@@ -99,7 +109,7 @@ def recheck(design, performance=()) -> Recheck:
             npoints += 1
             P_moved, W_moved = _moved(sys, lyap, Wd, delta, p, rate, P, W, continuous)
             loop = FrozenLoop(A, B2, K, Acl, eig, P, P_moved, W, W_moved)
-            value = Stability().residual(loop, continuous)
+            value = Stability().residual(loop, continuous) + _ROUNDING * len(P)
             worst["lyap"] = max(worst["lyap"], (value, where), key=_first)
             for i, (spec, (iw, iz), bound) in enumerate(performance):
                 channel = replace(
@@ -119,7 +129,8 @@ def recheck(design, performance=()) -> Recheck:
         what = "real part" if continuous else "modulus minus 1"
         failures.append(
             ("gains", f"the closed loop is not stable at {eig_where} (largest "
-                      f"eigenvalue {what} {eig_value:.4g})")
+                      f"eigenvalue {what} {eig_value:.4g}, rounding level "
+                      "included)")
         )  # fmt: skip
     lyap_value, lyap_where = worst["lyap"]
     if Wd is not None and not lyap_value < 0:
