@@ -74,7 +74,9 @@ def forge_model_data(document, K_new, p_bounds=(-0.95, 0.0)):
     }  # fmt: skip
 
 
-@pytest.mark.parametrize("version", ["ctrl_lpv.twomass.gains/2", "ctrl_lpv.twomass.gains/1"])
+@pytest.mark.parametrize(
+    "version", ["ctrl_lpv.twomass.gains/2", "ctrl_lpv.twomass.gains/1"]
+)
 @pytest.mark.parametrize("keep_model", [False, True])
 def test_negated_gains_with_forged_model_data_never_certify(
     saved, tmp_path, version, keep_model
@@ -129,9 +131,7 @@ def test_model_data_of_another_box_is_ignored(saved, tmp_path):
 
     loaded = twomass.load_gains(tampered(tmp_path, source, other_box))
     assert loaded.check == honest.check  # checked on the rebuilt model only
-    without_model = tampered(
-        tmp_path, source, lambda d: (other_box(d), d.pop("model"))
-    )
+    without_model = tampered(tmp_path, source, lambda d: (other_box(d), d.pop("model")))
     refused_or_uncertified(without_model, "model")
 
 
@@ -156,8 +156,10 @@ def test_model_data_of_another_box_is_ignored(saved, tmp_path):
         (lambda d: d.update(model=[1, 2]), "model"),
         (lambda d: d.update(gains=[[[True] * 5]]), "gains"),
         (lambda d: d.update(P=[[1.0] * 5] * 5), "P"),
-        (lambda d: d.update(states=["e_m", "e_m", "e_l", "omega_l", "int_e_l"]),
-         "states"),
+        (
+            lambda d: d.update(states=["e_m", "e_m", "e_l", "omega_l", "int_e_l"]),
+            "states",
+        ),
     ],
 )
 def test_malformed_entries_are_refused_naming_the_key(saved, tmp_path, change, key):

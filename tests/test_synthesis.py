@@ -258,7 +258,9 @@ def test_random_polytopes_every_design_is_certified(case, function):
     assert design.certificate.verified
     independent_check(sys, design, u)
     if design.gamma is not None:
-        A, Bw, C, D = ct.ssdata(design.closed_loop(np.full(sys.nvertices, 1 / sys.nvertices)))
+        A, Bw, C, D = ct.ssdata(
+            design.closed_loop(np.full(sys.nvertices, 1 / sys.nvertices))
+        )
         assert ct.linfnorm(ct.ss(A, Bw, C, D))[0] <= design.gamma
 
 

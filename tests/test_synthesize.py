@@ -201,7 +201,8 @@ def test_two_specs_of_one_kind_on_different_channels(plant):
     )
     assert design.bounds[lpv.Hinf("w", "uz", bound=bound)] < bound
     for p in np.linspace(-1.0, 1.0, 11):
-        A, B, C, D = ct.ssdata(design.closed_loop({"p": p}))  # the objective's channel, w -> y
+        # the objective's channel, w -> y
+        A, B, C, D = ct.ssdata(design.closed_loop({"p": p}))
         assert ct.linfnorm(ct.ss(A, B, C, D))[0] <= design.gamma
         # w -> uz = u = -K(p) x, written from the plant's data.
         K = design.gain({"p": p})

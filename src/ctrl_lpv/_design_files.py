@@ -69,14 +69,21 @@ def write_state_feedback(design) -> dict:
         "rate_bounds": design.rate_bounds,
         "rational": None
         if design.rational is None
-        else {"Z": [_matrix(Z) for Z in design.rational[0]],
-              "W": [_matrix(W) for W in design.rational[1]]},  # fmt: skip
+        else {
+            "Z": [_matrix(Z) for Z in design.rational[0]],
+            "W": [_matrix(W) for W in design.rational[1]],
+        },  # fmt: skip
         "gamma": design.gamma,
         "gamma_opt": design.gamma_opt,
         "backoff": design.backoff,
         "specs": [
-            {"type": type(spec).__name__, "w": _channel(spec.w), "z": _channel(spec.z),
-             "bound": spec.bound, "value": float(value)}
+            {
+                "type": type(spec).__name__,
+                "w": _channel(spec.w),
+                "z": _channel(spec.z),
+                "bound": spec.bound,
+                "value": float(value),
+            }
             for spec, value in _performance(design)
         ],  # fmt: skip
         "regions": [
@@ -94,7 +101,9 @@ def _signals(reader, value, key):
         isinstance(v, str) or (isinstance(v, int) and not isinstance(v, bool))
         for v in value
     ):
-        raise reader.fail(key, f"expected null or a list of names or indices, got {value!r}")
+        raise reader.fail(
+            key, f"expected null or a list of names or indices, got {value!r}"
+        )
     return tuple(value)
 
 
@@ -114,7 +123,9 @@ def _read_specs(reader, raw, plant, u, continuous):
                               positive=True)  # fmt: skip
         value = reader.number(entry.get("value"), f"{key}.value", positive=True)
         if bound is not None and not value < bound:
-            raise reader.fail(f"{key}.value", f"{value:g} does not meet its bound {bound:g}")
+            raise reader.fail(
+                f"{key}.value", f"{value:g} does not meet its bound {bound:g}"
+            )
         try:
             spec = cls(w, z, bound=bound)
             iw, _, iz = resolve_channels(plant, spec.w, list(u), spec.z, hinf=True)
@@ -151,6 +162,19 @@ def _read_rational(reader, raw, m, n, N):
     return tuple(Z), tuple(W)
 
 
+def _require_vertex_gains(reader, design) -> None:
+    """With a rational gain, `gains` must be its vertex values (the
+    controller uses the rational form, other code the vertex gains)."""
+    if design.rational is None:
+        return
+    for j, K in enumerate(design.gains):
+        at_vertex = design.gain_at(np.eye(len(design.gains))[j])
+        if not np.allclose(K, at_vertex, rtol=1e-9, atol=1e-12 * np.abs(K).max()):
+            raise reader.fail(
+                f"design.gains[{j}]", "differs from the rational gain at its vertex"
+            )
+
+
 def read_state_feedback(reader: DocumentReader, section: dict, plant):
     """A `StateFeedbackDesign` from its ``design`` section, re-checked."""
     continuous = not plant.isdtime(strict=True)
@@ -162,7 +186,9 @@ def read_state_feedback(reader: DocumentReader, section: dict, plant):
     raw_gains = section.get("gains")
     count = len(raw_gains) if isinstance(raw_gains, list) else -1
     if count not in (1, N):
-        raise reader.fail("design.gains", f"expected 1 (common) or {N} (one per vertex) gains")
+        raise reader.fail(
+            "design.gains", f"expected 1 (common) or {N} (one per vertex) gains"
+        )
     gains = reader.array(raw_gains, "design.gains", (count, len(u), n))
     lyapunov, P, rates = _read_lyapunov(reader, section, n, N)
     rational = _read_rational(reader, section.get("rational"), len(u), n, N)
@@ -176,7 +202,9 @@ def read_state_feedback(reader: DocumentReader, section: dict, plant):
             raise reader.fail("design.gamma", "is not the bound of the first spec")
         labels = plant.physical_inputs
         iw, iz = specs[0][1]
-        if w != tuple(labels[i] for i in iw) or z != tuple(plant.output_labels[i] for i in iz):
+        if w != tuple(labels[i] for i in iw) or z != tuple(
+            plant.output_labels[i] for i in iz
+        ):
             raise reader.fail("design.w", "w and z differ from the objective's channel")
     elif w or z:
         raise reader.fail("design.w", "w and z without a bound gamma")
@@ -208,6 +236,7 @@ def read_state_feedback(reader: DocumentReader, section: dict, plant):
         result = recheck(design, specs)
     except (TypeError, ValueError) as exc:  # e.g. rate_bounds naming no parameter
         raise reader.fail("design", str(exc)) from None
+    _require_vertex_gains(reader, design)
     if not result.verified:
         what, message = (result.failures or (("design", "not verified"),))[0]
         raise reader.fail(f"design.{what}", f"{message}: the certificate does not hold")
@@ -265,7 +294,9 @@ def read_saturated(reader: DocumentReader, section: dict, plant):
     U = reader.array(section.get("u_max"), "design.u_max", (m,))
     wmax = reader.array(section.get("w_max"), "design.w_max", (nw,))
     if np.any(U <= 0) or np.any(wmax <= 0):
-        raise reader.fail("design.u_max", "saturation and disturbance levels must be positive")
+        raise reader.fail(
+            "design.u_max", "saturation and disturbance levels must be positive"
+        )
     raw = section.get("gains")
     count = len(raw) if isinstance(raw, list) else -1
     if count not in (1, N):
@@ -301,14 +332,17 @@ def read_saturated(reader: DocumentReader, section: dict, plant):
     )  # fmt: skip
     certificate = EllipsoidCertificate(tuple(checks), (), sector_statement(bool(nw)))
     if not certificate.verified:
-        raise reader.fail("design.P", f"the saturation certificate does not hold ({certificate})")
+        raise reader.fail(
+            "design.P", f"the saturation certificate does not hold ({certificate})"
+        )
     beta = region_size(P, R, V)
     for key, stated, recomputed in (("beta", section.get("beta"), beta),
                                     ("rho", section.get("rho"), rho)):  # fmt: skip
         stated = reader.number(stated, f"design.{key}", minimum=0.0)
         if abs(stated - recomputed) > _CLAIM_RTOL * max(abs(recomputed), 1e-300):
             raise reader.fail(
-                f"design.{key}", f"states {stated:.10g}, the data give {recomputed:.10g}"
+                f"design.{key}",
+                f"states {stated:.10g}, the data give {recomputed:.10g}",
             )
     return SaturatedDesign(
         system=plant, u=u, u_max=U, gains=Ks, G=Gs, P=P,
@@ -325,6 +359,10 @@ def read_saturated(reader: DocumentReader, section: dict, plant):
 
 #: Design type name -> (class, writer, reader).
 DESIGN_TYPES = {
-    "StateFeedbackDesign": (StateFeedbackDesign, write_state_feedback, read_state_feedback),
+    "StateFeedbackDesign": (
+        StateFeedbackDesign,
+        write_state_feedback,
+        read_state_feedback,
+    ),
     "SaturatedDesign": (SaturatedDesign, write_saturated, read_saturated),
 }

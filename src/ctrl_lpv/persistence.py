@@ -116,7 +116,9 @@ def write_json(path, document, name: str = "path") -> Path:
     try:
         text = json.dumps(document, indent=1, allow_nan=False) + "\n"
     except ValueError as exc:
-        raise ValueError(f"{name}: the document has a non-finite number ({exc})") from None
+        raise ValueError(
+            f"{name}: the document has a non-finite number ({exc})"
+        ) from None
     fd, temp = tempfile.mkstemp(dir=folder, prefix=f".{path.name}.", suffix=".tmp")
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as fh:
@@ -231,8 +233,12 @@ def plant_document(sys) -> dict:
 
     domain = sys.domain
     if isinstance(domain, ParameterBox):
-        dom = {"type": "box", "names": list(domain.names),
-               "lower": domain.lower.tolist(), "upper": domain.upper.tolist()}  # fmt: skip
+        dom = {
+            "type": "box",
+            "names": list(domain.names),
+            "lower": domain.lower.tolist(),
+            "upper": domain.upper.tolist(),
+        }
     elif isinstance(domain, Simplex):
         dom = {"type": "simplex", "names": list(domain.names)}
     else:
@@ -270,7 +276,9 @@ def read_plant(reader: DocumentReader, section: dict, key: str = "plant"):
     if n == 0:
         raise reader.fail(f"{key}.states", "the plant has no states")
     dom = reader.section(f"{key}.domain", item("domain"))
-    kind = reader.string(dom.get("type"), f"{key}.domain.type", ("box", "simplex", "polytope"))
+    kind = reader.string(
+        dom.get("type"), f"{key}.domain.type", ("box", "simplex", "polytope")
+    )
     names = reader.labels(dom.get("names"), f"{key}.domain.names")
     k = len(names)
     try:
@@ -283,7 +291,9 @@ def read_plant(reader: DocumentReader, section: dict, key: str = "plant"):
         else:
             pts = dom.get("points")
             rows = len(pts) if isinstance(pts, list) else 0
-            domain = Polytope(reader.array(pts, f"{key}.domain.points", (rows, k)), names)
+            domain = Polytope(
+                reader.array(pts, f"{key}.domain.points", (rows, k)), names
+            )
     except (TypeError, ValueError) as exc:
         raise reader.fail(f"{key}.domain", str(exc)) from None
     raw = item("vertices")
@@ -324,7 +334,11 @@ def read_plant(reader: DocumentReader, section: dict, key: str = "plant"):
         integrals = reader.section(f"{key}.integral_signals", integrals)
         signals = set(states) | set(outputs)
         for state, signal in integrals.items():
-            if state not in states or not isinstance(signal, str) or signal not in signals:
+            if (
+                state not in states
+                or not isinstance(signal, str)
+                or signal not in signals
+            ):
                 raise reader.fail(
                     f"{key}.integral_signals",
                     f"{state!r}: {_short(signal)} is not a state integrating a state "
@@ -387,7 +401,8 @@ def save(design, path) -> Path:
     kind = next((k for k, t in DESIGN_TYPES.items() if type(design) is t[0]), None)
     if kind is None:
         raise TypeError(
-            f"design: expected one of {sorted(DESIGN_TYPES)}, got {type(design).__name__}"
+            f"design: expected one of {sorted(DESIGN_TYPES)}, got "
+            f"{type(design).__name__}"
         )
     document = {
         "format": DESIGN_FORMAT,
@@ -395,8 +410,10 @@ def save(design, path) -> Path:
         "library": __version__,
         "plant": plant_document(design.system),
         "design": DESIGN_TYPES[kind][1](design),
-        "certificate": {"verified": bool(design.certificate.verified),
-                        "summary": str(design.certificate)},  # fmt: skip
+        "certificate": {
+            "verified": bool(design.certificate.verified),
+            "summary": str(design.certificate),
+        },  # fmt: skip
     }
     return write_json(path, document)
 
@@ -442,7 +459,9 @@ def load(path, plant=None):
     from .systems import PolytopicStateSpace
 
     if plant is not None and not isinstance(plant, PolytopicStateSpace):
-        raise TypeError(f"plant: expected a PolytopicStateSpace, got {type(plant).__name__}")
+        raise TypeError(
+            f"plant: expected a PolytopicStateSpace, got {type(plant).__name__}"
+        )
     path, document = read_json(path)
     if not isinstance(document, dict) or document.get("format") != DESIGN_FORMAT:
         raise ValueError(
@@ -455,6 +474,8 @@ def load(path, plant=None):
     if plant is not None:
         difference = same_plant(rebuilt, plant)
         if difference is not None:
-            raise ValueError(f"plant: the file {path} is for another plant: {difference}")
+            raise ValueError(
+                f"plant: the file {path} is for another plant: {difference}"
+            )
         rebuilt = plant
     return DESIGN_TYPES[kind][2](reader, reader.section("design"), rebuilt)

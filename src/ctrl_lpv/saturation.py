@@ -88,6 +88,7 @@ from .reachability import (
     _xp_sum,
 )
 from .synthesis import StateFeedbackDesign
+from .synthesis.results import frozen_loop
 from .systems import PolytopicStateSpace
 
 __all__ = ["SaturatedDesign", "saturated_state_feedback", "saturation_region"]
@@ -245,25 +246,14 @@ class SaturatedDesign:
         -------
         `control.StateSpace`
             Inputs named after `w`, outputs after the plant's outputs,
-            states after its states.
+            states after its states. Without `w` the inputs are the
+            control inputs, as an additive ``v`` in ``u = -K x + v``
+            (python-control has no system without inputs).
         """
         sys = self.system
-        frozen = sys.at(p)
         iu = signal_indices(list(self.u), sys.physical_inputs, "u")
         iw = signal_indices(list(self.w), sys.physical_inputs, "w")
-        K = self.gain(p)
-        return StateSpace(
-            frozen.A - frozen.B[:, iu] @ K,
-            frozen.B[:, iw],
-            frozen.C - frozen.D[:, iu] @ K,
-            frozen.D[:, iw],
-            inputs=list(self.w),
-            outputs=list(sys.output_labels),
-            states=list(sys.state_labels),
-            name=f"{sys.name}_closed_loop",
-            dt=sys.dt,
-            remove_useless_states=False,
-        )
+        return frozen_loop(sys, p, self.gain(p), iu, iw, [])
 
     def save(self, path):
         """Write the design and its plant to a JSON file (atomically).

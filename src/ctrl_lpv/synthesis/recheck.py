@@ -142,7 +142,9 @@ def recheck(design, performance=()) -> Recheck:
     for i, (spec, _, bound) in enumerate(performance):
         value, where = spec_worst[i]
         name = "bounded-real" if isinstance(spec, Hinf) else "H2 (Gramian)"
-        checks.append(LMICheck(f"{spec} <= {bound:.6g}", value, ORIGINAL_UNITS_TOL, True))
+        checks.append(
+            LMICheck(f"{spec} <= {bound:.6g}", value, ORIGINAL_UNITS_TOL, True)
+        )
         others.append(value)
         if Wd is not None and not value < ORIGINAL_UNITS_TOL:
             failures.append(
@@ -190,7 +192,9 @@ def _lyapunov_data(design, sys, failures):
     if design.P is None:
         return None, None, []
     lyap = lyapunov_structure(
-        sys, design.lyapunov, design.rate_bounds if design.lyapunov == "affine" else None
+        sys,
+        design.lyapunov,
+        design.rate_bounds if design.lyapunov == "affine" else None,
     )
     Ps = [design.P] if design.lyapunov == "constant" else list(design.P)
     ratio = max(

@@ -80,6 +80,33 @@ class Certificate:
         )
 
 
+def frozen_loop(system, p, K, iu, iw, iz) -> StateSpace:
+    """Named frozen loop ``u = -K x`` of `system` at `p`, from `iw` to `iz`.
+
+    Without `iw` the inputs are the control inputs (an additive ``v`` in
+    ``u = -K x + v``), without `iz` the outputs are all the outputs
+    (python-control has no state-space system without inputs).
+    """
+    frozen = system.at(p)
+    if not iw:
+        iw = iu
+    if not iz:
+        iz = list(range(system.noutputs))
+    inputs = system.physical_inputs
+    return StateSpace(
+        frozen.A - frozen.B[:, iu] @ K,
+        frozen.B[:, iw],
+        frozen.C[iz] - frozen.D[np.ix_(iz, iu)] @ K,
+        frozen.D[np.ix_(iz, iw)],
+        inputs=[inputs[i] for i in iw],
+        outputs=[system.output_labels[i] for i in iz],
+        states=list(system.state_labels),
+        name=f"{system.name}_closed_loop",
+        dt=system.dt,
+        remove_useless_states=False,
+    )
+
+
 @dataclass(frozen=True)
 class StateFeedbackDesign:
     """A certified state-feedback design for a polytopic system.
@@ -241,25 +268,14 @@ class StateFeedbackDesign:
         `control.StateSpace`
             Inputs named after `w`, outputs after `z`, states after the
             plant's states; the plant's timebase ``dt``. Its matrices are
-            ``ct.ssdata(design.closed_loop(p))``.
+            ``ct.ssdata(design.closed_loop(p))``. A design without `w` and
+            `z` (stabilization) has no such channel, and python-control no
+            system without inputs: its loop is then from an additive input
+            ``v`` at the control inputs, ``u = -K x + v`` (named after
+            `u`), to every plant output.
         """
-        frozen = self.system.at(p)
         iw, iu, iz = channel_indices(self.system, self.w, self.u, self.z)
-        K = self.gain(p)
-        A = frozen.A - frozen.B[:, iu] @ K
-        C = frozen.C[iz] - frozen.D[np.ix_(iz, iu)] @ K
-        return StateSpace(
-            A,
-            frozen.B[:, iw],
-            C,
-            frozen.D[np.ix_(iz, iw)],
-            inputs=list(self.w),
-            outputs=list(self.z),
-            states=list(self.system.state_labels),
-            name=f"{self.system.name}_closed_loop",
-            dt=self.system.dt,
-            remove_useless_states=False,
-        )
+        return frozen_loop(self.system, p, self.gain(p), iu, iw, iz)
 
     def save(self, path) -> Path:
         """Write the design and its plant to a JSON file (atomically).

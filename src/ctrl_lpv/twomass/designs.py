@@ -286,7 +286,9 @@ def _model_options(design: StateFeedbackDesign, given) -> dict:
     )
     options = {
         "params": dataclasses.asdict(params),
-        "p_bounds": [float(b) for b in given.get("p_bounds", system.domain.points[:, 0])],
+        "p_bounds": [
+            float(b) for b in given.get("p_bounds", system.domain.points[:, 0])
+        ],
         "formulation": formulation,
         "integral": bool(given.get("integral", "int_e_l" in states)),
         "torque_weight": float(given.get("torque_weight", TORQUE_WEIGHT)),
@@ -614,7 +616,9 @@ class _GainReader(DocumentReader):
         raw = self.section("model.params", options["params"])
         fields = {f.name for f in dataclasses.fields(Parameters)}
         if set(raw) - fields:
-            raise self.fail("model.params", f"unknown fields {sorted(set(raw) - fields)}")
+            raise self.fail(
+                "model.params", f"unknown fields {sorted(set(raw) - fields)}"
+            )
         values = {k: self.number(v, f"model.params.{k}") for k, v in raw.items()}
         bounds = self.array(options["p_bounds"], "model.p_bounds", (2,))
         formulation = self.string(
