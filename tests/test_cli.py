@@ -457,10 +457,10 @@ def test_sign_flipped_without_the_gains_is_refused(gain_files, tmp_path):
         (lambda d: d.update(states=d["states"][::-1]), "states"),
         (lambda d: d.update(gains=[[[1.0, 2.0]]]), "gains"),
         (lambda d: d.update(gains="many"), "gains"),
-        (lambda d: d.update(u=["Td"]), "gains"),
+        (lambda d: d.update(u=["Td"]), "u"),
         (lambda d: d.update(P=(-np.array(d["P"])).tolist()), "P"),
-        (lambda d: d.update(model={"formulation": "paper"}), "model"),
-        (lambda d: d["model"].update(torque_weight=1.0), "model_data"),
+        (lambda d: d.update(model={"formulation": "paper"}), "model.params"),
+        (lambda d: d["model"].update(torque_weight=1.0), "P"),
     ],
 )
 def test_inconsistent_gain_file_is_refused(gain_files, tmp_path, change, key):
@@ -490,7 +490,6 @@ def test_verified_flag_is_not_trusted(gain_files, tmp_path):
 def test_file_without_certificate_data_warns(gain_files, tmp_path):
     def old_format(d):
         d.pop("P")
-        d.pop("model_data")
 
     path = tampered(tmp_path, gain_files[True][1], old_format)
     with pytest.warns(UserWarning, match="no Lyapunov matrix"):

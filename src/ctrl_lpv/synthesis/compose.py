@@ -213,10 +213,15 @@ def synthesize(
     else:
         suspects = ()
     method = _describe(objective, performance, scheduled, lyapunov, continuous)
-    return run_general(
+    design = run_general(
         sys, iu, specs, channels, objective, constraints, scheduled, lyap,
         continuous, backoff, margin, chain, time_limit, method, suspects,
     )  # fmt: skip
+    if lyap.constant:
+        return design
+    # The certificate holds for these rates only: kept for `save`/`load`.
+    finite = {k: float(v) for k, v in rate_bounds.items() if float(v) != np.inf}
+    return dataclasses.replace(design, rate_bounds=finite)
 
 
 def _split_constraints(constraints):
