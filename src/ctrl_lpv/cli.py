@@ -28,8 +28,6 @@ import threading
 import time
 from pathlib import Path
 
-from ._output import check_destination, staged_file, staged_folder
-
 EXIT_FAILURE, EXIT_USAGE, EXIT_INFEASIBLE, EXIT_UNCERTIFIED = 1, 2, 3, 4
 EXIT_INTERRUPTED, EXIT_TERMINATED = 130, 143  # 128 + SIGINT, 128 + SIGTERM
 
@@ -421,6 +419,8 @@ def _run_reproduce(args) -> int:
 def _run_design(args) -> int:
     if args.p_min >= args.p_max:
         return _usage(f"--p-min ({args.p_min}) must be below --p-max ({args.p_max})")
+    from ._output import check_destination, staged_file
+
     if args.save is not None:
         try:  # before the design, which takes seconds
             check_destination(args.save, "--save", folder=False)
@@ -544,6 +544,7 @@ def _write_response(args, response, values: dict[str, float]) -> list[str]:
     """Write response.csv, metrics.json and the figure into ``args.out``."""
     import numpy as np
 
+    from ._output import staged_folder
     from .plotting import plot_responses, save_figure
 
     with staged_folder(args.out) as work:
@@ -575,6 +576,8 @@ def _run_simulate(args) -> int:
             f"--alpha-step: the step time {args.alpha_step[1]:g} s is not "
             f"before the end of the run, --T {args.T:g} s"
         )
+    from ._output import check_destination
+
     if args.out is not None:
         try:  # before the simulation, which takes seconds
             check_destination(args.out, "--out", folder=True)
