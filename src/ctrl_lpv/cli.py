@@ -116,7 +116,7 @@ def _formats(text: str) -> tuple[str, ...]:
     unknown = [f for f in formats if f not in ("png", "svg", "pdf")]
     if not formats or unknown:
         raise argparse.ArgumentTypeError(
-            f"formats: choose from png, svg, pdf (comma-separated), got {text!r}"
+            f"choose from png, svg, pdf (comma-separated), got {text!r}"
         )
     return formats
 
@@ -653,8 +653,10 @@ def _refusal(what: str, exc: BaseException, argv: list[str], verbose: bool) -> N
     The first line names the command and options run and what failed; the
     details follow, one clause a line, the first few only unless `verbose`.
     """
+    import shlex
+
     first, details = _headline(str(exc))
-    command = " ".join(argv)
+    command = shlex.join(argv)
     lines = [f"ctrl-lpv: {what} ({command}): {first}"]
     shown = details if verbose else details[:_DETAIL_LINES]
     lines += [f"  {line}" for line in shown]
@@ -720,18 +722,19 @@ def main(argv: list[str] | None = None) -> int:
         (SIGTERM); on 130 and 143, one line on stderr, no traceback, and no
         output file or temporary folder left behind.
     """
-    argv = _attach_negative_values(list(sys.argv[1:] if argv is None else argv))
+    given = list(sys.argv[1:] if argv is None else argv)
     previous = None
     if threading.current_thread() is threading.main_thread():  # signal's rule
         previous = signal.signal(signal.SIGTERM, _raise_terminated)
     try:
-        return _main(argv)
+        return _main(_attach_negative_values(given), given)
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
 
 
-def _main(argv: list[str]) -> int:
+def _main(argv: list[str], given: list[str]) -> int:
+    """`main` after the signal handler: `argv` parsed, `given` quoted in refusals."""
     from .exceptions import CertificationError, InfeasibleError
 
     verbose = False
@@ -754,13 +757,13 @@ def _main(argv: list[str]) -> int:
         print("ctrl-lpv: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     except InfeasibleError as exc:
-        _refusal("infeasible", exc, argv, verbose)
+        _refusal("infeasible", exc, given, verbose)
         return EXIT_INFEASIBLE
     except CertificationError as exc:
-        _refusal("no certified design found", exc, argv, verbose)
+        _refusal("no certified design found", exc, given, verbose)
         return EXIT_UNCERTIFIED
     except (RuntimeError, OSError) as exc:
-        _refusal("failed", exc, argv, verbose)
+        _refusal("failed", exc, given, verbose)
         return EXIT_FAILURE
 
 
