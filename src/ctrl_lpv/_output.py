@@ -21,6 +21,7 @@ __all__ = [
     "signals_deferred",
     "staged_file",
     "staged_folder",
+    "temporary_beside",
     "usual_mode",
 ]
 
@@ -92,24 +93,45 @@ def signals_deferred():
 
 
 @contextlib.contextmanager
+def temporary_beside(path: Path, *, folder: bool):
+    """Yield a new temporary file or folder beside `path`, removed on failure.
+
+    The caller moves it into place before the block ends. It is created with
+    SIGINT and SIGTERM held back, so that it exists only once it is known
+    here: an interruption at any point leaves nothing behind.
+    """
+    path = Path(path)
+    prefix = f".{path.name}.partial-"
+    work = None
+    try:
+        with signals_deferred():
+            if folder:
+                work = Path(tempfile.mkdtemp(prefix=prefix, dir=path.parent))
+            else:
+                handle, name = tempfile.mkstemp(prefix=prefix, dir=path.parent)
+                os.close(handle)
+                work = Path(name)
+        yield work
+    except BaseException:
+        if work is not None and folder:
+            shutil.rmtree(work, ignore_errors=True)
+        elif work is not None:
+            work.unlink(missing_ok=True)
+        raise
+
+
+@contextlib.contextmanager
 def staged_file(path: Path):
     """Yield a temporary path beside `path`, renamed to `path` on success.
 
     On any error or interruption the temporary file is removed and `path`
     is left as it was.
     """
-    path = Path(path)
-    handle, name = tempfile.mkstemp(prefix=f".{path.name}.partial-", dir=path.parent)
-    os.close(handle)
-    work = Path(name)
-    try:
+    with temporary_beside(path, folder=False) as work:
         yield work
         usual_mode(work)
         with signals_deferred():
             os.replace(work, path)
-    except BaseException:
-        work.unlink(missing_ok=True)
-        raise
 
 
 @contextlib.contextmanager
@@ -122,8 +144,7 @@ def staged_folder(path: Path):
     temporary folder is removed and `path` is left as it was.
     """
     path = Path(path)
-    work = Path(tempfile.mkdtemp(prefix=f".{path.name}.partial-", dir=path.parent))
-    try:
+    with temporary_beside(path, folder=True) as work:
         yield work
         usual_mode(work)
         with signals_deferred():
@@ -133,6 +154,3 @@ def staged_folder(path: Path):
                 work.rmdir()
             else:
                 work.rename(path)
-    except BaseException:
-        shutil.rmtree(work, ignore_errors=True)
-        raise

@@ -35,7 +35,12 @@ import control as ct
 import numpy as np
 
 from .. import __version__
-from .._output import check_destination, signals_deferred, usual_mode
+from .._output import (
+    check_destination,
+    signals_deferred,
+    temporary_beside,
+    usual_mode,
+)
 from ..exceptions import InfeasibleError
 from ..metrics import step_metrics
 from ..plotting import controller_style, plot_responses, save_figure
@@ -204,15 +209,11 @@ def reproduce(
     """
     out = Path(out)
     _check_target(out)
-    work = Path(tempfile.mkdtemp(prefix=f".{out.name}.partial-", dir=out.parent))
-    try:
+    with temporary_beside(out, folder=True) as work:
         result = _reproduce_into(work, robustness, formats, progress, engine)
         usual_mode(work)
         with signals_deferred():  # the two renames are not cut apart
             _replace(work, out)
-    except BaseException:
-        shutil.rmtree(work, ignore_errors=True)
-        raise
     result["files"] = [out / path.relative_to(work) for path in result["files"]]
     (progress or (lambda message: None))(
         f"done in {result['seconds']:.0f} s: {len(result['files'])} files in {out}"
