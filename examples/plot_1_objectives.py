@@ -60,7 +60,7 @@ ks = np.linspace(1.0, 2.0, 21)
 
 def frozen_norms(design):
     """H2 and H-infinity norms of the frozen closed loops on the k grid."""
-    loops = [ct.ss(*design.closed_loop({"k": k})) for k in ks]
+    loops = [design.closed_loop({"k": k}) for k in ks]
     return [ct.norm(g, 2) for g in loops], [ct.linfnorm(g)[0] for g in loops]
 
 

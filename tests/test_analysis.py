@@ -26,7 +26,7 @@ def test_l2_gain_bound_of_design_gains(mass_spring, function):
     # up to the effect of the strict-inequality margins.
     assert bound.gamma <= design.gamma * (1 + 1e-3)
     for k in np.linspace(1.0, 4.0, 5):
-        A, Bw, C, D = design.closed_loop(k)
+        A, Bw, C, D = ct.ssdata(design.closed_loop(k))
         assert ct.linfnorm(ct.ss(A, Bw, C, D))[0] <= bound.gamma * (1 + 1e-9)
 
 
@@ -39,7 +39,7 @@ def test_frozen_sweep(mass_spring):
     assert np.all(sweep.max_real < 0)
     assert np.all(sweep.hinf <= design.gamma)
     k = sweep.points[4, 0]
-    A, *_ = design.closed_loop(k)
+    A, *_ = ct.ssdata(design.closed_loop(k))
     np.testing.assert_allclose(
         np.sort_complex(np.linalg.eigvals(A)), sweep.poles[4], rtol=1e-10
     )

@@ -293,7 +293,7 @@ def test_polytopic_h2_bounds_frozen_norms(kind, gains, dt):
     # The objective channel of closed_loop(p) is the loop built here.
     A, B1, B2, C = frozen(points[-1])
     K = design.gain(points[-1])
-    Acl, Bw, Cz, Dzw = design.closed_loop(points[-1])
+    Acl, Bw, Cz, Dzw = ct.ssdata(design.closed_loop(points[-1]))
     np.testing.assert_allclose(Acl, A - B2 @ K, atol=1e-12 * max(1, np.abs(A).max()))
     np.testing.assert_allclose(Bw, B1)
     np.testing.assert_allclose(Cz, np.vstack([C, -K]), atol=1e-12)

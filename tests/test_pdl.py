@@ -351,7 +351,7 @@ def test_scheduled_affine_synthesis_time_invariant():
     assert design.gamma >= lb * (1 - ROUND)
     assert design.gamma <= 0.5 * common
     for k in np.linspace(0.2, 5.0, 25):
-        A, Bw, Cz, Dzw = design.closed_loop([k])
+        A, Bw, Cz, Dzw = ct.ssdata(design.closed_loop([k]))
         assert np.linalg.eigvals(A).real.max() < 0
         assert ct.linfnorm(ct.ss(A, Bw, Cz, Dzw))[0] <= design.gamma * (1 + 1e-9)
     # V = x' P(k) x decreases along every frozen closed loop
@@ -361,7 +361,7 @@ def test_scheduled_affine_synthesis_time_invariant():
         twomass_box(),
         0.0,
         count=51,
-        A_of=lambda k: design.closed_loop([k])[0],
+        A_of=lambda k: design.closed_loop([k]).A,
     )
     assert low > 0 and worst < 0
 
@@ -398,7 +398,7 @@ def test_scheduled_affine_synthesis_nondecreasing_in_the_rate_bound():
         )
         raw.append(design.gamma)
         for k in (0.2, 1.0, 5.0):
-            A, Bw, Cz, Dzw = design.closed_loop([k])
+            A, Bw, Cz, Dzw = ct.ssdata(design.closed_loop([k]))
             assert ct.linfnorm(ct.ss(A, Bw, Cz, Dzw))[0] <= design.gamma * (1 + 1e-9)
         # V = x' P(k) x decreases for every |dk/dt| <= nu (rational gain K(k))
         worst, low = lyapunov_derivative_worst(
@@ -407,7 +407,7 @@ def test_scheduled_affine_synthesis_nondecreasing_in_the_rate_bound():
             twomass_box(),
             nu,
             count=41,
-            A_of=lambda k, d=design: d.closed_loop([k])[0],
+            A_of=lambda k, d=design: d.closed_loop([k]).A,
         )
         assert low > 0 and worst < 0
     assert min(raw) >= lb * (1 - ROUND)

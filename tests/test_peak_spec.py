@@ -101,7 +101,7 @@ def test_polytopic_peak_bounds_switching_inputs_and_varying_parameter(plant, gai
     P = design.P
     for p in np.linspace(1.0, 3.0, 9):
         # Constant w: the frozen loop settles at z = -Ccl Acl^-1 Bw w.
-        A, B, C, D = design.closed_loop({"p": p})
+        A, B, C, D = ct.ssdata(design.closed_loop({"p": p}))
         steady = -C @ np.linalg.solve(A, B[:, 0] * w_max)
         assert np.linalg.norm(steady) < design.gamma
     for omega in (0.3, 1.0, 3.0):
@@ -186,7 +186,7 @@ def test_hinf_objective_with_a_peak_constraint(plant):
     design = lpv.synthesize(plant, "u", objective=lpv.Hinf("w"), constraints=[peak])
     assert design.bounds[peak] < peak.bound
     for p in np.linspace(1.0, 3.0, 9):
-        A, B, C, D = design.closed_loop({"p": p})
+        A, B, C, D = ct.ssdata(design.closed_loop({"p": p}))
         assert ct.linfnorm(ct.ss(A, B, C, D))[0] <= design.gamma
         steady = -C @ np.linalg.solve(A, B[:, 0])
         assert np.linalg.norm(steady) < peak.bound
@@ -200,7 +200,7 @@ def test_discrete_polytopic_peak(plant, gains):
     design = lpv.synthesize(sampled, "u", objective=lpv.Peak("w"), gains=gains)
     rng = np.random.default_rng(3)
     for p in np.linspace(1.0, 3.0, 9):
-        A, B, C, D = design.closed_loop({"p": p})
+        A, B, C, D = ct.ssdata(design.closed_loop({"p": p}))
         assert np.abs(np.linalg.eigvals(A)).max() < 1
         # A bounded input of random signs from rest: |z[k]| stays below.
         x, worst = np.zeros(2), 0.0

@@ -106,10 +106,10 @@ def test_composable_example_bounds_its_frozen_loops(composable):
     h2, hinf = sorted(design.bounds.values())
     assert hinf < 1.0
     for k in np.linspace(1.0, 4.0, 13):
-        A, B, C, D = design.closed_loop({"k": k})
+        A, B, C, D = ct.ssdata(design.closed_loop({"k": k}))
         loop = ct.ss(A, B, C, D)
         assert ct.norm(loop, 2) <= h2
         assert ct.linfnorm(loop)[0] < 1.0
-        A, B, C, D = dt_design.closed_loop({"k": k})
+        A, B, C, D = ct.ssdata(dt_design.closed_loop({"k": k}))
         assert np.abs(np.linalg.eigvals(A)).max() < 1
         assert ct.linfnorm(ct.ss(A, B, C, D, dt=0.05))[0] <= dt_design.gamma

@@ -267,5 +267,5 @@ def test_two_mass_gamma_sweep_close_to_the_optimum():
         assert design.certificate.verified
         assert design.gamma <= bound * (1 + 1e-5)
         for p in (-0.95, -0.4, 0.0):
-            A, Bw, C, D = design.closed_loop(p)
+            A, Bw, C, D = ct.ssdata(design.closed_loop(p))
             assert ct.linfnorm(ct.ss(A, Bw, C, D))[0] <= design.gamma

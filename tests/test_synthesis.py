@@ -59,7 +59,7 @@ def test_gamma_bounds_frozen_hinf_norms(mass_spring, function):
     # g <= g_max is a non-strict side constraint, met to solver accuracy.
     assert design.gamma_opt <= design.gamma <= 1.2 * design.gamma_opt * (1 + 1e-6)
     for k in np.linspace(1.0, 4.0, 7):
-        A, B_w, C, D = design.closed_loop(k)
+        A, B_w, C, D = ct.ssdata(design.closed_loop(k))
         norm = ct.linfnorm(ct.ss(A, B_w, C, D))[0]
         assert norm <= design.gamma
 
@@ -99,7 +99,7 @@ def test_single_vertex_gamma_matches_plain_cvxpy_and_control():
     assert raw.gamma == pytest.approx(reference, rel=0.01)
     assert raw.gamma_opt == pytest.approx(reference, rel=0.01)
     for design in (raw, lpv.hinf_state_feedback(sys, w="w", u="u", z=["y", "e"])):
-        Acl, Bw, Ccl, Dcl = design.closed_loop(1.0)
+        Acl, Bw, Ccl, Dcl = ct.ssdata(design.closed_loop(1.0))
         norm = ct.linfnorm(ct.ss(Acl, Bw, Ccl, Dcl))[0]
         assert norm <= design.gamma
     backed_off = lpv.hinf_state_feedback(sys, w="w", u="u", z=["y", "e"])
@@ -258,7 +258,9 @@ def test_random_polytopes_every_design_is_certified(case, function):
     assert design.certificate.verified
     independent_check(sys, design, u)
     if design.gamma is not None:
-        A, Bw, C, D = design.closed_loop(np.full(sys.nvertices, 1 / sys.nvertices))
+        A, Bw, C, D = ct.ssdata(
+            design.closed_loop(np.full(sys.nvertices, 1 / sys.nvertices))
+        )
         assert ct.linfnorm(ct.ss(A, Bw, C, D))[0] <= design.gamma
 
 

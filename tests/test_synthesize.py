@@ -97,7 +97,7 @@ def test_pdl_designs_bound_their_frozen_closed_loops(plant, gains):
     )  # fmt: skip
     assert design.certificate.verified and design.lyapunov == "affine"
     for p in np.linspace(-1.0, 1.0, 21):
-        A, B, C, D = design.closed_loop({"p": p})
+        A, B, C, D = ct.ssdata(design.closed_loop({"p": p}))
         assert np.linalg.eigvals(A).real.max() < 0
         assert ct.linfnorm(ct.ss(A, B, C, D))[0] < design.gamma
     controller = design.controller()
@@ -113,7 +113,7 @@ def test_mixed_h2_with_hinf_constraint(plant):
     )
     assert design.bounds[lpv.Hinf("w", bound=bound)] < bound
     for p in np.linspace(-1.0, 1.0, 11):
-        A, B, C, D = design.closed_loop({"p": p})
+        A, B, C, D = ct.ssdata(design.closed_loop({"p": p}))
         cl = ct.ss(A, B, C, D)
         assert ct.linfnorm(cl)[0] < bound
         assert ct.norm(cl, 2) <= design.gamma
@@ -201,7 +201,8 @@ def test_two_specs_of_one_kind_on_different_channels(plant):
     )
     assert design.bounds[lpv.Hinf("w", "uz", bound=bound)] < bound
     for p in np.linspace(-1.0, 1.0, 11):
-        A, B, C, D = design.closed_loop({"p": p})  # the objective's channel, w -> y
+        # the objective's channel, w -> y
+        A, B, C, D = ct.ssdata(design.closed_loop({"p": p}))
         assert ct.linfnorm(ct.ss(A, B, C, D))[0] <= design.gamma
         # w -> uz = u = -K(p) x, written from the plant's data.
         K = design.gain({"p": p})
@@ -268,7 +269,7 @@ def test_general_engine_regions_hold_on_frozen_loops(plant):
         lpv.sector(np.pi / 4), lpv.halfplane(1.0)], gains="scheduled",
     )  # fmt: skip
     for p in np.linspace(-1.0, 1.0, 11):
-        A = design.closed_loop({"p": p})[0]
+        A = design.closed_loop({"p": p}).A
         eig = np.linalg.eigvals(A)
         assert eig.real.max() < -1.0
         assert np.all(np.abs(eig.imag) < -eig.real)

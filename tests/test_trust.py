@@ -90,7 +90,7 @@ CHANNELS = dict(w="w", u="u", z=["x", "uw"])
 def frozen_norms(sys, design):
     norms = []
     for k in np.linspace(1, 4, 7):
-        A, B, C, D = design.closed_loop({"k": k})
+        A, B, C, D = ct.ssdata(design.closed_loop({"k": k}))
         norms.append(ct.linfnorm(ct.ss(A, B, C, D))[0])
     return np.array(norms)
 
@@ -162,7 +162,7 @@ def test_single_region_and_solver_name_are_accepted(plant):
         plant, regions=lpv.halfplane(1.0), solvers="CLARABEL", **CHANNELS
     )
     for k in (1.0, 4.0):
-        A = design.closed_loop({"k": k})[0]
+        A = design.closed_loop({"k": k}).A
         assert np.linalg.eigvals(A).real.max() < -1.0
 
 

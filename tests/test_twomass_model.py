@@ -93,7 +93,7 @@ def test_default_tracking_design_is_certified():
     design = lpv.hinf_state_feedback(sys, w="Td", u="Tm", z=sys.output_labels)
     assert design.certificate.verified
     for p in np.linspace(-0.95, 0.0, 11):
-        A, *_ = design.closed_loop(p)
+        A = design.closed_loop(p).A
         assert np.linalg.eigvals(A).real.max() < 0
 
 

@@ -64,7 +64,7 @@ print(scheduled)
 # python-control computes for frozen closed loops stays below gamma.
 w, z = ["Td"], list(robust.z)
 for p in np.linspace(-0.95, 0.0, 5):
-    A, Bw, Cz, Dzw = robust.closed_loop(p)
+    A, Bw, Cz, Dzw = ct.ssdata(robust.closed_loop(p))
     norm = ct.linfnorm(ct.ss(A, Bw, Cz, Dzw))[0]
     print(f"p = {p:+.4f}: ||T_zw||_inf = {norm:.5f} <= gamma = {robust.gamma:.5f}")
 

@@ -66,6 +66,7 @@ _EXPORTS = {
     "SimulationError": "simulation",
     "DivergenceError": "simulation",
     "SimulationTimeout": "simulation",
+    "load": "persistence",
     "sweep": "batch",
     "scenario_grid": "batch",
 }

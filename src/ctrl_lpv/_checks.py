@@ -6,7 +6,18 @@ from collections.abc import Sequence
 
 import numpy as np
 
-__all__ = ["as_matrix", "as_ss_data", "real_number", "signal_indices"]
+__all__ = [
+    "as_matrix",
+    "as_ss_data",
+    "flag",
+    "per_input",
+    "positive_levels",
+    "real_number",
+    "signal_indices",
+    "signal_labels",
+    "signal_name",
+    "signal_selection",
+]
 
 
 def real_number(
@@ -49,6 +60,108 @@ def real_number(
     return number
 
 
+def flag(value, name: str) -> bool:
+    """Return `value` as a bool, naming `name` on error.
+
+    Only ``True``/``False`` (or numpy's booleans) are accepted: a string
+    such as ``"no"``, a number or None would otherwise be read by its
+    truth value, which is rarely what was meant.
+    """
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    raise TypeError(f"{name}: expected True or False, got {value!r}")
+
+
+def signal_name(value, name: str) -> str:
+    """Return `value` as a signal (or system) name, naming `name` on error.
+
+    A name is a non-empty `str`; bytes are refused rather than decoded (and
+    rather than read as a sequence of integer indices).
+    """
+    if isinstance(value, str) and value:
+        return value
+    raise TypeError(f"{name}: expected a non-empty string, got {value!r}")
+
+
+def signal_selection(value, name: str) -> tuple | None:
+    """Return a selection of signals as a tuple of names and indices.
+
+    `value` is a name, an index or a sequence of them (None stays None).
+    Names are checked with `signal_name`; indices are integers, not
+    booleans. Whether they exist is checked against the system later
+    (`signal_indices`).
+    """
+    if value is None:
+        return None
+    if isinstance(value, (str, int, np.integer)) and not isinstance(value, bool):
+        items = (value,)
+    elif isinstance(value, (bytes, bytearray, bool, np.bool_)):
+        items = (value,)  # refused below, by its own type
+    else:
+        try:
+            items = tuple(value)
+        except TypeError:
+            raise TypeError(
+                f"{name}: expected a signal name, an index or a sequence of them, "
+                f"got {value!r}"
+            ) from None
+    for item in items:
+        if isinstance(item, (int, np.integer)) and not isinstance(
+            item, (bool, np.bool_)
+        ):
+            continue
+        if not isinstance(item, str):
+            raise TypeError(
+                f"{name}: expected signal names (strings) or integer indices, "
+                f"got {item!r}"
+            )
+    return items
+
+
+def signal_labels(value, count: int, name: str) -> list[str] | None:
+    """Check the ``inputs``/``outputs``/``states`` keyword of a system.
+
+    None (the default names) and an integer equal to `count` pass through
+    (as None); otherwise `count` distinct non-empty strings (a single
+    string for ``count == 1``) are required.
+    """
+    if value is None:
+        return None
+    if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
+        if value != count:
+            raise ValueError(f"{name}: {value} signals given for {count}")
+        return None
+    labels = [value] if isinstance(value, str) else signal_selection(value, name)
+    for label in labels:
+        signal_name(label, name)
+    if len(labels) != count:
+        raise ValueError(f"{name}: {len(labels)} names given for {count} signals")
+    repeated = sorted({label for label in labels if labels.count(label) > 1})
+    if repeated:
+        raise ValueError(f"{name}: repeated names {repeated}; each must be unique")
+    return list(labels)
+
+
+def positive_levels(value, name: str) -> tuple[float, ...]:
+    """Positive levels (a number or a flat sequence of them) as a tuple.
+
+    Each level is checked with `real_number` (so ``"1"`` is refused) and
+    kept below ``1e150``, so that its square stays finite in float64.
+    """
+    items = np.atleast_1d(np.asarray(value, dtype=object))
+    if items.ndim != 1 or items.size == 0:
+        raise ValueError(f"{name}: expected a level or a sequence, got {value!r}")
+    return tuple(real_number(x, name, positive=True, below=1e150) for x in items)
+
+
+def per_input(values, count: int, name: str, what: str) -> np.ndarray:
+    """One level per input: a single level is repeated `count` times."""
+    out = np.array(values * (count if len(values) == 1 else 1), float)
+    if out.size != count:
+        raise ValueError(f"{name}: {len(values)} levels for {count} {what}")
+    return out
+
+
 def as_matrix(value, name: str, shape: tuple[int, int] | None = None) -> np.ndarray:
     """Return `value` as a finite 2-D float array, naming `name` on error."""
     try:
@@ -75,7 +188,9 @@ def as_matrix(value, name: str, shape: tuple[int, int] | None = None) -> np.ndar
         mat = np.array(value, dtype=float)
     except (TypeError, ValueError):
         raise TypeError(f"{name}: expected a numeric matrix, got {value!r}") from None
-    if mat.ndim == 0 and shape is not None and mat == 0:
+    if shape is not None and mat.size == 0 and 0 in shape:
+        mat = np.zeros(shape)  # [] for a matrix with no rows or columns
+    elif mat.ndim == 0 and shape is not None and mat == 0:
         mat = np.zeros(shape)
     elif mat.ndim < 2:
         mat = np.atleast_2d(mat)
@@ -110,12 +225,16 @@ def as_ss_data(item, name: str) -> tuple[np.ndarray, ...]:
     if n == 0:
         raise ValueError(f"{name}.A: the system has no states")
     B = as_matrix(matrices[1], f"{name}.B")
+    if B.size == 0:  # no inputs, e.g. B = []
+        B = np.zeros((n, 0))
     if B.shape[0] != n:
         if B.shape == (1, n):  # a 1-D input column written as a row
             B = B.T
         else:
             raise ValueError(f"{name}.B: expected {n} rows, got shape {B.shape}")
     C = as_matrix(matrices[2], f"{name}.C")
+    if C.size == 0:  # no outputs, e.g. C = []
+        C = np.zeros((0, n))
     if C.shape[1] != n:
         raise ValueError(f"{name}.C: expected {n} columns, got shape {C.shape}")
     D = as_matrix(matrices[3], f"{name}.D", shape=(C.shape[0], B.shape[1]))
@@ -128,18 +247,9 @@ def signal_indices(spec, labels: Sequence[str], name: str) -> list[int]:
     Raises a `ValueError` naming the argument for unknown names, indices out
     of range and repeated signals.
     """
-    if spec is None:
+    items = signal_selection(spec, name)
+    if items is None:
         return []
-    if isinstance(spec, (str, int, np.integer)):
-        items = [spec]
-    else:
-        try:
-            items = list(spec)
-        except TypeError:
-            raise TypeError(
-                f"{name}: expected a signal name, an index or a list of them, "
-                f"got {spec!r}"
-            ) from None
     index = {label: i for i, label in enumerate(labels)}
     out = []
     for item in items:

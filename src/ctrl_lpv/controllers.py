@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import control as ct
 import numpy as np
 
-from ._checks import signal_indices
+from ._checks import flag, signal_indices, signal_name
 from .interconnection import BlockKernel, kernel_nlsys
 from .systems import PolytopicStateSpace
 
@@ -105,6 +105,9 @@ def state_feedback(
     sys = design.system
     labels = list(design.states)
     n = len(labels)
+    reference = flag(reference, "reference")
+    if name is not None:
+        signal_name(name, "name")
     if integrals is None:
         integrals = getattr(sys, "integral_signals", None) or {}
     if not isinstance(integrals, Mapping):
@@ -354,8 +357,19 @@ def integral_augmentation(
 
     For tracking with integral action: the new states are
     ``d xi_i / dt = s_i`` where each ``s_i`` is a state or an output of
-    `sys` (outputs may depend on the inputs through ``D``). The outputs are
-    unchanged; integral states are appended after the original states.
+    `sys` (outputs may depend on the inputs through ``D``). The integral
+    states are appended after the original states, and also after the
+    original outputs, as outputs with the same labels (``int_<signal>``),
+    so that a performance spec can weight them (``Hinf(w, z=["q", "int_q",
+    "uw"])``).
+
+    The integral states must be weighted in ``z`` (or placed with a pole
+    region, e.g. ``halfplane``): an objective that does not see them leaves
+    the integrator's mode nearly uncontrolled, and the design can certify a
+    closed loop whose slowest pole sits next to the origin (a design with a
+    ``z`` that omitted ``int_q`` certified its slowest pole at -0.00035),
+    so the integral action does nothing in practice. A ``z`` left at its
+    default (every output) includes them.
 
     For a discrete-time `sys` the integrators are accumulators,
     ``xi_i[k+1] = xi_i[k] + s_i[k]`` (no factor ``dt``: scale the integral
@@ -390,13 +404,24 @@ def integral_augmentation(
     -------
     `PolytopicStateSpace`
         Over the same domain, with the same nominal point, scheduling and
-        timebase.
+        timebase; outputs those of `sys` followed by the integral states.
 
     Raises
     ------
     ValueError
         If a signal is neither a state nor an output label, or `names`
-        repeat or reuse a state label.
+        repeat or reuse a state or output label.
+
+    Examples
+    --------
+    >>> import control as ct
+    >>> plant = PolytopicStateSpace([ct.ss(
+    ...     [[0.0, 1.0], [-1.0, -0.5]], [[0.0, 0.0], [1.0, 1.0]],
+    ...     [[1.0, 0.0], [0.0, 0.0]], [[0.0, 0.0], [0.0, 0.1]],
+    ...     inputs=["w", "u"], outputs=["q", "uw"], states=["q", "v"])])
+    >>> aug = integral_augmentation(plant, "q")
+    >>> aug.state_labels, aug.output_labels
+    (['q', 'v', 'int_q'], ['q', 'uw', 'int_q'])
     """
     if not isinstance(sys, PolytopicStateSpace):
         raise TypeError(f"sys: expected a PolytopicStateSpace, got {type(sys)!r}")
@@ -429,18 +454,22 @@ def integral_augmentation(
                 Ci[r, i] = 1.0
             else:
                 Ci[r], Di[r] = C[i], D[i]
+        # The integral states are also outputs, so that z can weight them.
         vertices.append(
             (
                 np.block([[A, np.zeros((n, k))], [Ci, hold]]),
                 np.vstack([B, Di]),
-                np.hstack([C, np.zeros((C.shape[0], k))]),
-                D,
+                np.block(
+                    [[C, np.zeros((C.shape[0], k))], [np.zeros((k, n)), np.eye(k)]]
+                ),
+                np.vstack([D, np.zeros((k, B.shape[1]))]),
             )
         )
-    clash = sorted(set(names) & set(sys.state_labels))
+    clash = sorted(set(names) & (set(sys.state_labels) | set(sys.output_labels)))
     if clash or len(set(names)) != len(names):
         raise ValueError(
-            f"names: integral state labels must be new and distinct, got {names}"
+            "names: integral state labels must be new (not a state or output of "
+            f"sys) and distinct, got {names}"
         )
     result = PolytopicStateSpace(
         vertices,
@@ -448,7 +477,7 @@ def integral_augmentation(
         scheduling=sys.scheduling,
         nominal=sys.nominal,
         inputs=list(sys.physical_inputs),
-        outputs=list(sys.output_labels),
+        outputs=list(sys.output_labels) + names,
         states=list(sys.state_labels) + names,
         name=name or sys.name,
         dt=sys.dt,

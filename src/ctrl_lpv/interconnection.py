@@ -28,6 +28,8 @@ import numpy as np
 from control.nlsys import InterconnectedSystem
 from control.statesp import LinearICSystem
 
+from ._checks import real_number
+
 __all__ = [
     "interconnect",
     "BlockKernel",
@@ -671,8 +673,12 @@ def interconnect(syslist, connections=None, inplist=None, outlist=None, **kwargs
     Raises
     ------
     TypeError, ValueError
-        Raised by `control.interconnect`, e.g. for a connection that names
-        an unknown system or signal or is not a list.
+        For a `syslist` that is not a non-empty list of I/O systems with
+        distinct names (python-control would rename a repeated name, so
+        that ``"name.signal"`` silently means the first), a gain that is
+        not a finite real number, and from `control.interconnect`, e.g. for
+        a connection that names an unknown system or signal or is not a
+        list.
 
     Notes
     -----
@@ -703,9 +709,55 @@ def interconnect(syslist, connections=None, inplist=None, outlist=None, **kwargs
     >>> loop.algebraic_loop
     False
     """
+    _check_syslist(syslist)
+    for name, spec in (
+        ("connections", connections), ("inplist", inplist), ("outlist", outlist)
+    ):  # fmt: skip
+        _check_gains(spec, name)
     sys = ct.interconnect(syslist, connections, inplist, outlist, **kwargs)
     fast = _FAST_CLASS.get(type(sys))
     if fast is None:  # pragma: no cover - python-control returned a new type
         return sys
     sys.__class__ = fast
     return sys
+
+
+def _check_syslist(syslist) -> None:
+    """A non-empty list of I/O systems with distinct names."""
+    if isinstance(syslist, (str, bytes, ct.InputOutputSystem)) or not isinstance(
+        syslist, (list, tuple)
+    ):
+        raise TypeError(
+            "syslist: expected a list of control.NonlinearIOSystem (e.g. "
+            f"[plant, controller]), got {type(syslist).__name__}"
+        )
+    if not syslist:
+        raise ValueError("syslist: the list is empty; give the systems to connect")
+    seen = {}
+    for k, item in enumerate(syslist):
+        if not isinstance(item, ct.InputOutputSystem):
+            raise TypeError(
+                f"syslist[{k}]: expected a control I/O system, got "
+                f"{type(item).__name__}"
+            )
+        if item.name in seen:
+            raise ValueError(
+                f"syslist: systems {seen[item.name]} and {k} are both named "
+                f"{item.name!r}, so 'name.signal' would be ambiguous; give each "
+                "system its own name (e.g. sys.copy(name=...))"
+            )
+        seen[item.name] = k
+
+
+def _check_gains(spec, name: str, path: str = "") -> None:
+    """Every gain of a ``(system, signal, gain)`` spec is a finite real number.
+
+    python-control reads any tuple of a connection, `inplist` or `outlist`
+    as a signal spec, whose third entry is its gain; a NaN there would make
+    the diagram's outputs NaN (reported later as an "algebraic loop").
+    """
+    if isinstance(spec, tuple) and len(spec) == 3:
+        real_number(spec[2], f"{name}{path}: gain of {spec[:2]!r}")
+    elif isinstance(spec, (list, tuple)):
+        for k, item in enumerate(spec):
+            _check_gains(item, name, f"{path}[{k}]")

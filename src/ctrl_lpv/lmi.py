@@ -447,8 +447,9 @@ def solver_chain(solvers) -> list[tuple[str, dict]] | None:
     Raises
     ------
     ValueError
-        For an empty chain or a solver that is not installed (the message
-        lists the installed ones).
+        For an empty chain, a solver that is not installed (the message
+        lists the installed ones), or options the solver rejects (judged by
+        the solver on a tiny problem, before any real solve).
     TypeError
         For anything else.
     """
@@ -485,8 +486,42 @@ def solver_chain(solvers) -> list[tuple[str, dict]] | None:
                 f"solvers: {name!r} is not installed; installed: "
                 f"{sorted(_installed_solvers())}"
             )
+        _check_options(name.upper(), options)
         chain.append((name.upper(), dict(options)))
     return chain
+
+
+def _check_options(solver: str, options: dict) -> None:
+    """Refuse options `solver` does not accept, before any real solve.
+
+    The solver itself is the judge (no list of names kept here): a tiny
+    problem is solved once with the options, as the real solves pass them;
+    a `TypeError`/`ValueError` names the option(s) that alone fail.
+    """
+    if options and _options_error(solver, options) is not None:
+        bad = [k for k in options if _options_error(solver, {k: options[k]})]
+        bad = bad or sorted(options)
+        raise ValueError(
+            f"solvers: {solver} rejects the option(s) {', '.join(map(repr, bad))} "
+            f"(unknown name or wrong value): "
+            f"{_options_error(solver, {k: options[k] for k in bad})}"
+        )
+
+
+def _options_error(solver: str, options: dict) -> str | None:
+    """The message of a trial solve with `options` that fails by them."""
+    options = {k: v for k, v in options.items() if k != "verbose"}
+    x = cp.Variable()
+    problem = cp.Problem(cp.Minimize(x), [x >= 1])
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            problem.solve(solver=solver, warm_start=False, **options)
+    except (TypeError, ValueError, AttributeError, KeyError) as exc:
+        return str(exc) or type(exc).__name__
+    except cp.error.SolverError:
+        return None  # a solve that fails for other reasons: not the options
+    return None
 
 
 class LMIProblem:

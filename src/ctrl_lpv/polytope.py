@@ -13,6 +13,8 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 from scipy.optimize import nnls
 
+from ._checks import real_number
+
 __all__ = ["ParameterBox", "Simplex", "Polytope", "box"]
 
 # Tolerance (relative to the domain's extent) for accepting points on the
@@ -51,6 +53,10 @@ class _Domain:
                     f"missing {missing}, unknown {extra}"
                 )
             p = [p[name] for name in self.names]
+        raw = np.asarray(p)
+        if raw.dtype.kind not in "iuf":  # strings, booleans, complex: refused
+            for value in raw.reshape(-1):
+                real_number(value, "p")
         point = np.asarray(p, dtype=float).reshape(-1)
         if point.shape != (self.nparams,):
             raise ValueError(
@@ -114,13 +120,12 @@ class ParameterBox(_Domain):
             if not isinstance(name, str) or not name:
                 raise TypeError(f"bounds: parameter names must be strings: {name!r}")
             try:
-                lo, hi = (float(v) for v in pair)
+                lo, hi = pair
             except (TypeError, ValueError):
                 raise ValueError(
                     f"bounds[{name!r}]: expected (lower, upper), got {pair!r}"
                 ) from None
-            if not (np.isfinite(lo) and np.isfinite(hi)):
-                raise ValueError(f"bounds[{name!r}]: bounds must be finite")
+            lo, hi = (real_number(v, f"bounds[{name!r}]") for v in (lo, hi))
             if not lo < hi:
                 raise ValueError(
                     f"bounds[{name!r}]: lower bound {lo} must be below upper {hi}"

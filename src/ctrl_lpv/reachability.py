@@ -54,7 +54,13 @@ import numpy as np
 import scipy.linalg as sla
 from control import StateSpace
 
-from ._checks import as_matrix, signal_indices
+from ._checks import (
+    as_matrix,
+    per_input,
+    positive_levels,
+    real_number,
+    signal_indices,
+)
 from .budget import DEFAULT_TIME_LIMIT, time_budget
 from .exceptions import CertificationError, InfeasibleError, SynthesisError
 from .lmi import LMIProblem, SolveAttempt, default_solvers, solver_chain
@@ -127,7 +133,8 @@ class Ellipsoid:
 
     def scaled(self, factor: float) -> Ellipsoid:
         """The set ``factor * E`` (level times ``factor**2``)."""
-        return Ellipsoid(self.P, self.level * float(factor) ** 2)
+        factor = real_number(factor, "factor", positive=True)
+        return Ellipsoid(self.P, self.level * factor**2)
 
 
 @dataclass(frozen=True)
@@ -312,8 +319,31 @@ def _xp_sum(v):
 
 
 def _hurwitz_or_raise(As, what: str = "vertex") -> None:
-    """`InfeasibleError` if some ``A_j`` has an eigenvalue with Re >= 0."""
+    """`InfeasibleError` if some ``A_j`` is provably not Hurwitz.
+
+    Proofs: a zero row or column of ``A_j`` (a state with no dynamics, e.g.
+    an integrator: the eigenvalue 0 exactly), or an eigenvalue with real
+    part above rounding (``1e-9 ||A_j||``).
+    """
     for j, A in enumerate(As):
+        rows = np.flatnonzero(~A.any(axis=1))
+        cols = np.flatnonzero(~A.any(axis=0))
+        if rows.size or cols.size:
+            if rows.size:
+                why = (
+                    f"row {rows[0]} of A is zero (dx[{rows[0]}]/dt does not depend "
+                    "on the state: a pure integrator)"
+                )
+            else:
+                why = (
+                    f"column {cols[0]} of A is zero (x[{cols[0]}] acts on no state "
+                    "derivative, not even its own)"
+                )
+            raise InfeasibleError(
+                f"{what} {j}: {why}, so A has the eigenvalue 0 exactly: that mode "
+                "does not decay and no attractive invariant ellipsoid exists "
+                "(close a loop around it first)"
+            )
         scale = max(1.0, np.linalg.norm(A, 2))
         lam = np.linalg.eigvals(A)
         worst = lam[np.argmax(lam.real)]
@@ -325,13 +355,37 @@ def _hurwitz_or_raise(As, what: str = "vertex") -> None:
             )
 
 
+def _decay_margin_or_raise(At, a: float) -> float:
+    """The smallest decay rate ``min_j -max Re eig(A~_j)``, which must be > 0.
+
+    On the prescaled ``A~_j = A_j / a`` (up to a diagonal similarity). Past
+    `_hurwitz_or_raise` it can still be ``<= 0`` for an eigenvalue within
+    rounding of the imaginary axis: no rate can be certified then.
+    """
+    rates = [-np.linalg.eigvals(A).real.max() for A in At]
+    j = int(np.argmin(rates))
+    if not rates[j] > 0:
+        raise CertificationError(
+            f"ultimate_bound: vertex {j} has an eigenvalue with real part "
+            f"{-rates[j] * a:.3g} 1/s, on the imaginary axis up to rounding, so no "
+            "decay rate (and no ultimate bound) can be certified"
+        )
+    return float(rates[j])
+
+
 def _resolve_data(sys, w, output):
     """Vertex ``A_j``, ``E_j``, output ``C_j``, ``Dw_j`` and the output names."""
     from .systems import PolytopicStateSpace
 
     if isinstance(sys, StateSpace):
         if not sys.isctime():
-            raise ValueError("sys: only continuous-time systems are supported")
+            raise ValueError(
+                f"sys: discrete-time system (dt = {sys.dt!r}); ultimate_bound "
+                "certifies continuous-time systems only (dx/dt = A x + E w), the "
+                "discrete-time bound is not implemented: bound the continuous-time "
+                "model, or use synthesize with a Peak objective, which has a "
+                "discrete-time form"
+            )
         if isinstance(sys, PolytopicStateSpace):
             data = sys.vertex_data()
             inputs = sys.physical_inputs
@@ -544,11 +598,14 @@ def ultimate_bound(
     Raises
     ------
     InfeasibleError
-        If a vertex is not Hurwitz (no such ellipsoid exists).
+        If a vertex is not Hurwitz (no such ellipsoid exists), e.g. a zero
+        row or column of ``A`` (a state without dynamics: the eigenvalue 0).
     CertificationError
-        If no certified point was found for any rate tried.
+        If no certified point was found for any rate tried, or a vertex has
+        an eigenvalue on the imaginary axis up to rounding.
     ValueError, TypeError
-        For bad arguments (naming them).
+        For bad arguments (naming them), and a discrete-time `sys` (the
+        discrete-time bound is not implemented).
 
     Examples
     --------
@@ -560,13 +617,7 @@ def ultimate_bound(
     """
     As, Es, Cs, Ds, names = _resolve_data(sys, w, output)
     n, nw = As[0].shape[0], Es[0].shape[1]
-    wmax = (
-        np.broadcast_to(np.asarray(w_max, float), (nw,)).copy()
-        if np.ndim(w_max) == 0
-        else np.asarray(w_max, float).reshape(-1)
-    )
-    if wmax.shape != (nw,) or not np.all(np.isfinite(wmax)) or np.any(wmax <= 0):
-        raise ValueError(f"w_max: expected {nw} positive finite bounds, got {w_max!r}")
+    wmax = per_input(positive_levels(np.ravel(w_max), "w_max"), nw, "w_max", "inputs")
     for j in range(1, len(Cs)):
         if not (np.allclose(Cs[j], Cs[0]) and np.allclose(Ds[j], Ds[0])):
             raise ValueError(
@@ -578,16 +629,10 @@ def ultimate_bound(
     if weights is None:
         omega = np.ones(ny)
     else:
-        omega = np.asarray(weights, float).reshape(-1)
-        if omega.shape != (ny,) or not np.all(np.isfinite(omega)) or np.any(omega <= 0):
-            raise ValueError(
-                f"weights: expected {ny} positive weights, got {weights!r}"
-            )
-    if decay is not None and not (np.isfinite(decay) and decay > 0):
-        raise ValueError(f"decay: must be a positive number, got {decay}")
-    if not (np.isfinite(margin) and 0 < margin < 1):
-        raise ValueError(f"margin: must be in (0, 1), got {margin}")
-    _hurwitz_or_raise(As)
+        omega = per_input(positive_levels(weights, "weights"), ny, "weights", "outputs")
+    decay = real_number(decay, "decay", allow_none=True, positive=True)
+    margin = real_number(margin, "margin", positive=True, below=1.0)
+    _hurwitz_or_raise(As, "sys: vertex")
 
     # Prescaling: x = T x~, w = D w^ (|w^_i| <= 1), tau = a t.
     Ed = [E * wmax for E in Es]
@@ -599,7 +644,7 @@ def ultimate_bound(
     Ct = C * T
     row = np.einsum("ij,ij->i", Ct, Ct)
     keep = row > 0
-    sigma = min(-np.linalg.eigvals(A).real.max() for A in At)
+    sigma = _decay_margin_or_raise(At, a)
 
     lmi = LMIProblem(margin=margin)
     lmi.variable("W", (n, n), symmetric=True)

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import cvxpy as cp
 import numpy as np
 
+from ._checks import real_number
 from .lmi import normalized_max_eig
 
 __all__ = ["LMIRegion", "halfplane", "disk", "sector"]
@@ -130,7 +131,12 @@ def halfplane(decay: float) -> LMIRegion:
     Returns
     -------
     `LMIRegion`
-        The region, for the ``regions`` argument of the synthesis functions.
+        The region: pass it in ``constraints=[...]`` to `synthesize`, or in
+        ``regions=`` to `quadratic_stabilization`,
+        `gain_scheduled_stabilization`, `hinf_state_feedback`,
+        `gain_scheduled_hinf` and `h2_state_feedback`. Continuous time
+        only: an s-plane region is refused for a discrete-time plant
+        (use `disk` there).
 
     Examples
     --------
@@ -202,10 +208,5 @@ def sector(angle: float) -> LMIRegion:
 
 
 def _finite(value, name: str, positive: bool = True) -> float:
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise TypeError(f"{name}: expected a number, got {value!r}") from None
-    if not np.isfinite(value) or (positive and value < 0):
-        raise ValueError(f"{name}: expected a finite nonnegative number, got {value}")
-    return value
+    """A finite real number (nonnegative unless ``positive=False``)."""
+    return real_number(value, name, minimum=0.0 if positive else None)

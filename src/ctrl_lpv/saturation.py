@@ -69,9 +69,16 @@ import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
+from control import StateSpace
 from scipy.linalg import eigh
 
-from ._checks import as_matrix, signal_indices
+from ._checks import (
+    as_matrix,
+    per_input,
+    positive_levels,
+    real_number,
+    signal_indices,
+)
 from .budget import DEFAULT_TIME_LIMIT, time_budget
 from .exceptions import CertificationError, InfeasibleError, SynthesisError
 from .lmi import LMIProblem, SolveAttempt, default_solvers, solver_chain
@@ -88,6 +95,7 @@ from .reachability import (
     _xp_sum,
 )
 from .synthesis import StateFeedbackDesign
+from .synthesis.results import frozen_loop
 from .systems import PolytopicStateSpace
 
 __all__ = ["SaturatedDesign", "saturated_state_feedback", "saturation_region"]
@@ -159,6 +167,14 @@ class SaturatedDesign:
         False for an analysis (`saturation_region`) of a given gain.
     attempts : tuple of `ctrl_lpv.lmi.SolveAttempt`
         Solver attempts of the final solve.
+    T : ndarray or None
+        Diagonal multiplier of the sector condition (original units).
+    mu : ndarray or None
+        S-procedure multipliers of the disturbance bounds (empty without
+        ``w``).
+    shape, points : ndarray or None
+        The reference set of `beta`: ``R`` of ``{x'Rx <= 1}``, or the rows
+        ``v_k`` (one of them is None).
     """
 
     system: PolytopicStateSpace
@@ -180,6 +196,10 @@ class SaturatedDesign:
     capped: bool = False
     designed: bool = True
     attempts: tuple[SolveAttempt, ...] = field(default_factory=tuple)
+    T: np.ndarray | None = None
+    mu: np.ndarray | None = None
+    shape: np.ndarray | None = None
+    points: np.ndarray | None = None
 
     @property
     def scheduled(self) -> bool:
@@ -217,6 +237,52 @@ class SaturatedDesign:
             out.append(A - B[:, iu] @ K)
         return tuple(out)
 
+    def closed_loop(self, p) -> StateSpace:
+        """Frozen linear closed loop from `w` to the plant's outputs at `p`.
+
+        ``x' = (A - B_u K) x + B_w w``, ``y = (C - D_u K) x + D_w w``: the
+        loop while no input saturates (inside `ellipsoid` the saturated
+        loop is certified, not this one).
+
+        Parameters
+        ----------
+        p : array_like or mapping
+            Parameter value (for a simplex domain: the convex coordinates).
+
+        Returns
+        -------
+        `control.StateSpace`
+            Inputs named after `w`, outputs after the plant's outputs,
+            states after its states. Without `w` the inputs are the
+            control inputs, as an additive ``v`` in ``u = -K x + v``
+            (python-control has no system without inputs).
+        """
+        sys = self.system
+        iu = signal_indices(list(self.u), sys.physical_inputs, "u")
+        iw = signal_indices(list(self.w), sys.physical_inputs, "w")
+        return frozen_loop(sys, p, self.gain(p), iu, iw, [])
+
+    def save(self, path):
+        """Write the design and its plant to a JSON file (atomically).
+
+        `ctrl_lpv.load` reads it back and recomputes every float64 check
+        of `certificate` against the plant rebuilt from the file (see
+        `ctrl_lpv.persistence`).
+
+        Parameters
+        ----------
+        path : str or path-like
+            File to write; its folder must exist.
+
+        Returns
+        -------
+        `pathlib.Path`
+            The file written.
+        """
+        from .persistence import save
+
+        return save(self, path)
+
     def support(self, c) -> np.ndarray:
         """``max |c' x|`` over `ellipsoid`, per row of `c`."""
         return self.ellipsoid.support(c)
@@ -248,15 +314,9 @@ class SaturatedDesign:
 # Argument handling and prescaling
 # ----------------------------------------------------------------------
 def _positive_vector(value, size, name):
-    arr = np.asarray(value, float)
-    if arr.ndim == 0:
-        arr = np.full(size, float(arr))
-    arr = arr.reshape(-1)
-    if arr.shape != (size,) or not np.all(np.isfinite(arr)) or np.any(arr <= 0):
-        raise ValueError(
-            f"{name}: expected {size} positive finite values, got {value!r}"
-        )
-    return arr
+    """Positive levels, one per input (a single level for all)."""
+    levels = positive_levels(np.ravel(np.asarray(value, dtype=object)), name)
+    return per_input(levels, size, name, "inputs")
 
 
 def _region_target(shape, points, n):
@@ -505,7 +565,9 @@ def saturated_state_feedback(
     Parameters
     ----------
     sys : `PolytopicStateSpace`
-        Plant; all states are measured.
+        Continuous-time plant; all states are measured. A discrete-time
+        plant is refused (`ValueError`): the certificate's LMIs are
+        continuous-time ones.
     u : str, int or list
         Saturated control inputs.
     u_max : float or array_like
@@ -571,7 +633,8 @@ def saturated_state_feedback(
     CertificationError
         No returned point passed the float64 checks.
     ValueError, TypeError
-        For bad arguments.
+        For bad arguments, and for a discrete-time `sys` (the discrete-time
+        certificate is not implemented).
 
     Examples
     --------
@@ -581,12 +644,9 @@ def saturated_state_feedback(
     >>> 0.9 < d.beta < 1.0    # true region of attraction: |x| < 1
     True
     """
-    if gains not in ("common", "scheduled"):
+    if not isinstance(gains, str) or gains not in ("common", "scheduled"):
         raise ValueError(f"gains: expected 'common' or 'scheduled', got {gains!r}")
-    if backoff is not None and not (np.isfinite(backoff) and backoff >= 0):
-        raise ValueError(
-            f"backoff: must be None or a nonnegative number, got {backoff}"
-        )
+    backoff = real_number(backoff, "backoff", allow_none=True, minimum=0.0)
     from .stabilizability import check_stabilizability
 
     prob = _setup(
@@ -624,7 +684,8 @@ def saturation_region(
     Parameters
     ----------
     sys : `PolytopicStateSpace`
-        Plant.
+        Continuous-time plant (a discrete-time one is refused, as by
+        `saturated_state_feedback`).
     gain : array_like or sequence of array_like
         ``m x n`` gain of ``u = -K x``, or one per vertex (scheduled).
     u : str, int or list
@@ -691,7 +752,8 @@ def saturation_region(
     CertificationError
         No returned point passed the float64 checks.
     ValueError, TypeError
-        For bad arguments.
+        For bad arguments, and for a discrete-time `sys` (the discrete-time
+        certificate is not implemented).
     """
     prob = _setup(
         sys, u, u_max, shape, points, output, beta_min, decay, w, w_max, margin
@@ -723,6 +785,7 @@ def _setup(sys, u, u_max, shape, points, output, beta_min, decay, w, w_max, marg
             f"sys: expected a PolytopicStateSpace, got {type(sys).__name__}; wrap an "
             "LTI system as PolytopicStateSpace([sys])"
         )
+    _continuous_or_raise(sys)
     inputs = sys.physical_inputs
     if u is None:
         raise ValueError("u: name the saturated control input(s)")
@@ -741,10 +804,9 @@ def _setup(sys, u, u_max, shape, points, output, beta_min, decay, w, w_max, marg
         if w_max is not None:
             raise ValueError("w_max: given without w")
         wmax = np.zeros(0)
-    if not (np.isfinite(decay) and decay >= 0):
-        raise ValueError(f"decay: must be a nonnegative number, got {decay}")
-    if not (np.isfinite(margin) and 0 < margin < 1):
-        raise ValueError(f"margin: must be in (0, 1), got {margin}")
+    decay = real_number(decay, "decay", minimum=0.0)
+    margin = real_number(margin, "margin", positive=True, below=1.0)
+    beta_min = real_number(beta_min, "beta_min", allow_none=True, positive=True)
     n = sys.nstates
     R, V = _region_target(shape, points, n)
     data = sys.vertex_data()
@@ -755,8 +817,6 @@ def _setup(sys, u, u_max, shape, points, output, beta_min, decay, w, w_max, marg
     if beta_min is not None:
         if output is None:
             raise ValueError("beta_min: only with output (the region is maximised)")
-        if not (np.isfinite(beta_min) and beta_min > 0):
-            raise ValueError(f"beta_min: must be a positive number, got {beta_min}")
     if output is not None and not iw:
         raise ValueError(
             "output: minimising the size needs a disturbance w (without one the "
@@ -768,9 +828,28 @@ def _setup(sys, u, u_max, shape, points, output, beta_min, decay, w, w_max, marg
             raise ValueError(f"output: expected nonzero rows of {n} entries")
     scaled = _prescale(As, Bs, Es, umax, wmax, R, V, C=C, beta_min=beta_min)
     return dict(
-        sys=sys, iu=iu, iw=iw, umax=umax, wmax=wmax, decay=float(decay), R=R, V=V,
+        sys=sys, iu=iu, iw=iw, umax=umax, wmax=wmax, decay=decay, R=R, V=V,
         As=As, Bs=Bs, Es=Es, scaled=scaled, margin=margin, C=C,
     )  # fmt: skip
+
+
+def _continuous_or_raise(sys):
+    """Refuse a discrete-time plant: the LMIs here are continuous-time ones.
+
+    Certifying a sampled plant with them would be a wrong certificate (a
+    contractive ellipsoid of ``dx/dt = A x + B sat(u)`` says nothing about
+    ``x+ = A x + B sat(u)``).
+    """
+    if sys.isdtime(strict=True):
+        raise ValueError(
+            f"sys: discrete-time plant (dt = {sys.dt!r}); the saturation "
+            "certificate (region of attraction under saturation) is implemented "
+            "for continuous time only, the discrete-time one is not. Design on "
+            "the continuous-time model (saturated_state_feedback, or synthesize "
+            "with a Saturation constraint) and sample the controller afterwards "
+            "(check the sampled loop by simulation), or use synthesize on the "
+            "discrete-time plant for a linear design without the saturation region"
+        )
 
 
 class _Rescale(Exception):
@@ -957,77 +1036,15 @@ def _finish(prob, s, sol, lam_t, nK, K_fixed, beta_opt, sigma):
     Tm = a * np.diag(1.0 / (np.asarray(sol.s, float).reshape(-1) * U**2))
     has_w = bool(prob["iw"])
     lam = lam_t * a
-    c = 2 * sigma + lam
-    As, Bs, Es = prob["As"], prob["Bs"], prob["Es"]
-    wmax = prob["wmax"]
     mu = np.asarray(sol.mu, float).reshape(-1) * a if has_w else np.zeros(0)
-    m = len(U)
-    checks = [
-        _positive_check("P > 0", P),
-        EllipsoidCheck("T > 0", -float(np.min(np.diag(Tm))), 0.0),
-    ]
-    nw = len(wmax)
-
-    def M(j, k, ab=False):
-        # ab=True: the same expression in absolute values (rounding bound).
-        f = np.abs if ab else (lambda X: X)
-        sg = 1.0 if ab else -1.0
-        Pj, Bj, Kk, Gk = f(P), f(Bs[j]), f(Ks[k]), f(Gs[k])
-        Acl = (f(As[j]) + Bj @ Kk) if ab else (As[j] - Bs[j] @ Ks[k])
-        off = sg * (Pj @ Bj) + sg * (Gk.T @ Tm)
-        top = [Acl.T @ Pj + Pj @ Acl + c * Pj, off]
-        mid = [off.T, 2 * sg * Tm]
-        if not has_w:
-            return np.block([top, mid])
-        PE = Pj @ f(Es[j] * wmax)
-        return np.block(
-            [
-                top + [PE],
-                mid + [np.zeros((m, nw))],
-                [PE.T, np.zeros((nw, m)), sg * np.diag(mu)],
-            ]
-        )
-
-    N = len(As)
-    scheduled = nK > 1
-    for j, k in _pairs(N, scheduled):
-        if not scheduled:
-            checks.append(_strict_check(f"sector vertex {j}", M(j, 0), M(j, 0, True)))
-        elif j == k:
-            checks.append(_strict_check(f"sector pair {j},{j}", M(j, j), M(j, j, True)))
-        else:
-            checks.append(
-                _strict_check(
-                    f"sector pair {j},{k}",
-                    M(j, k) + M(k, j),
-                    M(j, k, True) + M(k, j, True),
-                )
-            )
-    for k in range(nK):
-        D = Ks[k] - Gs[k]
-        ratio = np.einsum("ij,jk,ik->i", D, W, D) / U**2
-        for i in range(m):
-            checks.append(
-                EllipsoidCheck(f"inclusion gain {k} input {i}", float(ratio[i]), 1.0)
-            )
-    rho = 0.0
-    if has_w:
-        rho = float(mu.sum() / c)
-        checks.append(EllipsoidCheck("mu >= 0", -float(mu.min()), 0.0))
-        checks.append(EllipsoidCheck("rho = sum(mu)/(2 sigma + lambda)", rho, 1.0))
-    # Stated region size, recomputed.
-    if prob["R"] is not None:
-        beta = float(1.0 / np.sqrt(eigh(P, prob["R"], eigvals_only=True)[-1]))
-    else:
-        V = prob["V"]
-        beta = float(1.0 / np.sqrt(np.einsum("ij,jk,ik->i", V, P, V).max()))
-    statement = (
-        "for every delta(t) in the polytope"
-        + (" and every |w_i(t)| <= w_max_i" if has_w else "")
-        + ": on {x'Px <= 1} the saturated closed loop satisfies "
-        + "d(x'Px)/dt <= -(2 sigma + lambda)(x'Px - rho)"
+    wmax = prob["wmax"]
+    checks, rho = sector_checks(
+        prob["As"], prob["Bs"], prob["Es"], wmax, U, P, W, Ks, Gs, Tm, mu, sigma, lam
     )
-    certificate = EllipsoidCertificate(tuple(checks), sol.checks, statement=statement)
+    beta = region_size(P, prob["R"], prob["V"])
+    certificate = EllipsoidCertificate(
+        tuple(checks), sol.checks, statement=sector_statement(has_w)
+    )
     if not certificate.verified:
         raise CertificationError(
             f"saturation: the returned point failed its float64 checks ({certificate})",
@@ -1055,4 +1072,94 @@ def _finish(prob, s, sol, lam_t, nK, K_fixed, beta_opt, sigma):
         capped=capped,
         designed=K_fixed is None,
         attempts=tuple(sol.attempts),
+        T=Tm,
+        mu=mu,
+        shape=prob["R"],
+        points=prob["V"],
+    )
+
+
+def sector_checks(As, Bs, Es, wmax, U, P, W, Ks, Gs, Tm, mu, sigma, lam):
+    """The float64 checks of a saturated design in original units.
+
+    Every vertex (common gain) or vertex pair (vertex gains) of the sector
+    inequality with ``P``, the gains ``Ks``, the auxiliary gains ``Gs``,
+    the diagonal multiplier ``Tm`` and (with disturbances ``Es``) the
+    S-procedure multipliers ``mu``; the inclusions of ``{x'Px <= 1}`` in
+    the sector regions; ``mu >= 0`` and ``rho < 1``. Returns the checks and
+    the ultimate level ``rho = sum(mu) / (2 sigma + lam)``.
+    """
+    has_w = len(Es) > 0
+    c = 2 * sigma + lam
+    m, nw = len(U), len(wmax)
+    checks = [
+        _positive_check("P > 0", P),
+        EllipsoidCheck("T > 0", -float(np.min(np.diag(Tm))), 0.0),
+    ]
+
+    def M(j, k, ab=False):
+        # ab=True: the same expression in absolute values (rounding bound).
+        f = np.abs if ab else (lambda X: X)
+        sg = 1.0 if ab else -1.0
+        Pj, Bj, Kk, Gk = f(P), f(Bs[j]), f(Ks[k]), f(Gs[k])
+        Acl = (f(As[j]) + Bj @ Kk) if ab else (As[j] - Bs[j] @ Ks[k])
+        off = sg * (Pj @ Bj) + sg * (Gk.T @ Tm)
+        top = [Acl.T @ Pj + Pj @ Acl + c * Pj, off]
+        mid = [off.T, 2 * sg * Tm]
+        if not has_w:
+            return np.block([top, mid])
+        PE = Pj @ f(Es[j] * wmax)
+        return np.block(
+            [
+                top + [PE],
+                mid + [np.zeros((m, nw))],
+                [PE.T, np.zeros((nw, m)), sg * np.diag(mu)],
+            ]
+        )
+
+    nK = len(Ks)
+    scheduled = nK > 1
+    for j, k in _pairs(len(As), scheduled):
+        if not scheduled:
+            checks.append(_strict_check(f"sector vertex {j}", M(j, 0), M(j, 0, True)))
+        elif j == k:
+            checks.append(_strict_check(f"sector pair {j},{j}", M(j, j), M(j, j, True)))
+        else:
+            checks.append(
+                _strict_check(
+                    f"sector pair {j},{k}",
+                    M(j, k) + M(k, j),
+                    M(j, k, True) + M(k, j, True),
+                )
+            )
+    for k in range(nK):
+        D = Ks[k] - Gs[k]
+        ratio = np.einsum("ij,jk,ik->i", D, W, D) / U**2
+        for i in range(m):
+            checks.append(
+                EllipsoidCheck(f"inclusion gain {k} input {i}", float(ratio[i]), 1.0)
+            )
+    rho = 0.0
+    if has_w:
+        rho = float(mu.sum() / c)
+        checks.append(EllipsoidCheck("mu >= 0", -float(mu.min()), 0.0))
+        checks.append(EllipsoidCheck("rho = sum(mu)/(2 sigma + lambda)", rho, 1.0))
+    return checks, rho
+
+
+def region_size(P, R, V) -> float:
+    """Largest ``beta`` with ``beta * {x'Rx <= 1}`` (or every ``beta v_k``) in
+    ``{x'Px <= 1}``."""
+    if R is not None:
+        return float(1.0 / np.sqrt(eigh(P, R, eigvals_only=True)[-1]))
+    return float(1.0 / np.sqrt(np.einsum("ij,jk,ik->i", V, P, V).max()))
+
+
+def sector_statement(has_w: bool) -> str:
+    """What the checks of `sector_checks` prove, in words."""
+    return (
+        "for every delta(t) in the polytope"
+        + (" and every |w_i(t)| <= w_max_i" if has_w else "")
+        + ": on {x'Px <= 1} the saturated closed loop satisfies "
+        + "d(x'Px)/dt <= -(2 sigma + lambda)(x'Px - rho)"
     )

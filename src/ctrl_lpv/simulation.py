@@ -33,6 +33,7 @@ import numpy as np
 import scipy
 from scipy.integrate import ODEintWarning, odeint, solve_ivp
 
+from ._checks import flag, real_number
 from .interconnection import _FastMixin, plan
 
 __all__ = ["simulate", "SimulationError", "DivergenceError", "SimulationTimeout"]
@@ -266,7 +267,7 @@ def simulate(
     state_bound: float | None = 1e12,
     timeout: float | None = None,
 ) -> ct.TimeResponseData:
-    """Simulate an I/O system, faster than input_output_response.
+    """Simulate an I/O system, with tighter tolerances than python-control.
 
     Parameters
     ----------
@@ -345,11 +346,14 @@ def simulate(
     Raises
     ------
     TypeError
-        If `sys` is not a `control.NonlinearIOSystem`.
+        If `sys` is not a `control.NonlinearIOSystem`, or `rtol`, `atol`,
+        `method` or a flag has the wrong type (``rtol="1e-6"``,
+        ``transpose="no"``).
     ValueError
-        For an unknown `engine`, a discrete-time `sys` with the fast engine,
-        a time vector that is not increasing and finite, inputs or initial
-        state of the wrong size or not finite, or nonpositive tolerances.
+        For an unknown `engine` or `method`, a discrete-time `sys` with the
+        fast engine, a time vector that is not increasing and finite, inputs
+        or initial state of the wrong size or not finite, or nonpositive
+        tolerances.
     DivergenceError
         If a state exceeds `state_bound` or a signal is not finite (and
         `ignore_errors` is False); the message names the state and time.
@@ -377,13 +381,16 @@ def simulate(
         raise TypeError(
             f"sys: expected a control.NonlinearIOSystem, got {type(sys).__name__}"
         )
-    if engine not in _ENGINES:
+    if not isinstance(engine, str) or engine not in _ENGINES:
         raise ValueError(f"engine: expected one of {_ENGINES}, got {engine!r}")
-    for label, value in (("rtol", rtol), ("atol", atol)):
-        if not (isinstance(value, (int, float)) and 0.0 < value < math.inf):
-            raise ValueError(f"{label}: must be a positive number, got {value!r}")
-    if not isinstance(method, str):
-        raise TypeError(f"method: expected a solve_ivp method name, got {method!r}")
+    rtol = real_number(rtol, "rtol", positive=True)
+    atol = real_number(atol, "atol", positive=True)
+    method = _ode_method(method)
+    return_states = flag(return_states, "return_states")
+    transpose = flag(transpose, "transpose")
+    ignore_errors = flag(ignore_errors, "ignore_errors")
+    if squeeze is not None:
+        squeeze = flag(squeeze, "squeeze")
     start = time.perf_counter()
     for label, value in (("state_bound", state_bound), ("timeout", timeout)):
         if value is not None and not (
@@ -456,6 +463,29 @@ def simulate(
         return_x=return_states, squeeze=squeeze, success=success,
         message=message,
     )  # fmt: skip
+
+
+def _ode_method(method) -> str:
+    """`method` checked against `scipy.integrate`'s ODE solver classes.
+
+    `solve_ivp` takes the name of any `scipy.integrate.OdeSolver` subclass
+    it exports (``"RK45"``, ``"LSODA"``, ...): checked here, before the
+    simulation is set up, so the message names the argument.
+    """
+    names = sorted(
+        name
+        for name, obj in vars(scipy.integrate).items()
+        if isinstance(obj, type)
+        and issubclass(obj, scipy.integrate.OdeSolver)
+        and obj is not scipy.integrate.OdeSolver
+    )
+    if not isinstance(method, str):
+        raise TypeError(f"method: expected a solve_ivp method name, got {method!r}")
+    if method not in names:
+        raise ValueError(
+            f"method: unknown solve_ivp method {method!r}; use one of {names}"
+        )
+    return method
 
 
 def _before(exc, T, integrate):

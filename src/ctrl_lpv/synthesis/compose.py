@@ -66,15 +66,19 @@ def synthesize(
         True); all states are measured.
     u : str, int or list
         Control inputs.
-    objective : `Hinf` or `H2`, optional
+    objective : `Hinf`, `H2` or `Peak`, optional
         The bound to minimise (``bound=None``) or to meet (a given
         ``bound``); None asks for stability alone (Hurwitz or Schur).
+        `Peak` bounds ``|z(t)|`` for every ``w`` with ``|w_i(t)| <=
+        w_max_i`` from inside an invariant ellipsoid (the design's ``P``).
     constraints : spec or sequence of specs, optional
-        `Hinf` and `H2` specs with a ``bound`` (mixed objectives), pole
-        regions (`halfplane`, `disk`, `sector`; in discrete time only
-        disks inside the unit circle, in the z-plane), at most one
+        `Hinf`, `H2` and `Peak` specs with a ``bound`` (mixed objectives;
+        at most one `Peak` in all), pole regions (`halfplane`, `disk`,
+        `sector`: here, not in a ``regions`` argument; in discrete time
+        only disks inside the unit circle, in the z-plane), at most one
         `GainBound` and at most one `Saturation` (continuous time: a region
-        of attraction under input saturation containing given states).
+        of attraction under input saturation containing given states; with
+        `Peak`, invariant under the bounded disturbances).
     gains : {"common", "scheduled"}, optional
         One gain for the whole polytope, or one per vertex scheduled with
         the parameter (default "common").
@@ -114,8 +118,8 @@ def synthesize(
     `StateFeedbackDesign`
         ``.gamma`` the certified bound of the objective (None without one),
         ``.gamma_opt`` the raw optimum, ``.bounds`` the certified bound of
-        every `Hinf` and `H2` spec (for a `Saturation` spec with points, the
-        largest ``x0' P x0``, below 1).
+        every `Hinf`, `H2` and `Peak` spec (for a `Saturation` spec with
+        points, the largest ``x0' P x0``, below 1).
 
     Raises
     ------
@@ -218,10 +222,15 @@ def synthesize(
     else:
         suspects = ()
     method = _describe(objective, performance, scheduled, lyapunov, continuous)
-    return run_general(
+    design = run_general(
         sys, iu, specs, channels, objective, constraints, scheduled, lyap,
         continuous, backoff, margin, chain, time_limit, method, suspects,
     )  # fmt: skip
+    if lyap.constant:
+        return design
+    # The certificate holds for these rates only: kept for `save`/`load`.
+    finite = {k: float(v) for k, v in rate_bounds.items() if float(v) != np.inf}
+    return dataclasses.replace(design, rate_bounds=finite)
 
 
 def _split_constraints(constraints):

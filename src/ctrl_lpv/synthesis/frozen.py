@@ -23,7 +23,16 @@ _VERIFY_SAMPLES = 64
 
 def _points(job):
     """Convex coordinates (and box points) of the verification points."""
-    sys, N = job.sys, job.sys.nvertices
+    return verification_points(job.sys)
+
+
+def verification_points(sys):
+    """``(delta, p)`` pairs: the vertices, seeded samples and the centre.
+
+    ``p`` is the box point (None on a simplex or polytope domain, whose
+    points are given by their convex coordinates ``delta``).
+    """
+    N = sys.nvertices
     rng = np.random.default_rng(12345)
     domain = sys.domain
     if hasattr(domain, "lower") and N > 1:

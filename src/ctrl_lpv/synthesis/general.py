@@ -43,13 +43,15 @@ from .ladder import (
     STABILIZE_Z_MAX,
     back_off,
     gain_tangent,
+    meets_lmis,
+    reached_optimum,
     solve_stage,
 )
 from .options import guard_estimate
 from .parametric import coefficient_count, coefficients
 from .problem import EPSILONS, build_problem
 from .results import Certificate, StateFeedbackDesign
-from .scaling import Scaling, channel_scales, pow2
+from .scaling import Scaling, channel_scales, pow2, riccati_scaling
 from .specs import H2, Peak
 
 # Bounds W <= w_max I (scaled units) tried in turn for a given bound.
@@ -77,32 +79,44 @@ def run_general(
             vertex[(i, "Dzu")] = D[np.ix_(iz, iu)]
         original.append(vertex)
     for i, spec in enumerate(specs):
-        spec.check_data([{"Dzw": v[(i, "Dzw")]} for v in original], continuous)
+        iw, _, iz = channels[i]  # names for the messages
+        w_names = [sys.physical_inputs[k] for k in iw]
+        z_names = [sys.output_labels[k] for k in iz]
+        spec.check_data(
+            [{"Dzw": v[(i, "Dzw")], "w": w_names, "z": z_names} for v in original],
+            continuous,
+        )
     _guard(sys, original, specs, constraints, lyap, time_limit)
     record, attempts = [], []
-    # The first solver in every rung, the slower ones once after it (first
-    # prescaling, nominal margin), as in the paper's ladder: SCS to 1e-9
-    # takes seconds where Clarabel takes milliseconds, and an SCS fallback
-    # in every stage of every rung made a refusal take minutes (a discrete
-    # design in disk(1e-3): 183 s, 80 SCS attempts, none certified). The
-    # decay search of a Peak spec chooses its solvers itself.
-    solvers = list(chain or default_solvers())
-    peak = any(isinstance(spec, Peak) for spec in specs)
-    first = solvers if peak else solvers[:1]
-    rungs = [(name, f, first) for name in ("balanced", "none")
-             for f in MARGIN_FACTORS]  # fmt: skip
-    if not peak:
-        rungs += [("balanced", MARGIN_FACTORS[0], [one]) for one in solvers[1:]]
-    for name, factor, rung_solvers in rungs:
-        rung = f"{rung_solvers[0][0]}, {name} scaling, margin {margin * factor:g}"
+    scalings = _prescalings(original, specs, continuous)
+    # The first solver climbs every rung; the slower ones after it get the
+    # first prescaling at the nominal margin only (SCS to 1e-9 takes
+    # seconds where Clarabel takes milliseconds, and rarely certifies what
+    # Clarabel could not).
+    solvers = [[entry] for entry in (chain or default_solvers())]
+    rungs = [
+        (solvers[0], name, base, f) for name, base in scalings for f in MARGIN_FACTORS
+    ]
+    rungs += [(one, *scalings[0], MARGIN_FACTORS[0]) for one in solvers[1:]]
+    # A design whose optimum did not certify may sit far above it (its
+    # back-off starts from an estimate the solver could not meet): the
+    # other prescalings at the nominal margin are asked for one that
+    # certifies; if none does, the first design stands.
+    fallback = None
+    for one_solver, name, base, factor in rungs:
+        rung = f"{one_solver[0][0]}, {name} scaling, margin {margin * factor:g}"
+        if fallback is not None and (
+            one_solver is not solvers[0] or factor != MARGIN_FACTORS[0]
+        ):
+            continue
         if deadline is not None and time.perf_counter() > deadline:
             record.append(f"{rung}: not tried (time_limit reached)")
             continue
         budget.progress("rung %s", rung, rung=rung)
         job = _Job(
             sys, original, specs, objective, constraints, scheduled, lyap,
-            continuous, name == "balanced", backoff, margin * factor,
-            rung_solvers, deadline, attempts,
+            continuous, base, backoff, margin * factor, one_solver, deadline,
+            attempts,
         )  # fmt: skip
         try:
             found = job.run()
@@ -111,7 +125,21 @@ def run_general(
         record.extend(f"{rung}: {note}" for note in job.notes)
         if found is None:
             continue
-        point, gamma_opt = found
+        if fallback is not None and found[0].values[0] >= fallback[0].values[0]:
+            continue
+        fallback = found
+        if job.optimum_certified:
+            break
+        record.append(
+            f"{rung}: a design, but its optimum did not certify; other "
+            "prescalings asked for a certified one"
+        )
+    if fallback is not None:
+        point, gamma_opt = fallback
+        if objective is not None and objective.bound is None:
+            # An estimate from above (see `meets_lmis`), never above what
+            # is certified.
+            gamma_opt = min(gamma_opt or np.inf, point.values[0])
         labels = sys.physical_inputs
         iw, _, iz = channels[0] if specs else ((), (), ())
         return StateFeedbackDesign(
@@ -139,8 +167,8 @@ def run_general(
     reasons = budget.digest("; ".join(note.split(": ", 1)[-1] for note in record))
     raise CertificationError(
         f"{method}: no certified solution found after {len(rungs)} rungs "
-        f"(solvers {[one for one, _ in solvers]}, prescalings balanced and none, "
-        "margins "
+        f"(solvers {[one[0][0] for one in solvers]}, prescalings "
+        f"{[name for name, _ in scalings]}, margins "
         f"{[margin * f for f in MARGIN_FACTORS]}); what failed: {reasons}{hint}",
         attempts,
     )
@@ -164,6 +192,29 @@ def _guard(sys, original, specs, constraints, lyap, time_limit) -> None:
     )  # fmt: skip
     largest = max([2 * n + channels] + [r.M.shape[0] * n for r in regions])
     guard_estimate(nlmis, nlmis * largest**2, largest, time_limit)
+
+
+def _prescalings(original, specs, continuous):
+    """``(name, Scaling)`` tried in turn: balanced, Riccati, none.
+
+    The first performance channel shapes them (none: stability alone).
+    """
+    first = [
+        (v["A"], v[(0, "Bw")], v["B2"], v[(0, "Cz")], v[(0, "Dzw")], v[(0, "Dzu")])
+        if specs
+        else (v["A"], v["B2"][:, :0], v["B2"], v["A"][:0], np.zeros((0, 0)),
+              np.zeros((0, v["B2"].shape[1])))
+        for v in original
+    ]  # fmt: skip
+    balanced = Scaling.of(first, balance=True, time_scaling=continuous)
+    out = [("balanced", balanced)]
+    if first[0][2].shape[1]:
+        shaped = riccati_scaling(first, balanced, continuous)
+        if shaped is not None:
+            out.append(("Riccati", shaped))
+    n, m = first[0][2].shape
+    out.append(("none", Scaling(np.ones(n), np.ones(m), 1.0, 1.0, balanced.a)))
+    return out
 
 
 def _saturation(constraints):
@@ -192,7 +243,7 @@ class _Job:
 
     def __init__(
         self, sys, original, specs, objective, constraints, scheduled, lyap,
-        continuous, balance, backoff, margin, chain, deadline, attempts,
+        continuous, base, backoff, margin, chain, deadline, attempts,
     ):  # fmt: skip
         self.sys = sys
         self.constraints = constraints
@@ -212,23 +263,9 @@ class _Job:
         self.deadline = deadline
         self.attempts = attempts
         self.notes: list[str] = []
-        first = [
-            (v["A"], v[(0, "Bw")], v["B2"], v[(0, "Cz")], v[(0, "Dzw")], v[(0, "Dzu")])
-            if specs
-            else (
-                v["A"],
-                v["B2"][:, :0],
-                v["B2"],
-                v["A"][:0],
-                np.zeros((0, 0)),
-                np.zeros((0, v["B2"].shape[1])),
-            )  # fmt: skip
-            for v in original
-        ]
-        base = Scaling.of(first, balance=balance, time_scaling=continuous)
-        if not balance:
-            n, m = first[0][0].shape[0], first[0][2].shape[1]
-            base = Scaling(np.ones(n), np.ones(m), 1.0, 1.0, base.a)
+        # Whether the optimum's estimate comes from a point that certified
+        # (True where there is no estimate to doubt).
+        self.optimum_certified = True
         self.scaling = base
         self.channel = []
         for i in range(len(specs)):
@@ -335,26 +372,30 @@ class _Job:
                 break
         return None if best is None else self._gain_stage(best, None)
 
-    def _optimal(self):
+    def _solve_optimal(self):
+        """The optimal stage's point and its squared bound, or ``(None, 0)``."""
         raw = self.solve("optimal", lambda v: v.g0[0, 0], certify=False)
         if raw is None:
-            return None
+            return None, 0.0
         g_opt = float((raw.nominal or raw).g0[0, 0])
         if not (np.isfinite(g_opt) and g_opt > 0):
             self.notes.append(
                 f"optimal: the solver's bound^2 = {g_opt:g} is not positive"
             )
-            return None
-        if g_opt > 4:
+            return None, 0.0
+        return raw, g_opt
+
+    def _optimal(self):
+        raw, g_opt = self._solve_optimal()
+        if raw is not None and g_opt > 4:
             # Pose the later stages with a bound of order one (see the ladder
             # of the paper's functions) by a power-of-two channel scaling:
             # of z, whose block the bound sits on.
             self.channel[0][1] *= pow2(np.sqrt(g_opt))
             self.lmi = build_problem(self)
-            raw = self.solve("optimal", lambda v: v.g0[0, 0], certify=False)
-            if raw is None:
-                return None
-            g_opt = float((raw.nominal or raw).g0[0, 0])
+            raw, g_opt = self._solve_optimal()
+        if raw is None:
+            return None
         # The optimum re-estimated with a margin far below the data's scale:
         # an absolute margin that is not small against the optimal W shifts
         # it (measured: 0.6 % on a discrete-time H2 problem at 1e-6, 5e-7
@@ -367,8 +408,16 @@ class _Job:
             g_est = float((estimate.nominal or estimate).g0[0, 0])
             if np.isfinite(g_est) and 0 < g_est < g_opt:
                 g_opt = g_est
-        gamma_opt = float(np.sqrt(g_opt * self._to_model(0)))
+        # What is reported comes from points that meet the LMIs; g_opt,
+        # the solver's word, only sets where the back-off starts.
+        met = [p for p in (raw.nominal, raw, estimate, estimate and estimate.nominal)
+               if meets_lmis(p)]  # fmt: skip
+        gamma_opt = min(
+            (float(np.sqrt(float(p.g0[0, 0]) * self._to_model(0))) for p in met),
+            default=None,
+        )
         raw_design = self.accept(raw, "raw optimum")
+        self.optimum_certified = raw_design is not None and reached_optimum(raw)
         if not self.backoff:
             if raw_design is not None:
                 return self._gain_stage(raw_design, gamma_opt)
@@ -434,7 +483,7 @@ class _Job:
         if not self.lyap.constant and Zs and not self.slack:
             factor = sc.w_factor
             rational = (
-                tuple(factor * (sc.Su[:, None] * Z * sc.T) for Z in Zs),
+                tuple(factor * (sc.Su[:, None] * (Z @ sc.matrix.T)) for Z in Zs),
                 tuple(sc.unscale_W(Ws[self.lyap.index[j]]) for j in range(nZ)),
             )
         certificate, level = verify_frozen(self, sol, gains, values, Ws, Zs)

@@ -33,17 +33,17 @@ def _rho(job):
 
 
 def _scaled_data(job):
-    T, Su, a = job.scaling.T, job.scaling.Su, job.scaling.a
-    Ti = 1.0 / T
+    sc = job.scaling
+    T, Ti = sc.matrix, np.linalg.inv(sc.matrix)
+    if sc.T.ndim == 1:
+        Ti = np.diag(1.0 / sc.T)  # exact: powers of two
+    Su, a = sc.Su, sc.a
     out = []
     for v in job.original:
-        d = {
-            "A": Ti[:, None] * v["A"] * T / a,
-            "B2": Ti[:, None] * v["B2"] * Su / a,
-        }
+        d = {"A": Ti @ v["A"] @ T / a, "B2": Ti @ v["B2"] * Su / a}
         for i, (sw, sz) in enumerate(job.channel):
-            d[(i, "Bw")] = Ti[:, None] * v[(i, "Bw")] * sw / a
-            d[(i, "Cz")] = v[(i, "Cz")] * T / sz
+            d[(i, "Bw")] = Ti @ v[(i, "Bw")] * sw / a
+            d[(i, "Cz")] = v[(i, "Cz")] @ T / sz
             d[(i, "Dzw")] = v[(i, "Dzw")] * sw / sz
             d[(i, "Dzu")] = v[(i, "Dzu")] * Su / sz
         out.append(d)
@@ -161,7 +161,7 @@ def build_problem(job) -> LMIProblem:
             [-v.z_max * np.eye(n)], [getattr(v, f"Z{k}"), -np.eye(m)]],
             strict=False, stages=("stabilize",), normalization=True)  # fmt: skip
     if job.gain_bound is not None:
-        T, Su = np.diag(job.scaling.T), np.diag(job.scaling.Su)
+        T, Su = job.scaling.matrix, np.diag(job.scaling.Su)
         lmi.parameter("gain_Ginv", (n, n), value=np.eye(n))
         lmi.parameter("gain_Ginv_K", (n, n), value=np.eye(n))
         lmi.parameter("kappa_max", nonneg=True, value=1.0)

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
+from control import StateSpace
 
 from ..lmi import LMICheck, SolveAttempt
 from ..regions import LMIRegion
@@ -78,6 +80,33 @@ class Certificate:
         )
 
 
+def frozen_loop(system, p, K, iu, iw, iz) -> StateSpace:
+    """Named frozen loop ``u = -K x`` of `system` at `p`, from `iw` to `iz`.
+
+    Without `iw` the inputs are the control inputs (an additive ``v`` in
+    ``u = -K x + v``), without `iz` the outputs are all the outputs
+    (python-control has no state-space system without inputs).
+    """
+    frozen = system.at(p)
+    if not iw:
+        iw = iu
+    if not iz:
+        iz = list(range(system.noutputs))
+    inputs = system.physical_inputs
+    return StateSpace(
+        frozen.A - frozen.B[:, iu] @ K,
+        frozen.B[:, iw],
+        frozen.C[iz] - frozen.D[np.ix_(iz, iu)] @ K,
+        frozen.D[np.ix_(iz, iw)],
+        inputs=[inputs[i] for i in iw],
+        outputs=[system.output_labels[i] for i in iz],
+        states=list(system.state_labels),
+        name=f"{system.name}_closed_loop",
+        dt=system.dt,
+        remove_useless_states=False,
+    )
+
+
 @dataclass(frozen=True)
 class StateFeedbackDesign:
     """A certified state-feedback design for a polytopic system.
@@ -132,6 +161,10 @@ class StateFeedbackDesign:
         For a scheduled gain with an affine Lyapunov function, the vertex
         matrices ``(Z_j, W_j)`` (model units) of ``K(p) = -Z(p) W(p)^-1``;
         None when the gain is affine in the convex coordinates.
+    rate_bounds : dict or None
+        For ``lyapunov="affine"``: the parameter rate bounds ``{name: nu}``
+        the certificate holds for (a parameter not listed may vary
+        arbitrarily fast); None for a constant Lyapunov matrix.
     """
 
     system: PolytopicStateSpace
@@ -152,6 +185,7 @@ class StateFeedbackDesign:
     lyapunov: str = "constant"
     bounds: dict = field(default_factory=dict)
     rational: tuple | None = None
+    rate_bounds: dict | None = None
 
     @property
     def scheduled(self) -> bool:
@@ -180,7 +214,12 @@ class StateFeedbackDesign:
             return self.gains[0].copy()
         if p is None:
             raise ValueError("p: a scheduled design needs the parameter value")
-        delta = self.system.weights(p)
+        return self.gain_at(self.system.weights(p))
+
+    def gain_at(self, delta) -> np.ndarray:
+        """Gain at convex coordinates `delta` (shape ``(N,)``) of the vertices."""
+        if not self.scheduled:
+            return self.gains[0].copy()
         if self.rational is not None:
             Z, W = (np.tensordot(delta, np.stack(M), axes=1) for M in self.rational)
             return -np.linalg.solve(W.T, Z.T).T
@@ -203,19 +242,72 @@ class StateFeedbackDesign:
             return self.P.copy()
         if p is None:
             raise ValueError("p: an affine Lyapunov function needs the parameter value")
-        delta = self.system.weights(p)
+        return self.lyapunov_at(self.system.weights(p))
+
+    def lyapunov_at(self, delta) -> np.ndarray:
+        """``P`` at convex coordinates `delta`: ``(sum_j delta_j P_j^-1)^-1``."""
+        if self.lyapunov == "constant":
+            return self.P.copy()
         W = sum(d * np.linalg.inv(Pj) for d, Pj in zip(delta, self.P))
         P = np.linalg.inv(W)
         return 0.5 * (P + P.T)
 
-    def closed_loop(self, p) -> tuple[np.ndarray, ...]:
-        """Closed-loop ``(A, B_w, C_z, D_zw)`` matrices at `p`."""
-        frozen = self.system.at(p)
+    def closed_loop(self, p) -> StateSpace:
+        """Frozen closed loop from `w` to `z` at parameter value `p`.
+
+        ``x' = (A - B_u K) x + B_w w``, ``z = (C_z - D_zu K) x + D_zw w``
+        with the plant's matrices and the gain ``K(p)`` at `p`.
+
+        Parameters
+        ----------
+        p : array_like or mapping
+            Parameter value (for a simplex domain: the convex coordinates).
+
+        Returns
+        -------
+        `control.StateSpace`
+            Inputs named after `w`, outputs after `z`, states after the
+            plant's states; the plant's timebase ``dt``. Its matrices are
+            ``ct.ssdata(design.closed_loop(p))``. A design without `w` and
+            `z` (stabilization) has no such channel, and python-control no
+            system without inputs: its loop is then from an additive input
+            ``v`` at the control inputs, ``u = -K x + v`` (named after
+            `u`), to every plant output.
+        """
         iw, iu, iz = channel_indices(self.system, self.w, self.u, self.z)
-        K = self.gain(p)
-        A = frozen.A - frozen.B[:, iu] @ K
-        C = frozen.C[iz] - frozen.D[np.ix_(iz, iu)] @ K
-        return A, frozen.B[:, iw], C, frozen.D[np.ix_(iz, iw)]
+        return frozen_loop(self.system, p, self.gain(p), iu, iw, iz)
+
+    def save(self, path) -> Path:
+        """Write the design and its plant to a JSON file (atomically).
+
+        `ctrl_lpv.load` reads it back, rebuilds the plant from the file and
+        re-checks the certificate in float64 (see
+        `ctrl_lpv.persistence` for the format).
+
+        Parameters
+        ----------
+        path : str or path-like
+            File to write; its folder must exist. An existing file is
+            replaced only once the new one is complete.
+
+        Returns
+        -------
+        `pathlib.Path`
+            The file written.
+
+        Raises
+        ------
+        TypeError
+            If `path` is not a str or path-like.
+        ValueError
+            If the folder does not exist, or the design holds a
+            specification whose multipliers are not kept in the design
+            (`ctrl_lpv.Peak`, `ctrl_lpv.Saturation`), so that its claim
+            could not be re-checked on load.
+        """
+        from ..persistence import save
+
+        return save(self, path)
 
     def controller(self, *args, **kwargs):
         """State-feedback controller ``u = -K x`` as a python-control I/O system.

@@ -12,7 +12,13 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import matrix_balance, solve_continuous_are, solve_continuous_lyapunov
+from scipy.linalg import (
+    matrix_balance,
+    solve_continuous_are,
+    solve_continuous_lyapunov,
+    solve_discrete_are,
+    solve_discrete_lyapunov,
+)
 
 from .channels import spectral_norm
 
@@ -23,11 +29,15 @@ def pow2(x: float) -> float:
 
 
 def channel_scales(vertices, T, Su, a) -> tuple[float, float]:
-    """Powers of two ``(sw, sz)`` that normalise a channel's ``B1`` and ``C, D``."""
-    nb1 = max(spectral_norm(v[1] / T[:, None]) for v in vertices)
+    """Powers of two ``(sw, sz)`` that normalise a channel's ``B1`` and ``C, D``.
+
+    `T` is the state scaling, a diagonal (1-D) or a full matrix.
+    """
+    T = np.diag(T) if T.ndim == 1 else T
+    nb1 = max(spectral_norm(np.linalg.solve(T, v[1])) for v in vertices)
     sw = pow2(a / nb1) if nb1 > 0 else 1.0
     nz = max(
-        spectral_norm(np.hstack([v[3] * T, v[4] * sw, v[5] * Su])) for v in vertices
+        spectral_norm(np.hstack([v[3] @ T, v[4] * sw, v[5] * Su])) for v in vertices
     )
     sz = pow2(nz) if nz > 0 else 1.0
     return sw, sz
@@ -145,7 +155,7 @@ class Scaling:
         )
 
 
-def riccati_scaling(original, base: Scaling) -> Scaling | None:
+def riccati_scaling(original, base: Scaling, continuous: bool = True) -> Scaling | None:
     """`base` followed by coordinates from a Riccati solution at the centre.
 
     ``X`` is the stabilizing solution of the centre vertex's LQR equation
@@ -157,8 +167,10 @@ def riccati_scaling(original, base: Scaling) -> Scaling | None:
     there for the centre and its neighbours. This is what a diagonal
     scaling cannot give when modes are weakly controllable along a
     direction that is not a coordinate axis (the minimum-gamma point of
-    such a problem missed its LMIs by 1e-2 in balanced coordinates). None
-    when the Riccati equation has no usable solution.
+    such a problem missed its LMIs by 1e-2 in balanced coordinates; an H2
+    optimum, whose ``W`` is about that Gramian, by far more). With
+    `continuous` False the discrete-time equations are used. None when the
+    Riccati equation has no usable solution.
     """
     data = [base.apply(v) for v in original]
     A, B1, B2, C, _, D2 = (sum(v[i] for v in data) / len(data) for i in range(6))
@@ -172,11 +184,20 @@ def riccati_scaling(original, base: Scaling) -> Scaling | None:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            X = solve_continuous_are(A, B2, Q, R, s=S)
+            if continuous:
+                X = solve_continuous_are(A, B2, Q, R, s=S)
+                K = np.linalg.solve(R, B2.T @ X + S.T)
+            else:
+                X = solve_discrete_are(A, B2, Q, R, s=S)
+                K = np.linalg.solve(R + B2.T @ X @ B2, B2.T @ X @ A + S.T)
             W0 = np.linalg.inv(0.5 * (X + X.T))
             if B1.size:
-                K = np.linalg.solve(R, B2.T @ X + S.T)
-                W0 = W0 + solve_continuous_lyapunov(A - B2 @ K, -B1 @ B1.T)
+                Acl, BB = A - B2 @ K, B1 @ B1.T
+                W0 = W0 + (
+                    solve_continuous_lyapunov(Acl, -BB)
+                    if continuous
+                    else solve_discrete_lyapunov(Acl, BB)
+                )
     except (ValueError, np.linalg.LinAlgError):
         return None
     if not np.all(np.isfinite(W0)):
@@ -186,7 +207,9 @@ def riccati_scaling(original, base: Scaling) -> Scaling | None:
         return None
     shape = Scaling(V * np.sqrt(e), np.ones(m), 1.0, 1.0, 1.0)
     shaped = [shape.apply(v) for v in data]
-    return base.then(shape).then(Scaling.of(shaped, balance=False))
+    return base.then(shape).then(
+        Scaling.of(shaped, balance=False, time_scaling=continuous)
+    )
 
 
 def prescalings(original):

@@ -47,23 +47,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._checks import real_number
+from .._checks import per_input, positive_levels, real_number, signal_selection
 from ..lmi import normalized_max_eig
-
-
-def _channel(value, name):
-    """A signal selection as a hashable tuple (None stays None)."""
-    if value is None:
-        return None
-    if isinstance(value, (str, int, np.integer)):
-        return (value,)
-    try:
-        return tuple(value)
-    except TypeError:
-        raise TypeError(
-            f"{name}: expected a signal name, an index or a sequence of them, got "
-            f"{value!r}"
-        ) from None
 
 
 @dataclass(frozen=True)
@@ -73,8 +58,8 @@ class _Performance:
     bound: float | None = None
 
     def __post_init__(self):
-        object.__setattr__(self, "w", _channel(self.w, "w"))
-        object.__setattr__(self, "z", _channel(self.z, "z"))
+        object.__setattr__(self, "w", signal_selection(self.w, "w"))
+        object.__setattr__(self, "z", signal_selection(self.z, "z"))
         bound = real_number(
             self.bound, "bound", allow_none=True, positive=True, below=1e150
         )
@@ -181,11 +166,18 @@ class H2(_Performance):
     """
 
     def check_data(self, channels, continuous) -> None:
-        if continuous and any(np.any(d["Dzw"] != 0) for d in channels):
-            raise ValueError(
-                f"{self}: the feedthrough from w to z is not zero, so the "
-                "continuous-time H2 norm is infinite"
-            )
+        if not continuous:
+            return
+        for j, channel in enumerate(channels):
+            rows, cols = np.nonzero(channel["Dzw"])
+            if rows.size:
+                w, z = _pair_names(channel, rows[0], cols[0])
+                raise ValueError(
+                    f"{self}: the feedthrough from w {w} to z {z} is "
+                    f"{channel['Dzw'][rows[0], cols[0]]:.6g} at vertex {j} (not "
+                    "zero), so the continuous-time H2 norm is infinite; leave "
+                    f"{z} out of z (or {w} out of w), or use Hinf"
+                )
 
     def lmis(self, t, continuous):
         """The LMI blocks at one coefficient (see the module docstring)."""
@@ -354,6 +346,16 @@ class Peak(_Performance):
         return max(normalized_max_eig(M[None]), float(mu.sum() / lam - 1), peak)
 
 
+def _pair_names(channel, row, col) -> tuple[str, str]:
+    """The names (or positions) of input `col` of w and output `row` of z."""
+    w = channel.get("w")
+    z = channel.get("z")
+    return (
+        repr(w[col]) if w else f"number {col}",
+        repr(z[row]) if z else f"number {row}",
+    )
+
+
 def unit(m, i):
     """The ``m x m`` matrix with a one at ``(i, i)`` (builds diagonal
     multipliers from scalar variables, which cvxpy's ``diag`` would not keep
@@ -361,22 +363,6 @@ def unit(m, i):
     E = np.zeros((m, m))
     E[i, i] = 1.0
     return E
-
-
-def positive_levels(value, name) -> tuple:
-    """Positive levels (a number or a sequence of them) as a tuple."""
-    items = np.atleast_1d(np.asarray(value, dtype=object))
-    if items.ndim != 1 or items.size == 0:
-        raise ValueError(f"{name}: expected a level or a sequence, got {value!r}")
-    return tuple(real_number(x, name, positive=True, below=1e150) for x in items)
-
-
-def per_input(values, count, name, what) -> np.ndarray:
-    """One level per input: a single level is repeated `count` times."""
-    out = np.array(values * (count if len(values) == 1 else 1), float)
-    if out.size != count:
-        raise ValueError(f"{name}: {len(values)} levels for {count} {what}")
-    return out
 
 
 PERFORMANCE = (Hinf, H2, Peak)

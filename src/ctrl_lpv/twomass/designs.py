@@ -2,22 +2,47 @@
 
 `design` picks the channels of `lpv_model` for a formulation and runs
 Lemma 2 (one common gain) or Theorem 2 (vertex gains). `save_gains` writes
-the certified gains with everything needed to use and audit them as JSON;
-`load_gains` reads them back as a `GainFile`, from which `GainFile.controller`
-builds the same controller as `lpv_controller` would from the design.
+the certified gains as JSON together with the options of `lpv_model` they
+were certified for; `load_gains` rebuilds that model itself and re-checks
+the gains against it (never against matrices from the file), giving a
+`GainFile` from which `GainFile.controller` builds the same controller as
+`lpv_controller` would from the design.
+
+Gain file format ``"ctrl_lpv.twomass.gains/2"`` (a JSON object):
+``format``; ``sign`` (``"u = -K x"``, or ``"u = K x"`` for the paper's
+sign); ``states``; ``w``, ``u``, ``z`` (channels); ``p_vertices``
+(``[lower, upper]``, equal to ``model.p_bounds``); ``gains`` (one
+``m x n`` gain, or one per entry of ``p_vertices``); ``gamma`` (the claimed
+H-infinity bound from ``w`` to ``z``, or null); ``P`` (the Lyapunov
+matrix of the claim); ``model`` (``params``: every field of `Parameters`,
+``p_bounds``, ``formulation``, ``integral``, ``torque_weight``,
+``integral_weight``: the `lpv_model` call the loader makes); informative
+entries (``method``, ``gamma_opt``, ``backoff``, ``certificate``) and any
+extra metadata. A ``model_data`` entry (vertex matrices, written by format
+1) is ignored. Files of format ``/1`` are read when they have the
+``model`` entry (their drive data are the default `Parameters`, the only
+ones that format could load) and refused without it.
 """
 
 from __future__ import annotations
 
-import json
-import math
+import dataclasses
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ..synthesis import StateFeedbackDesign, gain_scheduled_hinf, hinf_state_feedback
+from .._design_files import _UNCHECKED
+from ..persistence import DocumentReader, as_path, read_json, same_plant, write_json
+from ..synthesis import (
+    Hinf,
+    StateFeedbackDesign,
+    gain_scheduled_hinf,
+    hinf_state_feedback,
+)
+from ..synthesis.recheck import recheck
+from ..synthesis.results import ORIGINAL_UNITS_TOL
 from .feedback import lpv_controller
 from .model import INTEGRAL_WEIGHT, TORQUE_WEIGHT, lpv_model
 from .parameters import Parameters
@@ -25,7 +50,9 @@ from .parameters import Parameters
 __all__ = ["design", "gains_document", "save_gains", "load_gains", "GainFile"]
 
 #: Identifies the JSON layout written by `save_gains`.
-GAIN_FILE_FORMAT = "ctrl_lpv.twomass.gains/1"
+GAIN_FILE_FORMAT = "ctrl_lpv.twomass.gains/2"
+#: The previous layout: read only with its ``model`` entry (module doc).
+_FORMAT_1 = "ctrl_lpv.twomass.gains/1"
 
 
 def design(
@@ -108,10 +135,13 @@ TRACKING_STATES = ("e_m", "omega_m", "e_l", "omega_l")
 _SIGNS = {"u = -K x": 1.0, "u = K x": -1.0}
 
 #: Keys every gain file must have.
-_REQUIRED = ("format", "sign", "states", "p_vertices", "gains")
+_REQUIRED = ("format", "sign", "states", "p_vertices", "gains", "model")
 
-#: Number of parameter points (vertices included) of the check on load.
-_CHECK_POINTS = 21
+#: Options of `lpv_model` a file names (all required in format 2).
+_MODEL_KEYS = (
+    "params", "p_bounds", "formulation", "integral", "torque_weight",
+    "integral_weight",
+)  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -129,20 +159,26 @@ class GainFile:
     p_vertices : ndarray
         Values of ``p`` at the vertices (ascending), in the order of `gains`.
     gamma : float or None
-        The H-infinity bound the file claims.
+        The H-infinity bound the file claims (certified only when
+        ``check["certified"]``).
     metadata : dict
         Everything else in the file (method, model options, certificate
         summary as written, library version).
     check : dict
-        What `load_gains` recomputed in float64 (the file's own
-        ``"verified"`` is not trusted): ``npoints`` (parameter points, the
-        vertices included), ``max_closed_loop_real`` (largest real part of
-        the closed-loop eigenvalues over them), ``lyapunov_max_eig``
-        (largest eigenvalue of the diagonally scaled Lyapunov or bounded-real
-        inequality with the file's ``P`` and `gamma`, None when the file has
-        no ``P``), ``rounding_bound`` (the float64 error bound it was
-        compared with) and ``certified`` (True only when that inequality
-        holds at every point).
+        What `load_gains` recomputed in float64 on the model it rebuilt
+        from the file's ``model`` options (the file's own ``"verified"`` is
+        not trusted): ``npoints`` (parameter points, the vertices
+        included), ``max_closed_loop_real`` (largest real part of the
+        closed-loop eigenvalues over them), ``lyapunov_max_eig`` (largest
+        Jacobi-normalised eigenvalue of the bounded-real inequality with
+        the file's ``P`` and `gamma`, or of the Lyapunov inequality without
+        `gamma`; None when the file has no ``P``), ``rounding_bound`` (the
+        rounding level it must stay below) and ``certified`` (True only
+        when the inequalities hold at every point).
+    design : `ctrl_lpv.StateFeedbackDesign` or None
+        The design rebuilt on that model (its ``certificate`` the
+        recomputed one; ``closed_loop``, ``controller``); None without
+        ``P``.
     """
 
     gains: np.ndarray
@@ -151,6 +187,7 @@ class GainFile:
     gamma: float | None
     metadata: dict = field(default_factory=dict)
     check: dict = field(default_factory=dict)
+    design: StateFeedbackDesign | None = None
 
     @property
     def scheduled(self) -> bool:
@@ -228,10 +265,54 @@ class GainFile:
         return lpv_controller(self.gains[0], **kwargs)
 
 
-def _jsonable(value):
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
+def _model_options(design: StateFeedbackDesign, given) -> dict:
+    """The `lpv_model` options of `design`, checked to rebuild its plant."""
+    if given is None:
+        given = {}
+    if not isinstance(given, dict):
+        raise TypeError(f"model: expected a dict of lpv_model options, got {given!r}")
+    unknown = set(given) - set(_MODEL_KEYS)
+    if unknown:
+        raise ValueError(f"model: unknown lpv_model options {sorted(unknown)}")
+    system = design.system
+    params = given.get("params", Parameters())
+    if isinstance(params, dict):
+        params = Parameters(**params)
+    if not isinstance(params, Parameters):
+        raise TypeError(f"model: params: expected twomass.Parameters, got {params!r}")
+    states = tuple(system.state_labels)
+    formulation = given.get(
+        "formulation", "paper" if "theta_r" in system.input_labels else "tracking"
+    )
+    options = {
+        "params": dataclasses.asdict(params),
+        "p_bounds": [
+            float(b) for b in given.get("p_bounds", system.domain.points[:, 0])
+        ],
+        "formulation": formulation,
+        "integral": bool(given.get("integral", "int_e_l" in states)),
+        "torque_weight": float(given.get("torque_weight", TORQUE_WEIGHT)),
+        "integral_weight": float(given.get("integral_weight", INTEGRAL_WEIGHT)),
+    }
+    rebuilt = _rebuild(options, params)
+    difference = same_plant(rebuilt, system, rtol=1e-12)
+    if difference is not None:
+        raise ValueError(
+            f"model: lpv_model of {options} is not the design's plant ({difference}); "
+            "pass model={...} with the options and params the design was made with"
+        )
+    return options
+
+
+def _rebuild(options: dict, params: Parameters):
+    return lpv_model(
+        params,
+        tuple(options["p_bounds"]),
+        options["formulation"],
+        options["integral"],
+        torque_weight=options["torque_weight"],
+        integral_weight=options["integral_weight"],
+    )
 
 
 def gains_document(design: StateFeedbackDesign, **metadata) -> dict:
@@ -240,42 +321,48 @@ def gains_document(design: StateFeedbackDesign, **metadata) -> dict:
     Parameters
     ----------
     design : `ctrl_lpv.StateFeedbackDesign`
-        A design on `lpv_model` (one scheduling parameter ``p``).
+        A design on `lpv_model` (one scheduling parameter ``p``, a constant
+        Lyapunov matrix).
     **metadata
-        Extra JSON-serializable entries, e.g. ``model``: the options of
-        `lpv_model` used (``p_bounds``, ``formulation``, ``integral``,
-        ``torque_weight``, ``integral_weight``), which `load_gains` uses to
-        rebuild the model and compare it with the stored one.
+        Extra JSON-serializable entries. ``model`` is special: the options
+        of `lpv_model` the design was made with (``params`` as a
+        `Parameters` or a dict of its fields, ``p_bounds``, ``formulation``,
+        ``integral``, ``torque_weight``, ``integral_weight``); those not
+        given are inferred (the default drive data and weights, the
+        design's interval and states), and the result must rebuild the
+        design's plant exactly.
 
     Returns
     -------
     dict
-        Format tag, method, sign convention, states, channels, vertex values
-        of ``p`` (ascending) and the gains in that order, ``gamma``,
-        ``gamma_opt``, back-off, a certificate summary, and the data to
-        re-check the certificate: the Lyapunov matrix ``P`` and the model's
-        vertex matrices (``model_data``).
+        The format-2 document (see the module docstring).
 
     Raises
     ------
     TypeError
         If `design` is not a `ctrl_lpv.StateFeedbackDesign`.
     ValueError
-        If the design is not on the single parameter ``p``.
+        If the design is not on the single parameter ``p``, has a
+        parameter-dependent Lyapunov matrix (use ``design.save``), or the
+        model options do not rebuild its plant.
     """
     if not isinstance(design, StateFeedbackDesign):
         raise TypeError(
             f"design: expected a StateFeedbackDesign, got {type(design).__name__}"
         )
     system = design.system
-    domain = system.domain
-    if list(getattr(domain, "names", ())) != ["p"]:
+    if list(getattr(system.domain, "names", ())) != ["p"]:
         raise ValueError("design: expected a design on twomass.lpv_model (parameter p)")
-    p_vertices = [float(v[0]) for v in domain.points]
+    if design.lyapunov != "constant":
+        raise ValueError(
+            "design: a gain file holds one Lyapunov matrix; save a design with "
+            "lyapunov='affine' with design.save(path)"
+        )
+    model = _model_options(design, metadata.pop("model", None))
+    p_vertices = [float(v[0]) for v in system.domain.points]
     order = np.argsort(p_vertices)
     gain_order = order if design.scheduled else [0]
     cert = design.certificate
-    vertices = system.vertex_data()
     return {
         "format": GAIN_FILE_FORMAT,
         "method": design.method,
@@ -289,29 +376,18 @@ def gains_document(design: StateFeedbackDesign, **metadata) -> dict:
         "gamma": design.gamma,
         "gamma_opt": design.gamma_opt,
         "backoff": design.backoff,
-        "certificate": {
-            "verified": bool(cert.verified),
-            "worst_lmi": cert.worst_lmi.name,
-            "worst_lmi_max_eig": _jsonable(float(cert.worst_lmi.max_eig)),
-            "margin": cert.margin,
-            "max_closed_loop_real": _jsonable(float(cert.max_closed_loop_real)),
-        },
+        "certificate": {"verified": bool(cert.verified), "summary": str(cert)},
         "P": np.asarray(design.P, dtype=float).tolist(),
-        "model_data": {
-            "states": list(system.state_labels),
-            "inputs": list(system.input_labels),
-            "outputs": list(system.output_labels),
-            "vertices": [
-                dict(zip("ABCD", (np.asarray(M, float).tolist() for M in vertices[i])))
-                for i in order
-            ],
-        },
         **metadata,
+        "model": model,
     }
 
 
 def save_gains(design: StateFeedbackDesign, path: str | Path, **metadata) -> Path:
     """Write a two-mass design's gains and certificate data as JSON.
+
+    The file is written atomically (a temporary file in the same folder,
+    then `os.replace`).
 
     Parameters
     ----------
@@ -320,34 +396,38 @@ def save_gains(design: StateFeedbackDesign, path: str | Path, **metadata) -> Pat
     path : str or path
         File to write (parent folders are created).
     **metadata
-        Extra JSON-serializable entries (e.g. ``model``, the options of
-        `lpv_model` used).
+        Extra JSON-serializable entries; ``model``: the options of
+        `lpv_model` used (see `gains_document`).
 
     Returns
     -------
     `pathlib.Path`
         The file written.
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a `path` that is not a file name, and as `gains_document`.
     """
+    path = as_path(path)
     document = gains_document(design, **metadata)
-    path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(document, indent=2) + "\n")
-    return path
+    return write_json(path, document)
 
 
 def load_gains(path: str | Path) -> GainFile:
     """Read gains written by `save_gains`, validate them and re-check them.
 
-    Nothing in the file is trusted: the keys, the sign convention, the
-    parameter interval and the state names are validated against the
-    two-mass model, and the closed loop is recomputed in float64 at the
-    vertices and interior points of the interval on the file's model (its
-    stored vertex matrices, compared with `lpv_model` of its ``model``
-    options when both are present). When the file carries the Lyapunov
-    matrix ``P`` (files of this version do), the bounded-real inequality of
-    the claimed ``gamma`` (or the Lyapunov inequality without ``gamma``) is
-    re-checked at the same points, with a float64 rounding bound. The
-    file's ``"verified"`` flag is ignored; see `GainFile.check`.
+    Nothing in the file is trusted. The file's ``model`` entry (the
+    options of `lpv_model`, drive data included) is validated and the
+    model rebuilt with `lpv_model`; the keys, the sign convention, the
+    parameter interval, the states and the channels are checked against
+    that model; and the closed loop and (with ``P``) the bounded-real
+    inequality of the claimed ``gamma`` (the Lyapunov inequality without
+    ``gamma``) are recomputed in float64 on it at the vertices and interior
+    points of the interval, with the library's rounding level. Vertex
+    matrices in the file (``model_data``) are ignored; see the module
+    docstring for the format and for files of format 1.
 
     Parameters
     ----------
@@ -362,110 +442,149 @@ def load_gains(path: str | Path) -> GainFile:
 
     Raises
     ------
+    TypeError
+        If `path` is not a file name.
     ValueError
-        Naming the file and the key: if the file is not a gain file, a key
-        is missing or malformed, the sign convention is unknown, ``p`` lies
-        outside ``[-1, 0]`` or does not match the model, the states do not
-        match the model's, or the re-check fails (closed loop not stable, or
-        the inequality of ``P`` and ``gamma`` does not hold).
+        Naming the file and the key: if the file is not a gain file (or
+        not JSON, or nested too deeply), a key is missing or of the wrong
+        type (a bool is not a number, a string not a bool), the sign
+        convention is unknown, the model options do not build a model,
+        ``p_vertices``, the states or the channels do not match it, a
+        ``gamma`` has no channels ``w`` and ``z``, or the re-check fails
+        (closed loop not stable, or the inequality of ``P`` and ``gamma``
+        does not hold).
 
     Warns
     -----
     UserWarning
-        If the file has no ``P``: only closed-loop stability at the checked
-        points is re-checked, not the H-infinity bound.
+        If the file has no ``P``: only closed-loop stability is re-checked
+        and the gains load with ``check["certified"]`` False.
     """
-    path = Path(path)
-    try:
-        document = json.loads(path.read_text())
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"path: {path} is not valid JSON ({exc})") from None
-    except UnicodeDecodeError:
-        raise ValueError(f"path: {path} is not a text file") from None
+    path, document = read_json(path)
     return _GainReader(path, document).read()
 
 
-class _GainReader:
+class _GainReader(DocumentReader):
     """Validation of one gain document; every error names the file and key."""
-
-    def __init__(self, path: Path, document):
-        self.path = path
-        self.doc = document
-
-    def fail(self, key: str, message: str) -> ValueError:
-        return ValueError(f"{self.path}: key {key!r}: {message}")
-
-    def array(self, key: str, ndim: int, source=None) -> np.ndarray:
-        value = self.doc[key] if source is None else source
-        try:
-            array = np.asarray(value, dtype=float)
-        except (TypeError, ValueError):
-            raise self.fail(key, "expected an array of numbers") from None
-        if array.ndim != ndim or array.size == 0 or not np.all(np.isfinite(array)):
-            raise self.fail(
-                key, f"expected a finite {ndim}-d array, got shape {array.shape}"
-            )
-        return array
-
-    def labels(self, key: str, source=None) -> tuple[str, ...]:
-        value = self.doc.get(key) if source is None else source
-        if not isinstance(value, list) or not all(isinstance(s, str) for s in value):
-            raise self.fail(key, f"expected a list of names, got {value!r}")
-        return tuple(value)
 
     def read(self) -> GainFile:
         doc = self.doc
-        if not isinstance(doc, dict) or doc.get("format") != GAIN_FILE_FORMAT:
+        if not isinstance(doc, dict) or doc.get("format") not in (
+            GAIN_FILE_FORMAT,
+            _FORMAT_1,
+        ):
             raise ValueError(
                 f"path: {self.path} is not a ctrl_lpv two-mass gain file "
                 f"(expected format {GAIN_FILE_FORMAT!r})"
             )
         for key in _REQUIRED:
             if key not in doc:
+                why = (
+                    " (it says which plant the gains were certified for: without "
+                    "it they cannot be re-certified)"
+                    if key == "model"
+                    else ""
+                )
                 raise ValueError(
-                    f"{self.path}: missing key {key!r} (a gain file has the keys "
-                    f"{', '.join(_REQUIRED)})"
+                    f"{self.path}: missing key {key!r}{why} (a gain file has the "
+                    f"keys {', '.join(_REQUIRED)})"
                 )
         sign = doc["sign"]
-        if sign not in _SIGNS:
+        if not isinstance(sign, str) or sign not in _SIGNS:
             raise self.fail(
                 "sign", f"expected one of {list(_SIGNS)}, got {sign!r} (refused)"
             )
-        gains = _SIGNS[sign] * self.array("gains", 3)
-        states = self.labels("states")
-        p_vertices = self.array("p_vertices", 1)
+        states = self.labels(doc["states"], "states")
+        p_vertices = self.array(doc["p_vertices"], "p_vertices", (2,))
         self.check_interval(p_vertices)
-        if gains.shape[2] != len(states):
+        model = self.model(doc["model"], p_vertices)
+        if states != tuple(model.state_labels):
             raise self.fail(
-                "gains", f"{gains.shape[2]} columns for {len(states)} states"
+                "states",
+                f"{list(states)} do not match the model's states "
+                f"{list(model.state_labels)}",
             )
-        if gains.shape[0] not in (1, len(p_vertices)):
+        version1 = doc["format"] == _FORMAT_1
+        u = self.labels(doc.get("u", ["Tm"] if version1 else None), "u")
+        iu = self.indices("u", u, model.physical_inputs)
+        raw = doc["gains"]
+        count = len(raw) if isinstance(raw, list) else 0
+        if count not in (1, 2):
             raise self.fail(
-                "gains",
-                f"{gains.shape[0]} gains: expected 1 (common) or one per vertex "
-                f"of p_vertices ({len(p_vertices)})",
+                "gains", "expected 1 (common) or one gain per vertex of p_vertices"
             )
-        gamma = doc.get("gamma")
-        if gamma is not None and not (
-            isinstance(gamma, (int, float)) and math.isfinite(gamma) and gamma > 0
-        ):
+        gains = _SIGNS[sign] * self.array(raw, "gains", (count, len(iu), len(states)))
+        gamma = self.number(doc.get("gamma"), "gamma", allow_none=True, positive=True)
+        specs = []
+        w = z = ()
+        if gamma is not None:
+            w = self.channel("w", model.physical_inputs)
+            z = self.channel("z", model.output_labels)
+            if set(w) & set(u):
+                raise self.fail(
+                    "u", f"{sorted(set(w) & set(u))} is also an exogenous input w"
+                )
+            iw = self.indices("w", w, model.physical_inputs)
+            iz = self.indices("z", z, model.output_labels)
+            specs = [(Hinf(w, z), (iw, iz), gamma)]
+        P = None
+        if doc.get("P") is not None:
+            P = self.symmetric(doc["P"], "P", len(states))
+        design = StateFeedbackDesign(
+            system=model, method=str(doc.get("method", "gain file")),
+            gains=tuple(gains), P=P, gamma=gamma, gamma_opt=None, w=w, u=u, z=z,
+            certificate=_UNCHECKED, attempts=(),
+        )  # fmt: skip
+        result = recheck(design, specs)
+        for what, message in result.failures:
             raise self.fail(
-                "gamma", f"expected a positive number or null, got {gamma!r}"
+                what, f"{message} on the model rebuilt from the file's 'model'"
             )
-        u = self.labels("u") if "u" in doc else ("Tm",)
-        if gains.shape[1] != len(u):
-            raise self.fail("gains", f"{gains.shape[1]} rows for the inputs u = {u}")
-        model = self.model(p_vertices, states)
-        check = self.recheck(model, gains, p_vertices, gamma, u)
+        if P is None:
+            warnings.warn(
+                f"{self.path}: no Lyapunov matrix P in the file: only closed-loop "
+                f"stability at {result.certificate.npoints} points was re-checked, "
+                "not the H-infinity bound; the gains are not certified",
+                UserWarning,
+                stacklevel=3,
+            )
+        cert = result.certificate
+        check = {
+            "npoints": cert.npoints,
+            "max_closed_loop_real": cert.max_closed_loop_real,
+            "lyapunov_max_eig": None if P is None else cert.max_original_eig,
+            "rounding_bound": None if P is None else ORIGINAL_UNITS_TOL,
+            "certified": P is not None and result.verified,
+        }
         metadata = {
             k: v
             for k, v in doc.items()
-            if k not in ("gains", "states", "p_vertices", "gamma")
+            if k not in ("gains", "states", "p_vertices", "gamma", "model_data")
         }
-        return GainFile(gains, states, p_vertices, gamma, metadata, check)
+        return GainFile(
+            gains, states, p_vertices, gamma, metadata, check,
+            None if P is None else dataclasses.replace(design, certificate=cert),
+        )  # fmt: skip
+
+    def channel(self, key: str, labels) -> tuple[str, ...]:
+        """``w`` or ``z`` of a claimed bound: non-empty names of the model."""
+        if key not in self.doc:
+            raise self.fail(key, "missing: a gamma needs its channels w and z")
+        names = self.labels(self.doc[key], key)
+        if not names:
+            raise self.fail(key, "empty: a gamma needs channels w and z")
+        return names
+
+    def indices(self, key, names, labels) -> list[int]:
+        missing = [s for s in names if s not in labels]
+        if missing:
+            raise self.fail(
+                key, f"{missing} are not signals of the model {list(labels)}"
+            )
+        return [list(labels).index(s) for s in names]
 
     def check_interval(self, p_vertices: np.ndarray) -> None:
-        if len(p_vertices) != 2 or not p_vertices[0] < p_vertices[1]:
+        if not p_vertices[0] < p_vertices[1]:
             raise self.fail(
                 "p_vertices",
                 "expected [lower, upper] with lower < upper, got "
@@ -478,240 +597,48 @@ class _GainReader:
                 "(p = -alpha / |theta_d|)",
             )
 
-    def model(self, p_vertices, states) -> dict:
-        """The file's model: vertex matrices and labels, validated."""
-        doc = self.doc
-        rebuilt = None
-        options = doc.get("model")
-        if options is not None:
-            rebuilt = self.rebuild(options, p_vertices)
-        stored = doc.get("model_data")
-        if stored is not None:
-            model = self.stored_model(stored)
-        elif rebuilt is not None:
-            model = rebuilt
-        else:  # an older file without either: the default tracking model
-            integral = "int_e_l" in states
-            model = self.rebuild(
-                {"p_bounds": p_vertices.tolist(), "formulation": "tracking",
-                 "integral": integral},
-                p_vertices,
-            )  # fmt: skip
-        if rebuilt is not None and stored is not None:
-            same = len(rebuilt["vertices"]) == len(model["vertices"]) and all(
-                np.shape(a) == np.shape(b) and np.allclose(a, b, rtol=1e-9, atol=0)
-                for va, vb in zip(rebuilt["vertices"], model["vertices"])
-                for a, b in zip(va, vb)
-            )
-            if not same or rebuilt["states"] != model["states"]:
-                raise self.fail(
-                    "model_data",
-                    "does not match lpv_model of the file's 'model' options",
-                )
-        if tuple(states) != model["states"]:
-            raise self.fail(
-                "states",
-                f"{list(states)} do not match the model's states "
-                f"{list(model['states'])}",
-            )
-        return model
-
-    def rebuild(self, options, p_vertices) -> dict:
-        if not isinstance(options, dict):
-            raise self.fail(
-                "model", f"expected a dict of lpv_model options, got {options!r}"
-            )
-        known = {
-            "p_bounds",
-            "formulation",
-            "integral",
-            "torque_weight",
-            "integral_weight",
-        }
-        unknown = set(options) - known
+    def model(self, options, p_vertices):
+        """`lpv_model` of the file's validated ``model`` options."""
+        options = self.section("model", options)
+        unknown = set(options) - set(_MODEL_KEYS)
         if unknown:
             raise self.fail("model", f"unknown options {sorted(unknown)}")
-        bounds = options.get("p_bounds", p_vertices.tolist())
+        if self.doc["format"] == _FORMAT_1:  # format 1 had the defaults below
+            if "params" in options:
+                raise self.fail("model", "format 1 has no params")
+            options = {"params": {}, "p_bounds": p_vertices.tolist(),
+                       "formulation": "tracking", "integral": False,
+                       "torque_weight": TORQUE_WEIGHT,
+                       "integral_weight": INTEGRAL_WEIGHT} | options  # fmt: skip
+        for key in _MODEL_KEYS:
+            if key not in options:
+                raise self.fail(f"model.{key}", "missing")
+        raw = self.section("model.params", options["params"])
+        fields = {f.name for f in dataclasses.fields(Parameters)}
+        if set(raw) - fields:
+            raise self.fail(
+                "model.params", f"unknown fields {sorted(set(raw) - fields)}"
+            )
+        values = {k: self.number(v, f"model.params.{k}") for k, v in raw.items()}
+        bounds = self.array(options["p_bounds"], "model.p_bounds", (2,))
+        formulation = self.string(
+            options["formulation"], "model.formulation", ("paper", "tracking")
+        )
+        integral = self.boolean(options["integral"], "model.integral")
+        weights = {
+            k: self.number(options[k], f"model.{k}", positive=True)
+            for k in ("torque_weight", "integral_weight")
+        }
         try:
-            system = lpv_model(
-                None,
-                tuple(bounds),
-                options.get("formulation", "tracking"),
-                bool(options.get("integral", False)),
-                torque_weight=options.get("torque_weight", TORQUE_WEIGHT),
-                integral_weight=options.get("integral_weight", INTEGRAL_WEIGHT),
+            model = lpv_model(
+                Parameters(**values), tuple(bounds), formulation, integral, **weights
             )
         except (TypeError, ValueError) as exc:
             raise self.fail("model", str(exc)) from None
-        model_p = sorted(float(v[0]) for v in system.domain.points)
-        if not np.allclose(model_p, p_vertices, rtol=0, atol=1e-12):
+        if not np.array_equal(model.domain.points[:, 0], p_vertices):
             raise self.fail(
                 "p_vertices",
-                f"{p_vertices.tolist()} differ from the model's p_bounds {model_p}",
+                f"{p_vertices.tolist()} differ from the model's p_bounds "
+                f"{bounds.tolist()}",
             )
-        order = np.argsort([float(v[0]) for v in system.domain.points])
-        data = system.vertex_data()
-        return {
-            "inputs": tuple(system.input_labels),
-            "outputs": tuple(system.output_labels),
-            "states": tuple(system.state_labels),
-            "vertices": [tuple(np.asarray(M, float) for M in data[i]) for i in order],
-        }
-
-    def stored_model(self, stored) -> dict:
-        key = "model_data"
-        if not isinstance(stored, dict) or not isinstance(stored.get("vertices"), list):
-            raise self.fail(key, "expected inputs, outputs and vertices")
-        states = self.labels(key, stored.get("states", self.doc["states"]))
-        inputs = self.labels(key, stored.get("inputs"))
-        outputs = self.labels(key, stored.get("outputs"))
-        vertices = []
-        for vertex in stored["vertices"]:
-            if not isinstance(vertex, dict) or set(vertex) != set("ABCD"):
-                raise self.fail(key, "every vertex needs A, B, C and D")
-            A, B, C, D = (self.array(key, 2, vertex[k]) for k in "ABCD")
-            n = A.shape[0]
-            if (
-                A.shape != (n, n)
-                or n != len(states)
-                or B.shape != (n, len(inputs))
-                or C.shape != (len(outputs), n)
-                or D.shape != (len(outputs), len(inputs))
-            ):
-                raise self.fail(key, "vertex matrices of inconsistent shapes")
-            vertices.append((A, B, C, D))
-        if len(vertices) != 2 or vertices[0][0].shape != vertices[1][0].shape:
-            raise self.fail(key, "expected two vertices of the same size")
-        return {
-            "inputs": inputs,
-            "outputs": outputs,
-            "states": states,
-            "vertices": vertices,
-        }
-
-    def indices(self, key, names, labels) -> list[int]:
-        missing = [s for s in names if s not in labels]
-        if missing:
-            raise self.fail(
-                key, f"{missing} are not signals of the model {list(labels)}"
-            )
-        return [labels.index(s) for s in names]
-
-    def recheck(self, model, gains, p_vertices, gamma, u) -> dict:
-        """Closed loop and (with P) the certificate's inequality in float64."""
-        doc = self.doc
-        n = model["vertices"][0][0].shape[0]
-        if gains.shape[2] != n:
-            raise self.fail(
-                "gains", f"{gains.shape[2]} columns for a model of {n} states"
-            )
-        iu = self.indices("u", u, model["inputs"])
-        iw = self.indices("w", self.labels("w") if "w" in doc else (), model["inputs"])
-        iz = self.indices("z", self.labels("z") if "z" in doc else (), model["outputs"])
-        P = None
-        if doc.get("P") is not None:
-            P = self.array("P", 2)
-            if P.shape != (n, n) or not np.allclose(P, P.T, rtol=1e-12, atol=0):
-                raise self.fail("P", f"expected a symmetric {n} x {n} matrix")
-            P = 0.5 * (P + P.T)
-            if np.linalg.eigvalsh(P)[0] <= 0:
-                raise self.fail("P", "is not positive definite")
-        (A0, B0, C0, D0), (A1, B1, C1, D1) = model["vertices"]
-        worst_real, worst_lmi, worst_bound = -np.inf, -np.inf, 0.0
-        for s in np.linspace(0.0, 1.0, _CHECK_POINTS):
-            A, B, C, D = ((1 - s) * X0 + s * X1 for X0, X1 in
-                          ((A0, A1), (B0, B1), (C0, C1), (D0, D1)))  # fmt: skip
-            K = gains[0] if gains.shape[0] == 1 else (1 - s) * gains[0] + s * gains[1]
-            Acl = A - B[:, iu] @ K
-            real = float(np.linalg.eigvals(Acl).real.max())
-            p = (1 - s) * p_vertices[0] + s * p_vertices[1]
-            if not real < 0:
-                raise self.fail(
-                    "gains",
-                    f"the closed loop is not stable at p = {p:.6g} "
-                    f"(max Re of the eigenvalues {real:.4g}) on the file's model",
-                )
-            worst_real = max(worst_real, real)
-            if P is None:
-                continue
-            absK = np.abs(K)
-            lmi, bound = _certificate_inequality(
-                P,
-                Acl,
-                B[:, iw],
-                C[iz] - D[np.ix_(iz, iu)] @ K,
-                D[np.ix_(iz, iw)],
-                gamma,
-                np.abs(A) + np.abs(B[:, iu]) @ absK,
-                np.abs(C[iz]) + np.abs(D[np.ix_(iz, iu)]) @ absK,
-            )
-            if not lmi < -bound:
-                what = "bounded-real" if gamma is not None else "Lyapunov"
-                raise self.fail(
-                    "P",
-                    f"the {what} inequality of P"
-                    + (f" and gamma = {gamma:.6g}" if gamma is not None else "")
-                    + f" fails at p = {p:.6g} (largest scaled eigenvalue {lmi:.3g}, "
-                    f"float64 bound {bound:.3g}): the file's certificate is not valid",
-                )
-            if lmi > worst_lmi:
-                worst_lmi, worst_bound = lmi, bound
-        if P is None:
-            warnings.warn(
-                f"{self.path}: no Lyapunov matrix P in the file: only closed-loop "
-                f"stability at {_CHECK_POINTS} points was re-checked, not the "
-                "H-infinity bound",
-                UserWarning,
-                stacklevel=4,
-            )
-        return {
-            "npoints": _CHECK_POINTS,
-            "max_closed_loop_real": worst_real,
-            "lyapunov_max_eig": None if P is None else float(worst_lmi),
-            "rounding_bound": None if P is None else float(worst_bound),
-            "certified": P is not None,
-        }
-
-
-def _certificate_inequality(P, A, Bw, C, D, gamma, absA, absC) -> tuple[float, float]:
-    """Largest eigenvalue of the scaled certificate inequality, and its error.
-
-    ``[[A'P + P A, C', P Bw], [C, -gamma^2 I, D], [Bw' P, D', -I]] < 0`` (the
-    bounded-real lemma, the form of Lemma 2 and Theorem 2 in ``P = W^-1``)
-    or ``A'P + P A < 0`` without `gamma`. The matrix is scaled by a positive
-    diagonal congruence to unit diagonal (same inertia); the second value
-    bounds the 2-norm of the float64 rounding error of the scaled matrix,
-    from the magnitudes `absA` (of ``|A_model| + |B_u| |K|``) and `absC`
-    (of ``|C_z| + |D_zu| |K|``) of the closed-loop data.
-    """
-    n = A.shape[0]
-    PA = P @ A
-    top = PA + PA.T
-    err = np.abs(P) @ absA
-    err = err + err.T
-    if gamma is None:
-        M, E = top, err
-    else:
-        nz, nw = C.shape[0], Bw.shape[1]
-        PB = P @ Bw
-        M = np.block(
-            [
-                [top, C.T, PB],
-                [C, -(gamma**2) * np.eye(nz), D],
-                [PB.T, D.T, -np.eye(nw)],
-            ]
-        )
-        E = np.zeros_like(M)
-        E[:n, :n] = err
-        E[n : n + nz, :n] = absC
-        E[n + nz :, :n] = (np.abs(P) @ np.abs(Bw)).T
-        E[:n, n:] = E[n:, :n].T
-        E[n:, n:] = np.abs(M[n:, n:])
-    if np.any(np.diag(M) >= 0):
-        return float(np.max(np.diag(M))), 0.0
-    d = 1.0 / np.sqrt(-np.diag(M))
-    S = d[:, None] * M * d[None, :]
-    ES = d[:, None] * E * d[None, :]
-    size = M.shape[0]
-    bound = 4 * size * np.finfo(float).eps * (np.linalg.norm(ES, 2) + 1.0)
-    return float(np.linalg.eigvalsh(0.5 * (S + S.T))[-1]), float(bound)
+        return model

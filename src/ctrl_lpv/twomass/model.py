@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 from control import StateSpace
 
+from .._checks import flag, real_number
 from ..controllers import integral_augmentation
 from ..systems import PolytopicStateSpace
 from .parameters import Parameters
@@ -92,22 +93,20 @@ def lpv_model(
             f"formulation: expected 'paper' or 'tracking', got {formulation!r}"
         )
     try:
-        lo, hi = (float(b) for b in p_bounds)
+        lo, hi = p_bounds
     except (TypeError, ValueError):
         raise ValueError(
             f"p_bounds: expected (lower, upper), got {p_bounds!r}"
         ) from None
+    lo, hi = (real_number(b, "p_bounds") for b in (lo, hi))
     if not (-1.0 <= lo < hi <= 0.0):
         raise ValueError(
             f"p_bounds: need -1 <= lower < upper <= 0 (p = -alpha/theta_d), "
             f"got {p_bounds!r}"
         )
-    for name, value in (
-        ("torque_weight", torque_weight),
-        ("integral_weight", integral_weight),
-    ):
-        if not (np.isfinite(value) and value > 0):
-            raise ValueError(f"{name}: must be a positive number, got {value}")
+    torque_weight = real_number(torque_weight, "torque_weight", positive=True)
+    integral_weight = real_number(integral_weight, "integral_weight", positive=True)
+    integral = flag(integral, "integral")
     if integral and formulation == "paper":
         raise ValueError("integral: only available with formulation='tracking'")
 
@@ -154,12 +153,13 @@ def lpv_model(
     if not integral:
         return sys
     sys = integral_augmentation(sys, "e_l", name="twomass_tracking_integral")
-    # Weighted integral state as a third performance output.
+    # Weighted integral state as a third performance output (in place of
+    # the unweighted one integral_augmentation appends).
     vertices = []
     for A, B, Cv, Dv in sys.vertex_data():
         row = np.zeros((1, A.shape[0]))
         row[0, -1] = integral_weight
-        vertices.append((A, B, np.vstack([Cv, row]), np.vstack([Dv, np.zeros((1, 2))])))
+        vertices.append((A, B, np.vstack([Cv[:-1], row]), Dv))
     return PolytopicStateSpace(
         vertices, sys.domain, inputs=["Td", "Tm"],
         outputs=["e_l", "Tm_w", "int_e_l_w"], states=sys.state_labels,

@@ -35,6 +35,12 @@ import control as ct
 import numpy as np
 
 from .. import __version__
+from .._output import (
+    check_destination,
+    signals_deferred,
+    temporary_beside,
+    usual_mode,
+)
 from ..exceptions import InfeasibleError
 from ..metrics import step_metrics
 from ..plotting import controller_style, plot_responses, save_figure
@@ -49,6 +55,7 @@ from .comparison import (
 from .designs import save_gains
 from .model import PAPER_GAIN, lpv_model, paper_gain
 from .scenarios import simulate
+from .servo_figures import markdown_row, markdown_rule
 
 __all__ = ["reproduce", "errata_findings"]
 
@@ -173,7 +180,8 @@ def reproduce(
     ----------
     out : str or path
         Output folder: created, or replaced if it is empty or holds a
-        previous reproduction (a ``report.md`` or ``errata.json``).
+        previous reproduction (a ``report.md`` or ``errata.json``). Its
+        parent folder must exist (it is not created).
     robustness : bool, optional
         Also run the 24 robustness scenarios of the comparison (about 4
         times longer).
@@ -195,19 +203,17 @@ def reproduce(
     Raises
     ------
     ValueError
-        If `out` exists and is neither a folder that is empty or holds a
-        previous reproduction.
+        If the parent of `out` does not exist or is not writable, or `out`
+        exists and is neither a folder that is empty or holds a previous
+        reproduction.
     """
     out = Path(out)
     _check_target(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    work = Path(tempfile.mkdtemp(prefix=f".{out.name}.partial-", dir=out.parent))
-    try:
+    with temporary_beside(out, folder=True) as work:
         result = _reproduce_into(work, robustness, formats, progress, engine)
-        _replace(work, out)
-    except BaseException:
-        shutil.rmtree(work, ignore_errors=True)
-        raise
+        usual_mode(work)
+        with signals_deferred():  # the two renames are not cut apart
+            _replace(work, out)
     result["files"] = [out / path.relative_to(work) for path in result["files"]]
     (progress or (lambda message: None))(
         f"done in {result['seconds']:.0f} s: {len(result['files'])} files in {out}"
@@ -220,10 +226,9 @@ _MARKERS = ("report.md", "errata.json")
 
 
 def _check_target(out: Path) -> None:
+    check_destination(out, "out", folder=True)
     if not out.exists():
         return
-    if not out.is_dir():
-        raise ValueError(f"out: {out} exists and is not a folder")
     if any(out.iterdir()) and not any((out / m).is_file() for m in _MARKERS):
         raise ValueError(
             f"out: {out} is not empty and holds no previous reproduction "
@@ -412,16 +417,22 @@ def _report(result: dict, formats) -> str:
             f"rise 10-90 % = {'never' if rise is None else f'{rise:.4f} s'}"
         )
     lines += ["", f"![coordinates](coordinates.{ext})", "", "## Certified designs", ""]
-    lines += [
-        "| controller | method | gamma | gamma* | max norm K | max Re(closed loop) "
-        "| verified |",
-        "|---|---|---|---|---|---|---|",
-    ]
+    columns = ("controller", "method", "gamma", "gamma*", "max norm K",
+               "max Re(closed loop)", "verified")  # fmt: skip
+    lines += [markdown_row(columns), markdown_rule(len(columns))]
     for s in result["designs"]:
         lines.append(
-            f"| {s['controller']} | {s['method']} | {s['gamma']:.4g} | "
-            f"{s['gamma_opt']:.4g} | {s['max_gain_norm']:.4g} | "
-            f"{s['max_closed_loop_real']:.4g} | {s['verified']} |"
+            markdown_row(
+                [
+                    s["controller"],
+                    s["method"],
+                    f"{s['gamma']:.4g}",
+                    f"{s['gamma_opt']:.4g}",
+                    f"{s['max_gain_norm']:.4g}",
+                    f"{s['max_closed_loop_real']:.4g}",
+                    s["verified"],
+                ]
+            )  # fmt: skip
         )
     lines += ["", "## Comparison", "", markdown_table(result["rows"]), ""]
     for stem in ("paper_gain", "designs", "alpha_step", "backstepping", "torque_limit"):

@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 import control as ct
 import numpy as np
 
+from .._checks import as_matrix, flag, real_number
 from ..interconnection import kernel_nlsys
 from ..synthesis import StateFeedbackDesign, hinf_state_feedback
 from ..systems import PolytopicStateSpace
@@ -80,6 +81,9 @@ def servo_polytope(
     """
     params = Parameters() if params is None else params
     lo, hi = _range(Jl_range, "Jl_range")
+    p_bounds = _interval(p_bounds, "p_bounds")
+    torque_weight = real_number(torque_weight, "torque_weight", positive=True)
+    integral_weight = real_number(integral_weight, "integral_weight", positive=True)
     vertices = []
     for f in (lo, hi):
         m = lpv_model(
@@ -286,23 +290,31 @@ def servo_design(
     params = Parameters() if params is None else params
     if not isinstance(params, Parameters):
         raise TypeError(f"params: expected twomass.Parameters, got {type(params)!r}")
-    for label, value in (
-        ("torque_limit", torque_limit), ("alpha_max", alpha_max),
-        ("flank_width", flank_width), ("contact_torque", contact_torque),
-        ("observer_bandwidth", observer_bandwidth), ("horizon_floor", horizon_floor),
-        ("min_duration", min_duration),
-    ):  # fmt: skip
-        if not (np.isfinite(value) and value > 0):
-            raise ValueError(f"{label}: must be a positive number, got {value!r}")
-    for label, value in (
-        ("Td_max", Td_max), ("estimate_rate", estimate_rate),
-        ("probe_rate", probe_rate), ("integral_leak", integral_leak),
-        ("integral_hold", integral_hold),
-    ):  # fmt: skip
-        if not (np.isfinite(value) and value >= 0):
-            raise ValueError(f"{label}: must be >= 0, got {value!r}")
-    if not 0.0 <= torque_reserve < 1.0:
-        raise ValueError(f"torque_reserve: must be in [0, 1), got {torque_reserve!r}")
+    positive = dict(
+        torque_limit=torque_limit, alpha_max=alpha_max, flank_width=flank_width,
+        contact_torque=contact_torque, observer_bandwidth=observer_bandwidth,
+        horizon_floor=horizon_floor, min_duration=min_duration,
+        torque_weight=torque_weight, integral_weight=integral_weight,
+    )  # fmt: skip
+    positive = {k: real_number(v, k, positive=True) for k, v in positive.items()}
+    nonnegative = dict(
+        Td_max=Td_max, estimate_rate=estimate_rate, probe_rate=probe_rate,
+        integral_leak=integral_leak, integral_hold=integral_hold,
+    )  # fmt: skip
+    nonnegative = {k: real_number(v, k, minimum=0.0) for k, v in nonnegative.items()}
+    torque_reserve = real_number(
+        torque_reserve, "torque_reserve", minimum=0.0, below=1.0
+    )
+    switches = dict(
+        anti_hunting=anti_hunting, gap_estimate=gap_estimate, certify=certify
+    )
+    switches = {k: flag(v, k) for k, v in switches.items()}
+    torque_limit, alpha_max, Td_max = (
+        positive["torque_limit"],
+        positive["alpha_max"],
+        nonnegative["Td_max"],
+    )
+    p_bounds = _interval(p_bounds, "p_bounds")
     lo, hi = _range(Jl_range, "Jl_range")
     budget = (1.0 - torque_reserve) * torque_limit - Td_max
     if budget <= 0:
@@ -316,48 +328,62 @@ def servo_design(
     if gain is None:
         model = servo_polytope(
             params, p_bounds=p_bounds, Jl_range=(lo, hi),
-            torque_weight=torque_weight, integral_weight=integral_weight,
+            torque_weight=positive["torque_weight"],
+            integral_weight=positive["integral_weight"],
         )  # fmt: skip
         feedback = hinf_state_feedback(model, w=["Td"], u=["Tm"])
         K = np.asarray(feedback.gains[0], float).reshape(1, -1)
     else:
-        K = np.atleast_2d(np.asarray(gain, float))
-        if K.shape not in ((1, 4), (1, 5)) or not np.all(np.isfinite(K)):
-            raise ValueError(
-                f"gain: expected a finite 1 x 4 or 1 x 5 gain, got {K.shape}"
-            )
+        K = as_matrix(gain, "gain")
+        if K.shape not in ((1, 4), (1, 5)):
+            raise ValueError(f"gain: expected a 1 x 4 or 1 x 5 gain, got {K.shape}")
         if K.shape[1] == 4:
             K = np.hstack([K, [[0.0]]])
     tuning = ServoTuning(
         Jm=params.Jm, Jl=params.Jl, cm=params.cm, cl=params.cl, ks=params.ks,
         cs=params.cs, gain=tuple(float(k) for k in K[0]),
-        torque_limit=float(torque_limit), accel_limit=float(accel_limit),
-        min_duration=float(min_duration), horizon_floor=float(horizon_floor),
-        alpha_max=float(alpha_max), alpha_initial=0.5 * float(alpha_max),
-        flank_width=float(flank_width), contact_torque=float(contact_torque),
-        estimate_rate=float(estimate_rate), probe_rate=float(probe_rate),
-        integral_leak=float(integral_leak),
-        observer_bandwidth=float(observer_bandwidth),
-        integral_hold=float(integral_hold),
-        anti_hunting=bool(anti_hunting), gap_estimate=bool(gap_estimate),
+        torque_limit=torque_limit, accel_limit=float(accel_limit),
+        min_duration=positive["min_duration"],
+        horizon_floor=positive["horizon_floor"],
+        alpha_max=alpha_max, alpha_initial=0.5 * alpha_max,
+        flank_width=positive["flank_width"],
+        contact_torque=positive["contact_torque"],
+        estimate_rate=nonnegative["estimate_rate"],
+        probe_rate=nonnegative["probe_rate"],
+        integral_leak=nonnegative["integral_leak"],
+        observer_bandwidth=positive["observer_bandwidth"],
+        integral_hold=nonnegative["integral_hold"],
+        anti_hunting=switches["anti_hunting"],
+        gap_estimate=switches["gap_estimate"],
     )  # fmt: skip
     certificate = servo_certificate(
         params, K, feedback, alpha_max=alpha_max, Jl_range=(lo, hi),
-        Td_max=Td_max, torque_limit=torque_limit, bound=certify,
+        Td_max=Td_max, torque_limit=torque_limit, bound=switches["certify"],
     )  # fmt: skip
     return ServoDesign(
-        params=params, torque_limit=float(torque_limit), alpha_max=float(alpha_max),
-        Jl_range=(lo, hi), Td_max=float(Td_max), gain=K, feedback=feedback,
+        params=params, torque_limit=torque_limit, alpha_max=alpha_max,
+        Jl_range=(lo, hi), Td_max=Td_max, gain=K, feedback=feedback,
         tuning=tuning, certificate=certificate,
     )  # fmt: skip
 
 
-def _range(value, label: str) -> tuple[float, float]:
+def _interval(value, label: str) -> tuple[float, float]:
+    """A pair ``(low, high)`` of real numbers with ``low <= high``."""
     try:
-        lo, hi = (float(v) for v in value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{label}: expected (low, high), got {value!r}") from None
-    if not (0 < lo <= hi < np.inf):
+        items = list(value)
+    except TypeError:
+        items = None
+    if isinstance(value, (str, bytes)) or items is None or len(items) != 2:
+        raise TypeError(f"{label}: expected (low, high), got {value!r}")
+    lo, hi = (real_number(v, label) for v in items)
+    if lo > hi:
+        raise ValueError(f"{label}: need low <= high, got {value!r}")
+    return lo, hi
+
+
+def _range(value, label: str) -> tuple[float, float]:
+    lo, hi = _interval(value, label)
+    if not lo > 0:
         raise ValueError(f"{label}: need 0 < low <= high, got {value!r}")
     return lo, hi
 

@@ -6,7 +6,14 @@ import numpy as np
 
 from ..plotting import _pyplot, controller_style, save_figure
 
-__all__ = ["servo_rows", "servo_markdown_table", "servo_figure", "SERVO_LIMITS"]
+__all__ = [
+    "servo_rows",
+    "servo_markdown_table",
+    "servo_figure",
+    "markdown_row",
+    "markdown_rule",
+    "SERVO_LIMITS",
+]
 
 #: Torque limits of the servo comparison, Nm.
 SERVO_LIMITS = (500.0, 2000.0)
@@ -46,20 +53,45 @@ def servo_rows(limits=SERVO_LIMITS, progress=None):
     return rows, responses
 
 
+def markdown_row(cells) -> str:
+    """One Markdown table row; a ``|`` inside a cell is escaped as ``\\|``."""
+    return "| " + " | ".join(str(c).replace("|", "\\|") for c in cells) + " |"
+
+
+def markdown_rule(columns: int) -> str:
+    """The delimiter row of a Markdown table of `columns` columns."""
+    return "|" + "---|" * columns
+
+
+_SERVO_COLUMNS = (
+    "limit (Nm)",
+    "controller",
+    "settle 2% (s)",
+    "overshoot (%)",
+    "abs(e(5 s)) (rad)",
+    "peak Tm (Nm)",
+    "peak command (Nm)",
+)
+
+
 def servo_markdown_table(rows) -> str:
     """The servo rows as a Markdown table."""
-    lines = [
-        "| limit (Nm) | controller | settle 2% (s) | overshoot (%) | |e(5 s)| (rad) "
-        "| peak Tm (Nm) | peak command (Nm) |",
-        "|" + "---|" * 7,
-    ]
+    lines = [markdown_row(_SERVO_COLUMNS), markdown_rule(len(_SERVO_COLUMNS))]
     for r in rows:
         s = r["settling"]
+        settle = "never" if s is None or not np.isfinite(s) else f"{s:.3f}"
         lines.append(
-            f"| {r['torque_limit']:g} | {r['controller']} | "
-            f"{'never' if not np.isfinite(s) else f'{s:.3f}'} | "
-            f"{r['overshoot']:.2f} | {r['error_5s']:.2e} | "
-            f"{r['peak_torque']:.4g} | {r['peak_command']:.4g} |"
+            markdown_row(
+                [
+                    f"{r['torque_limit']:g}",
+                    r["controller"],
+                    settle,
+                    f"{r['overshoot']:.2f}",
+                    f"{r['error_5s']:.2e}",
+                    f"{r['peak_torque']:.4g}",
+                    f"{r['peak_command']:.4g}",
+                ]
+            )
         )
     return "\n".join(lines)
 

@@ -1,0 +1,35 @@
+"""Docstrings that say how to pass a spec (issue 19): checked against the code."""
+
+import inspect
+
+from numpydoc import docscrape
+
+import ctrl_lpv as lpv
+from ctrl_lpv.synthesis import compose
+
+
+def test_synthesize_objective_lists_every_accepted_objective():
+    doc = docscrape.FunctionDoc(lpv.synthesize)
+    objective = next(p for p in doc["Parameters"] if p.name == "objective")
+    accepted = [cls.__name__ for cls in compose.PERFORMANCE]
+    assert "Peak" in accepted
+    for name in accepted:
+        assert f"`{name}`" in objective.type, (name, objective.type)
+
+
+def test_region_docstrings_name_the_arguments_that_take_regions():
+    """Every public function with a `regions` parameter, and `synthesize`."""
+    takes_regions = sorted(
+        name
+        for name in lpv.__all__
+        if callable(getattr(lpv, name))
+        and not inspect.isclass(getattr(lpv, name))
+        and "regions" in inspect.signature(getattr(lpv, name)).parameters
+    )
+    assert len(takes_regions) >= 5  # the four paper functions and H2
+    assert "constraints" in inspect.signature(lpv.synthesize).parameters
+    returns = " ".join(docscrape.FunctionDoc(lpv.halfplane)["Returns"][0].desc)
+    assert "``constraints=[...]`` to `synthesize`" in returns
+    assert "``regions=``" in returns
+    for name in takes_regions:
+        assert f"`{name}`" in returns, name
