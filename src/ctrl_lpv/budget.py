@@ -58,10 +58,9 @@ DEFAULT_TIME_LIMIT = 600.0
 
 logger = logging.getLogger(__name__)
 
-# cvxpy compiles each LMI in Python. Measured here (benchmarks/time_budget.py)
-# about 0.01-0.02 s per LMI and 1e-6 s per matrix entry for one stage; the
-# estimate is about twice that, so that a compilation it lets start ends
-# within the time left.
+# cvxpy compiles each LMI in Python. Measured here (benchmarks/time_budget.py,
+# 11 to 154 LMIs of one stage, n = 2 to 8): the estimate is 1.1 to 2.9 times
+# the compile time, so that a compilation it lets start ends in the time left.
 _SECONDS_PER_LMI = 0.03
 _SECONDS_PER_ENTRY = 2e-6
 # Longest detail part of a time-limit refusal, in characters.
@@ -84,7 +83,6 @@ class _Budget:
     parent: _Budget | None = None
     place: dict = field(default_factory=dict)  # rung, stage (see `progress`)
     best: tuple | None = None  # (description, value or None)
-    notes: list = field(default_factory=list)
 
     def chain(self):
         budget = self
@@ -166,7 +164,7 @@ def check(where: str, needed: float = 0.0) -> None:
     else:
         text = f"too short for {where} (about {needed:.2g} s, {left:.2g} s left)"
     raise TimeLimitReached(
-        f"time_limit: {owner.limit:g} s {text}",
+        f"time_limit: {_limit_text(budget)} {text}",
         time_limit=owner.limit,
         best=_best(budget),
     )
@@ -237,6 +235,11 @@ def digest(text: str, limit: int = _DETAIL_CHARS) -> str:
     return out
 
 
+def _limit_text(budget: _Budget) -> str:
+    limit = budget.binding().limit
+    return "the deadline" if limit is None else f"{limit:g} s"
+
+
 def _refusal(budget: _Budget, exc: CertificationError | None) -> TimeLimitReached:
     """The time-limit refusal of `budget`'s call, with `exc`'s details."""
     owner = budget.binding()
@@ -246,7 +249,7 @@ def _refusal(budget: _Budget, exc: CertificationError | None) -> TimeLimitReache
     # short for the next step (a compilation).
     what = "reached" if _expired(budget) else "too short"
     first = (
-        f"time_limit: {owner.limit:g} s {what} in {budget.name} after "
+        f"time_limit: {_limit_text(budget)} {what} in {budget.name} after "
         f"{elapsed:.3g} s; best point reached: "
         f"{best or 'no certified point'} (last: {_where(budget)})"
     )
