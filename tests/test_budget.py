@@ -14,6 +14,7 @@ solver calls made after it. Facts used, none taken from ``ctrl_lpv``:
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import time
 
@@ -228,6 +229,38 @@ def test_solvers_get_the_time_left(plant, monkeypatch):
     limits = [kw.get("time_limit_secs", kw.get("time_limit")) for kw in seen]
     assert seen and all(limit is not None and 0 < limit <= 50.0 for limit in limits)
     assert limits == sorted(limits, reverse=True)  # the time left shrinks
+
+
+def test_margin_retries_get_the_time_left_then(plant, clock, monkeypatch):
+    """Every attempt (margin retries too) gets the time left when it starts:
+    each solve takes 10 s on the patched clock, every point misses its
+    margin, so each solver is retried; the limits must shrink by 10 s."""
+    from ctrl_lpv.lmi import LMIProblem
+
+    seen = []
+    real_solve, real_check = cp.Problem.solve, LMIProblem.check
+
+    def solve(self, *args, **kwargs):
+        seen.append(kwargs.get("time_limit_secs", kwargs.get("time_limit")))
+        try:
+            return real_solve(self, *args, **kwargs)
+        finally:
+            clock[0] += 10.0
+
+    def missing(self, values, stage="default"):
+        return tuple(
+            dataclasses.replace(c, max_eig=c.required + abs(c.required))
+            if c.strict else c
+            for c in real_check(self, values, stage)
+        )  # fmt: skip
+
+    monkeypatch.setattr(cp.Problem, "solve", solve)
+    monkeypatch.setattr(LMIProblem, "check", missing)
+    with pytest.raises(lpv.CertificationError, match="^time_limit: 50 s reached"):
+        lpv.quadratic_stability(_closed_loop(plant), time_limit=50.0)
+    assert len(seen) == 5  # Clarabel and two retries, SCS and one retry
+    for k, limit in enumerate(seen):
+        assert limit <= 50.0 - 10.0 * k + 1e-3
 
 
 def test_compilation_that_would_not_fit_is_not_started(plant, monkeypatch):

@@ -949,9 +949,8 @@ class LMIProblem:
         estimate = None
         for solver, options in chain:
             check(f"stage '{stage}' with {solver}")
-            options = _with_time_limit(solver, options, deadline)
             attempt, values, checks, duals = self._attempt(
-                problem, stage, solver, options
+                problem, stage, solver, _with_time_limit(solver, options, deadline)
             )
             attempts.append(attempt)
             if duals is not None:
@@ -975,8 +974,10 @@ class LMIProblem:
                 # (the certificate still asks for the nominal margin).
                 factor *= step
                 check(f"stage '{stage}' with {solver}, margin x{factor:g}")
+                # The time left now, not at the first attempt.
+                timed = _with_time_limit(solver, options, deadline)
                 attempt, values, checks, duals = self._attempt(
-                    problem, stage, solver, options, factor
+                    problem, stage, solver, timed, factor
                 )
                 attempts.append(attempt)
             if attempt.certified:
