@@ -60,7 +60,8 @@ logger = logging.getLogger(__name__)
 
 # cvxpy compiles each LMI in Python. Measured here (benchmarks/time_budget.py,
 # 11 to 154 LMIs of one stage, n = 2 to 8): the estimate is 1.1 to 2.9 times
-# the compile time, so that a compilation it lets start ends in the time left.
+# the compile time on the loaded shared machine, up to 9 times when it was
+# quieter, so that a compilation it lets start ends in the time left.
 _SECONDS_PER_LMI = 0.03
 _SECONDS_PER_ENTRY = 2e-6
 # Longest detail part of a time-limit refusal, in characters.
