@@ -232,7 +232,8 @@ def quadratic_stability(
     _require_stable_vertices(sys, As)
     if lyapunov != "constant" or rate_bounds is not None or sys.isdtime(strict=True):
         cl = _autonomous(sys, As)
-        _, P, checks = _general_analysis(cl, None, lyapunov, rate_bounds, margin)
+        _, P, cert = _general_analysis(cl, None, lyapunov, rate_bounds, margin)
+        checks = cert.lmi_checks
         return QuadraticStability(P, checks, sys)
     scale = max(1.0, max(np.linalg.norm(A, 2) for A in As))
     As = [A / scale for A in As]
@@ -303,7 +304,8 @@ def l2_gain_bound(
         from .synthesis import Hinf
 
         cl = _closed_loop(sys, gains, iw, iu, iz, lyapunov)
-        gamma, P, checks = _general_analysis(cl, Hinf(), lyapunov, rate_bounds, margin)
+        gamma, P, cert = _general_analysis(cl, Hinf(), lyapunov, rate_bounds, margin)
+        checks = cert.lmi_checks
         return L2GainBound(gamma, P, checks, sys)
     data = []
     for A, B, C, D in sys.vertex_data():
@@ -398,7 +400,8 @@ def h2_bound(
     iw = signal_indices(w, sys.physical_inputs, "w")
     iz = signal_indices(z, sys.output_labels, "z")
     cl = _closed_loop(sys, gains, iw, iu, iz, lyapunov)
-    gamma, P, checks = _general_analysis(cl, H2(), lyapunov, rate_bounds, margin)
+    gamma, P, cert = _general_analysis(cl, H2(), lyapunov, rate_bounds, margin)
+    checks = cert.lmi_checks
     return H2Bound(gamma, P, checks, sys)
 
 
@@ -453,8 +456,8 @@ def _closed_loop(sys, gains, iw, iu, iz, lyapunov):
 def _general_analysis(cl, spec, lyapunov, rate_bounds, margin):
     """The bound of `spec` (None: stability) of a closed loop without inputs.
 
-    Returns ``(gamma, P, checks)``, ``P`` the Lyapunov matrix or its vertex
-    matrices (see `_LyapunovResult.lyapunov_matrix`).
+    Returns ``(gamma, P, certificate)``, ``P`` the Lyapunov matrix or its
+    vertex matrices (see `_LyapunovResult.lyapunov_matrix`).
 
     The engine writes its LMIs in the dual variable ``W``. In continuous
     time with ``lyapunov="affine"`` it analyses the transposed loop
@@ -468,6 +471,7 @@ def _general_analysis(cl, spec, lyapunov, rate_bounds, margin):
     from .lmi import solver_chain
     from .synthesis.general import run_general
     from .synthesis.parametric import lyapunov_structure
+    from .synthesis.specs import Hinf
 
     lyap = lyapunov_structure(cl, lyapunov, rate_bounds)
     primal = not lyap.constant and not cl.isdtime(strict=True)
@@ -483,8 +487,13 @@ def _general_analysis(cl, spec, lyapunov, rate_bounds, margin):
     )  # fmt: skip
     P = design.P
     if primal:
-        P = tuple(_sym(np.linalg.inv(Pj)) for Pj in P)
-    return design.gamma, P, design.certificate.lmi_checks
+        # The transposed loop's dual bounded-real inequality in W is the
+        # loop's primal one in P = W / gamma^2 (the identity and gamma^2
+        # blocks trade places); the Lyapunov and H2 inequalities need no
+        # factor.
+        factor = design.gamma**2 if isinstance(spec, Hinf) else 1.0
+        P = tuple(_sym(np.linalg.inv(Pj)) / factor for Pj in P)
+    return design.gamma, P, design.certificate
 
 
 def _sym(M):

@@ -311,7 +311,8 @@ class _Job:
             return self.stages()
         # The extended LMIs hold for each fixed eps; none is best for every
         # problem: a feasibility problem takes the first that certifies, a
-        # minimisation the smallest certified bound.
+        # minimisation the smallest certified bound. Their optimum at one
+        # eps is not the problem's, so no other prescaling is asked for it.
         best = None
         for eps in EPSILONS:
             # Kept on the job: a rebuild (the bound's rescaling) reads it.
@@ -325,6 +326,7 @@ class _Job:
                 return found
             if best is None or found[0].values[0] < best[0].values[0]:
                 best = found
+        self.optimum_certified = True
         return best
 
     def stages(self):

@@ -93,17 +93,22 @@ def run_ladder(
         record.extend(f"{rung}: {note}" for note in job.notes)
         if found is None:
             continue
+        if fallback is None or (
+            found[0].gamma is not None and found[0].gamma < fallback[0].gamma
+        ):
+            fallback = found
         if job.estimate_certified:
-            fallback = found
             break
-        if fallback is None:
-            fallback = found
-            record.append(
-                f"{rung}: a design, but its minimum-gamma point did not certify; "
-                "other prescalings asked for a certified one"
-            )
+        record.append(
+            f"{rung}: a design, but its minimum-gamma point did not certify; "
+            "other prescalings asked for a certified one"
+        )
     if fallback is not None:
         point, gamma_opt = fallback
+        if hinf and gamma is None:
+            # An estimate from above (see `meets_lmis`), never above what
+            # is certified.
+            gamma_opt = min(gamma_opt or np.inf, point.gamma)
         solved = time.perf_counter()
         labels = sys.physical_inputs
         return StateFeedbackDesign(
@@ -343,6 +348,9 @@ class _Job:
                 f"optimal: the solver's gamma^2 = {g_opt:g} is not positive"
             )
             return None
+        # What is reported comes from points that meet the LMIs; g_opt,
+        # the solver's word, only sets where the back-off starts.
+        met = [self._gamma_of(p) for p in (raw.nominal, raw) if meets_lmis(p)]
         if abs(np.log2(g_opt)) > 2:
             # The stages after this one are posed with gamma^2 about 1, and
             # the optimum is estimated again there; W and Z do not depend on
@@ -360,7 +368,10 @@ class _Job:
                 )
                 if g_again is not None and 0 < g_again < g_opt:
                     raw, g_opt = again, g_again
-        gamma_opt = float(np.sqrt(self.scaling.unscale_g(g_opt)))
+                if again is not None:
+                    met += [self._gamma_of(p) for p in (again.nominal, again)
+                            if meets_lmis(p)]  # fmt: skip
+        gamma_opt = min(met, default=None)
         raw_design = self._accept(raw, "raw optimum")
         # The estimate is the nominal-margin point's: trusted when that
         # point itself certified.
@@ -378,6 +389,10 @@ class _Job:
         if not self.backoff and self.gain_bound is None:
             return best, gamma_opt
         return self._minimise_gain(best, gamma_opt)
+
+    def _gamma_of(self, sol) -> float:
+        """The bound of a point's ``g`` in the model's units."""
+        return float(np.sqrt(self.scaling.unscale_g(float(sol.g[0, 0]))))
 
     def _minimise_gain(self, best, gamma_opt):
         """Convex-concave gain iterations from a certified point.

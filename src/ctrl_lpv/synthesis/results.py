@@ -153,7 +153,8 @@ class StateFeedbackDesign:
     lyapunov : {"constant", "affine"}
         The Lyapunov function: one ``P``, or ``P(p) = W(p)^-1`` with ``W``
         multi-affine in the box parameters (then `P` holds the vertex
-        matrices, see `lyapunov_matrix`).
+        matrices, see `lyapunov_matrix`); with `primal`, ``P(p)`` itself
+        multi-affine.
     bounds : dict
         Certified bound of every `ctrl_lpv.Hinf` and `ctrl_lpv.H2` spec of
         the call, keyed by the spec.
@@ -165,6 +166,10 @@ class StateFeedbackDesign:
         For ``lyapunov="affine"``: the parameter rate bounds ``{name: nu}``
         the certificate holds for (a parameter not listed may vary
         arbitrarily fast); None for a constant Lyapunov matrix.
+    primal : bool
+        Whether an affine ``P(p)`` is multi-affine itself (the certificate of
+        a common gain's analysis, see `ctrl_lpv.synthesize`) rather than its
+        inverse.
     """
 
     system: PolytopicStateSpace
@@ -186,6 +191,7 @@ class StateFeedbackDesign:
     bounds: dict = field(default_factory=dict)
     rational: tuple | None = None
     rate_bounds: dict | None = None
+    primal: bool = False
 
     @property
     def scheduled(self) -> bool:
@@ -245,9 +251,13 @@ class StateFeedbackDesign:
         return self.lyapunov_at(self.system.weights(p))
 
     def lyapunov_at(self, delta) -> np.ndarray:
-        """``P`` at convex coordinates `delta`: ``(sum_j delta_j P_j^-1)^-1``."""
+        """``P`` at convex coordinates `delta`: ``(sum_j delta_j P_j^-1)^-1``,
+        or ``sum_j delta_j P_j`` for a `primal` design."""
         if self.lyapunov == "constant":
             return self.P.copy()
+        if self.primal:
+            P = sum(d * Pj for d, Pj in zip(delta, self.P))
+            return 0.5 * (P + P.T)
         W = sum(d * np.linalg.inv(Pj) for d, Pj in zip(delta, self.P))
         P = np.linalg.inv(W)
         return 0.5 * (P + P.T)
