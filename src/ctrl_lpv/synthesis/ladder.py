@@ -604,7 +604,11 @@ def carry(job, stage, source) -> None:
         d = Y.shape[0]
         K = np.kron(np.eye(d // n), R) if d % n == 0 else np.eye(d)
         duals.append(K.T @ Y @ K)
-    refute(job, stage, job.lmi.farkas(duals, stage))
+    try:
+        proof = job.lmi.farkas(duals, stage)
+    except ValueError:  # another stage structure: nothing to carry
+        return
+    refute(job, stage, proof)
 
 
 class Refutations:
@@ -658,6 +662,8 @@ class Refutations:
             if self.last is None or name in self:
                 continue
             job = make_job(scaling)
+            if job.deadline is not None and time.perf_counter() > job.deadline:
+                return
             job.carried, job.solving = self.last, False
             try:
                 run(job)
