@@ -105,7 +105,7 @@ def run_general(
     # other prescalings at the nominal margin are asked for one that
     # certifies; if none does, the first design stands.
     fallback = None
-    refuted = Refutations(method, [name for name, _ in scalings], margin, attempts)
+    refuted = Refutations(method, [name for name, _ in scalings], attempts)
 
     def make_job(base, rung_margin, one_solver):
         job = _Job(

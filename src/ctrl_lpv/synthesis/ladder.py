@@ -76,7 +76,7 @@ def run_ladder(
     # balanced coordinates): the other prescalings at the nominal margin are
     # asked for one that certifies; if none does, the first design stands.
     fallback = None
-    refuted = Refutations(method, [name for name, _ in scalings], margin, attempts)
+    refuted = Refutations(method, [name for name, _ in scalings], attempts)
 
     def make_job(scaling, rung_margin, one_solver):
         job = _Job(
@@ -620,16 +620,13 @@ class Refutations:
         Names the call in the message.
     names : list of str
         Every prescaling the ladder tries (each rung uses one of them).
-    margin : float
-        The nominal margin (the message says what was required).
     attempts : list
         The ladder's solver attempts (kept by the refusal).
     """
 
-    def __init__(self, method, names, margin, attempts):
+    def __init__(self, method, names, attempts):
         self.method = method
         self.names = list(names)
-        self.margin = margin
         self.attempts = attempts
         self.found: dict[str, RungRefuted] = {}
 
