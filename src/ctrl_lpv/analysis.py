@@ -9,8 +9,8 @@ import control as ct
 import numpy as np
 
 from ._checks import signal_indices
-from .exceptions import InfeasibleError
-from .lmi import LMICheck, LMIProblem
+from .exceptions import CertificationError, InfeasibleError
+from .lmi import LMICheck, LMIProblem, symmetric_norm_bound
 from .systems import PolytopicStateSpace
 
 __all__ = [
@@ -222,7 +222,10 @@ def quadratic_stability(
     ------
     InfeasibleError
         If a vertex has an eigenvalue with ``Re >= 0`` (then no ``P > 0``
-        has ``A' P + P A < 0``).
+        has ``A' P + P A < 0``), or if a dual certificate verified in
+        float64 shows that every common Lyapunov matrix has a relative
+        margin below what the certificate accepts (no certifiable one
+        exists; the message gives both numbers).
     CertificationError
         If no certified common Lyapunov matrix was found otherwise.
     """
@@ -251,7 +254,23 @@ def quadratic_stability(
         strict=False,
         normalization=True,
     )
-    sol = lmi.solve(lambda v: -v.t[0, 0])
+    try:
+        sol = lmi.solve(lambda v: -v.t[0, 0])
+    except CertificationError as exc:
+        # Every point the certificate accepts has P <= I (to the tolerance
+        # of the check): a dual that bounds the relative margin below what
+        # such a point needs proves that none exists.
+        bounds = {"P": symmetric_norm_bound(1.0, n)}
+        if exc.farkas is None or not exc.farkas.excludes(margin, bounds):
+            raise
+        raise InfeasibleError(
+            f"no certifiable common Lyapunov matrix exists: "
+            f"{exc.farkas.exclusion(margin, bounds)} (P <= I, the matrices "
+            f"A_j divided by {scale:.6g}). A P with a smaller relative margin "
+            f"is not excluded, but none could pass the certificate",
+            exc.attempts,
+            exc.farkas,
+        ) from None
     return QuadraticStability(sol.P, sol.checks)
 
 
