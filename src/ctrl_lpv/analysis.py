@@ -9,6 +9,7 @@ import control as ct
 import numpy as np
 
 from ._checks import signal_indices
+from .budget import DEFAULT_TIME_LIMIT, time_budget
 from .exceptions import CertificationError, InfeasibleError
 from .lmi import LMICheck, LMIProblem, symmetric_norm_bound
 from .systems import PolytopicStateSpace
@@ -190,12 +191,14 @@ def _as_closed_loop_data(sys, gains, u):
     return gains, iu
 
 
+@time_budget
 def quadratic_stability(
     sys: PolytopicStateSpace,
     margin: float = 1e-6,
     *,
     lyapunov: str = "constant",
     rate_bounds=None,
+    time_limit: float | None = DEFAULT_TIME_LIMIT,
 ):
     """Find a Lyapunov function for the autonomous part of the polytope.
 
@@ -213,6 +216,12 @@ def quadratic_stability(
     rate_bounds : mapping of str to float, optional
         ``{name: nu}`` bounds on the parameter rates, for
         ``lyapunov="affine"``; ``nu = 0`` for time-invariant parameters.
+    time_limit : float or None, optional
+        Wall-time budget of the call in seconds (default 600,
+        `ctrl_lpv.budget.DEFAULT_TIME_LIMIT`; None for no limit). Solvers
+        get the time left; when it runs out the call ends with a
+        `CertificationError` whose first line is ``time_limit: ... s
+        reached`` with the best point reached.
 
     Returns
     -------
@@ -274,6 +283,7 @@ def quadratic_stability(
     return QuadraticStability(sol.P, sol.checks)
 
 
+@time_budget
 def l2_gain_bound(
     sys: PolytopicStateSpace,
     gains,
@@ -284,6 +294,7 @@ def l2_gain_bound(
     *,
     lyapunov: str = "constant",
     rate_bounds=None,
+    time_limit: float | None = DEFAULT_TIME_LIMIT,
 ) -> L2GainBound:
     """Certified L2-gain bound of ``sys`` under ``u = -K(delta) x``.
 
@@ -306,6 +317,12 @@ def l2_gain_bound(
     rate_bounds : mapping of str to float, optional
         ``{name: nu}`` bounds on the parameter rates, for
         ``lyapunov="affine"``.
+    time_limit : float or None, optional
+        Wall-time budget of the call in seconds (default 600,
+        `ctrl_lpv.budget.DEFAULT_TIME_LIMIT`; None for no limit). Solvers
+        get the time left; when it runs out the call ends with a
+        `CertificationError` whose first line is ``time_limit: ... s
+        reached`` with the best point reached.
 
     Returns
     -------
@@ -367,6 +384,7 @@ def l2_gain_bound(
     return L2GainBound(float(np.sqrt(sol.g[0, 0])), sol.P, sol.checks)
 
 
+@time_budget
 def h2_bound(
     sys: PolytopicStateSpace,
     gains,
@@ -377,6 +395,7 @@ def h2_bound(
     *,
     lyapunov: str = "constant",
     rate_bounds=None,
+    time_limit: float | None = DEFAULT_TIME_LIMIT,
 ) -> H2Bound:
     """Certified H2 bound of ``sys`` under ``u = -K(delta) x``.
 
@@ -401,6 +420,12 @@ def h2_bound(
     rate_bounds : mapping of str to float, optional
         ``{name: nu}`` bounds on the parameter rates, for
         ``lyapunov="affine"``.
+    time_limit : float or None, optional
+        Wall-time budget of the call in seconds (default 600,
+        `ctrl_lpv.budget.DEFAULT_TIME_LIMIT`; None for no limit). Solvers
+        get the time left; when it runs out the call ends with a
+        `CertificationError` whose first line is ``time_limit: ... s
+        reached`` with the best point reached.
 
     Returns
     -------

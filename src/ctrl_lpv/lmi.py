@@ -19,6 +19,8 @@ compilation ahead of the first solve so that its cost can be measured apart.
 from __future__ import annotations
 
 import functools
+import logging
+import re
 import time
 import warnings
 from collections.abc import Callable, Sequence
@@ -29,7 +31,7 @@ import cvxpy as cp
 import numpy as np
 import scipy.sparse as sp
 
-from . import _farkas
+from . import _farkas, budget
 from .exceptions import CertificationError, InfeasibleError
 
 __all__ = [
@@ -42,6 +44,8 @@ __all__ = [
     "default_solvers",
     "solver_chain",
 ]
+
+logger = logging.getLogger(__name__)
 
 BlockFunction = Callable[[SimpleNamespace], Sequence[Sequence[object]]]
 
@@ -567,11 +571,41 @@ _TIME_LIMIT_OPTIONS = {"CLARABEL": "time_limit", "SCS": "time_limit_secs"}
 
 
 def _with_time_limit(solver, options, deadline):
+    """`options` with the solver's own limit set to the time left.
+
+    The time left is that of `deadline` or of the call's budget
+    (`ctrl_lpv.budget`), whichever ends first.
+    """
     key = _TIME_LIMIT_OPTIONS.get(solver.upper())
-    if deadline is None or key is None:
+    ends = [d for d in (deadline, budget.deadline()) if d is not None]
+    if not ends or key is None:
         return options
-    left = max(deadline - time.perf_counter(), 1e-3)
+    left = max(min(ends) - time.perf_counter(), 1e-3)
     return {**options, key: min(float(options.get(key, np.inf)), left)}
+
+
+# cvxpy's text for any failed solve: it says nothing about this one, and
+# repeated once per attempt it made refusals of 10 kB.
+_CVXPY_BOILERPLATE = re.compile(
+    r"Solver '\w+' failed\.\s*|Try another solver, or solve with verbose=True "
+    r"for more information\.\s*"
+)
+
+
+def _solver_message(exc) -> str:
+    """What a solver error says beyond cvxpy's boilerplate (often nothing)."""
+    lines = str(exc).strip().splitlines()
+    return _CVXPY_BOILERPLATE.sub("", lines[0]).strip() if lines else ""
+
+
+def _summary(attempts) -> str:
+    """The attempts of a solve, one clause each, repeats counted."""
+    return budget.digest(
+        "; ".join(
+            f"{a.solver}: {a.status}" + (f" ({a.message})" if a.message else "")
+            for a in attempts
+        )
+    )
 
 
 def solver_chain(solvers) -> list[tuple[str, dict]] | None:
@@ -884,6 +918,7 @@ class LMIProblem:
             return 0.0
         start = time.perf_counter()
         problem = self._problem(stage, objective)
+        self._check_compile(problem, stage, solver)
         problem.get_problem_data(solver)
         self._compiled[stage] = solver
         return time.perf_counter() - start
@@ -910,7 +945,23 @@ class LMIProblem:
             raise ValueError(f"stage: {stage!r} has not been built yet")
         return bool(self._problems[stage].is_dpp())
 
+    def _check_compile(self, problem, stage, solver) -> None:
+        """Refuse to compile a stage that would not compile in the time left.
+
+        Raises
+        ------
+        `ctrl_lpv.budget.TimeLimitReached`
+            If the estimate (`ctrl_lpv.budget.compile_seconds`) exceeds the
+            time left in the call's budget.
+        """
+        if self._compiled.get(stage) == solver.upper():
+            return
+        entries = sum(int(np.prod(c.args[0].shape)) for c in problem.constraints)
+        needed = budget.compile_seconds(len(problem.constraints), entries)
+        budget.check(f"compiling stage '{stage}' for {solver}", needed)
+
     def _attempt(self, problem, stage, solver, options, factor=1.0):
+        self._check_compile(problem, stage, solver)
         nominal = self.margin
         self._margin.value = nominal * factor
         start = time.perf_counter()
@@ -929,7 +980,7 @@ class LMIProblem:
             status, message = problem.status, ""
             self._compiled[stage] = solver.upper()
         except cp.error.SolverError as exc:
-            status, message = "solver_error", str(exc).splitlines()[0]
+            status, message = "solver_error", _solver_message(exc)
         finally:
             self._margin.value = nominal
             compile_seconds = float(problem.compilation_time or 0.0)
@@ -956,6 +1007,10 @@ class LMIProblem:
         attempt = SolveAttempt(
             solver, status, seconds, certified, message, compile_seconds
         )
+        logger.debug(
+            "stage '%s': %s %s in %.3g s (%.3g s compiling)%s", stage, solver,
+            status, seconds, compile_seconds, f": {message}" if message else "",
+        )  # fmt: skip
         return attempt, values, checks, duals
 
     def check(self, values: dict[str, np.ndarray], stage: str = "default"):
@@ -1009,7 +1064,9 @@ class LMIProblem:
             a certified re-solve backs off from.
         deadline : float, optional
             ``time.perf_counter()`` value after which no further solver is
-            started; solvers get the time left as their own limit.
+            started; solvers get the time left as their own limit. The
+            call's budget (`ctrl_lpv.budget`) applies too, whichever ends
+            first.
 
         Returns
         -------
@@ -1023,24 +1080,49 @@ class LMIProblem:
             (`FarkasCertificate.proves_infeasible`).
         CertificationError
             If no returned point passes its float64 certificate and no
-            infeasibility is proven.
+            infeasibility is proven; `ctrl_lpv.budget.TimeLimitReached`
+            (one) when the deadline passes first.
         """
-        problem = self._problem(stage, objective)
-        attempts = []
-        dual_points = []
         chain = default_solvers() if solvers is None else list(solvers)
         if not chain:
             raise RuntimeError("no SDP solver installed: install clarabel or scs")
+        attempts: list[SolveAttempt] = []
+        budget.progress("stage '%s'", stage, level=logging.DEBUG, stage=stage)
+        try:
+            return self._solve(objective, stage, chain, certify, deadline, attempts)
+        except budget.TimeLimitReached as exc:
+            exc.attempts = tuple(attempts)
+            raise
+        finally:
+            if attempts:
+                last = attempts[-1]
+                budget.progress(
+                    "stage '%s': %s (%d solver attempts, %.3g s)", stage,
+                    "certified" if last.certified else last.status,
+                    len(attempts), sum(a.seconds for a in attempts),
+                )  # fmt: skip
+
+    def _solve(self, objective, stage, chain, certify, deadline, attempts):
+        """`solve`, recording its attempts in `attempts` as they are made."""
+
+        def check(where):
+            budget.check(where)
+            if deadline is not None and time.perf_counter() >= deadline:
+                raise budget.TimeLimitReached(f"deadline passed before {where}")
+
+        check(f"stage '{stage}'")
+        if stage not in self._problems:
+            budget.check(
+                f"building stage '{stage}'",
+                budget.compile_seconds(len(self._active(stage)), 0),
+            )
+        problem = self._problem(stage, objective)
+        dual_points = []
         estimate = None
         for solver, options in chain:
-            if deadline is not None and time.perf_counter() >= deadline:
-                attempts.append(
-                    SolveAttempt(solver, "skipped", 0.0, False, "time_limit reached")
-                )
-                break
-            options = _with_time_limit(solver, options, deadline)
+            check(f"stage '{stage}' with {solver}")
             attempt, values, checks, duals = self._attempt(
-                problem, stage, solver, options
+                problem, stage, solver, _with_time_limit(solver, options, deadline)
             )
             attempts.append(attempt)
             if duals is not None:
@@ -1063,8 +1145,11 @@ class LMIProblem:
                 # The solver's own tolerance ate the margin: pose a larger one
                 # (the certificate still asks for the nominal margin).
                 factor *= step
+                check(f"stage '{stage}' with {solver}, margin x{factor:g}")
+                # The time left now, not at the first attempt.
+                timed = _with_time_limit(solver, options, deadline)
                 attempt, values, checks, duals = self._attempt(
-                    problem, stage, solver, options, factor
+                    problem, stage, solver, timed, factor
                 )
                 attempts.append(attempt)
                 if duals is not None:  # judged without the margin: as good
@@ -1077,10 +1162,9 @@ class LMIProblem:
                 return solution
         if not certify and estimate is not None:
             return estimate
-        summary = "; ".join(
-            f"{a.solver}: {a.status}" + (f" ({a.message})" if a.message else "")
-            for a in attempts
-        )
+        summary = _summary(attempts)
+        if dual_points:
+            check(f"the dual certificate of stage '{stage}'")
         proof = self._best_farkas(dual_points, stage)
         if proof is not None and proof.proves_infeasible:
             raise InfeasibleError(
@@ -1186,6 +1270,9 @@ class LMIProblem:
         names = frozenset(self._vars) | frozenset(self._params)
         pieces = []
         for name, blocks, _, _ in active:
+            # One evaluation per free entry of the variables: long for
+            # large problems, so the budget is checked between inequalities.
+            budget.check(f"the dual certificate ({name})")
 
             def evaluate(values, read=None, blocks=blocks):
                 namespace = {**numeric, **zero, **values}

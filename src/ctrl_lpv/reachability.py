@@ -61,6 +61,7 @@ from ._checks import (
     real_number,
     signal_indices,
 )
+from .budget import DEFAULT_TIME_LIMIT, time_budget
 from .exceptions import CertificationError, InfeasibleError, SynthesisError
 from .lmi import LMIProblem, SolveAttempt, default_solvers, solver_chain
 
@@ -536,6 +537,7 @@ def _gramian_scaling(As, Es) -> np.ndarray:
 # ----------------------------------------------------------------------
 # Ultimate bound
 # ----------------------------------------------------------------------
+@time_budget
 def ultimate_bound(
     sys,
     w=None,
@@ -546,6 +548,7 @@ def ultimate_bound(
     decay: float | None = None,
     margin: float = 1e-6,
     solvers=None,
+    time_limit: float | None = DEFAULT_TIME_LIMIT,
 ) -> UltimateBound:
     """Ultimate bound for inputs with ``|w_i(t)| <= w_max_i``.
 
@@ -581,6 +584,12 @@ def ultimate_bound(
         MOSEK if installed. The line search over ``lambda`` uses the first
         solver only (the whole list if it finds nothing); a fixed `decay`
         uses the whole list.
+    time_limit : float or None, optional
+        Wall-time budget of the call in seconds (default 600,
+        `ctrl_lpv.budget.DEFAULT_TIME_LIMIT`; None for no limit). Solvers
+        get the time left; when it runs out the call ends with a
+        `CertificationError` whose first line is ``time_limit: ... s
+        reached`` with the best point reached.
 
     Returns
     -------

@@ -79,6 +79,7 @@ from ._checks import (
     real_number,
     signal_indices,
 )
+from .budget import DEFAULT_TIME_LIMIT, time_budget
 from .exceptions import CertificationError, InfeasibleError, SynthesisError
 from .lmi import LMIProblem, SolveAttempt, default_solvers, solver_chain
 from .reachability import (
@@ -534,6 +535,7 @@ def _is_zero(x):
 # ----------------------------------------------------------------------
 # Public functions
 # ----------------------------------------------------------------------
+@time_budget
 def saturated_state_feedback(
     sys: PolytopicStateSpace,
     u,
@@ -550,6 +552,7 @@ def saturated_state_feedback(
     backoff: float | None = 0.1,
     margin: float = 1e-6,
     solvers=None,
+    time_limit: float | None = DEFAULT_TIME_LIMIT,
 ) -> SaturatedDesign:
     """State feedback with a certified region under saturation.
 
@@ -611,6 +614,12 @@ def saturated_state_feedback(
         MOSEK if installed. With `w`, the line search over the
         S-procedure rate ``lambda`` uses the first solver only (the whole
         list if it finds nothing); so does the back-off stage.
+    time_limit : float or None, optional
+        Wall-time budget of the call in seconds (default 600,
+        `ctrl_lpv.budget.DEFAULT_TIME_LIMIT`; None for no limit). Solvers
+        get the time left; when it runs out the call ends with a
+        `CertificationError` whose first line is ``time_limit: ... s
+        reached`` with the best point reached.
 
     Returns
     -------
@@ -648,6 +657,7 @@ def saturated_state_feedback(
     return _run(prob, nK, None, backoff, solvers)
 
 
+@time_budget
 def saturation_region(
     sys: PolytopicStateSpace,
     gain,
@@ -663,6 +673,7 @@ def saturation_region(
     w_max=None,
     margin: float = 1e-6,
     solvers=None,
+    time_limit: float | None = DEFAULT_TIME_LIMIT,
 ) -> SaturatedDesign:
     """Certified region of ``u = -K x`` under input saturation.
 
@@ -721,6 +732,12 @@ def saturation_region(
         MOSEK if installed. With `w`, the line search over the
         S-procedure rate ``lambda`` uses the first solver only (the whole
         list if it finds nothing).
+    time_limit : float or None, optional
+        Wall-time budget of the call in seconds (default 600,
+        `ctrl_lpv.budget.DEFAULT_TIME_LIMIT`; None for no limit). Solvers
+        get the time left; when it runs out the call ends with a
+        `CertificationError` whose first line is ``time_limit: ... s
+        reached`` with the best point reached.
 
     Returns
     -------

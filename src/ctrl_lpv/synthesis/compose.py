@@ -19,6 +19,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..budget import DEFAULT_TIME_LIMIT, time_budget
 from ..exceptions import SynthesisError
 from ..regions import LMIRegion
 from ..stabilizability import check_stabilizability
@@ -42,6 +43,7 @@ _METHODS = {
 }
 
 
+@time_budget
 def synthesize(
     sys: PolytopicStateSpace,
     u=None,
@@ -54,7 +56,7 @@ def synthesize(
     backoff: float | None = 0.2,
     margin: float = 1e-6,
     solvers=None,
-    time_limit: float | None = None,
+    time_limit: float | None = DEFAULT_TIME_LIMIT,
 ) -> StateFeedbackDesign:
     """Certified state feedback ``u = -K x`` for composable specifications.
 
@@ -91,7 +93,10 @@ def synthesize(
         ``{name: nu}``: ``|dp/dt| <= nu`` (continuous) or
         ``|p[k+1] - p[k]| <= nu`` (discrete); ``nu = 0`` for a
         time-invariant parameter. A parameter not listed (or ``inf``) may
-        vary arbitrarily fast and the Lyapunov matrix does not depend on it.
+        vary arbitrarily fast and the Lyapunov matrix does not depend on it;
+        nor on a parameter whose bound exceeds 1e3 crossings of its
+        interval per time unit of the data, or whose interval is too narrow
+        to change the data (sound: see `ctrl_lpv.synthesis.parametric`).
     backoff : float or None, optional
         Relax the minimum bound by this fraction (default 0.2) and re-solve
         for a well-conditioned Lyapunov matrix; None or 0 returns the raw
@@ -102,8 +107,12 @@ def synthesize(
     solvers : str or sequence, optional
         A solver name, or names or ``(name, options)`` pairs tried in turn;
         default Clarabel, then SCS (then CVXOPT and MOSEK if installed).
-    time_limit : float, optional
-        Wall-time limit of the call in seconds (default none).
+    time_limit : float or None, optional
+        Wall-time budget of the call in seconds (default 600,
+        `ctrl_lpv.budget.DEFAULT_TIME_LIMIT`; None for no limit). Solvers
+        get the time left; when it runs out the call ends with a
+        `CertificationError` whose first line is ``time_limit: ... s
+        reached`` with the best point reached.
 
     Returns
     -------
@@ -327,6 +336,7 @@ def _describe(objective, performance, scheduled, lyapunov, continuous) -> str:
     )
 
 
+@time_budget
 def h2_state_feedback(
     sys: PolytopicStateSpace,
     w=None,
@@ -340,7 +350,7 @@ def h2_state_feedback(
     gain_bound: float | None = None,
     margin: float = 1e-6,
     solvers=None,
-    time_limit: float | None = None,
+    time_limit: float | None = DEFAULT_TIME_LIMIT,
 ) -> StateFeedbackDesign:
     """State feedback with a certified H2 bound (quadratic, constant ``P``).
 
@@ -371,8 +381,12 @@ def h2_state_feedback(
         Margin of the strict LMIs (prescaled units), default 1e-6.
     solvers : str or sequence, optional
         Solvers tried in turn (see `synthesize`).
-    time_limit : float, optional
-        Wall-time limit of the call, in seconds.
+    time_limit : float or None, optional
+        Wall-time budget of the call in seconds (default 600,
+        `ctrl_lpv.budget.DEFAULT_TIME_LIMIT`; None for no limit). Solvers
+        get the time left; when it runs out the call ends with a
+        `CertificationError` whose first line is ``time_limit: ... s
+        reached`` with the best point reached.
 
     Returns
     -------

@@ -14,6 +14,7 @@ from contextlib import contextmanager
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from .. import budget
 from ..lmi import default_solvers
 
 # The decays tried: prescaled time units in continuous time, where the data
@@ -43,6 +44,10 @@ def _first_solver(job):
 
 
 def _set(job, lam) -> None:
+    # Each decay is a solve or more: stop the search once the deadline
+    # has passed (the stages would only refuse, one note per decay).
+    budget.check(f"the Peak decay lambda = {lam * job.scaling.a:.3g}")
+    budget.progress("Peak decay lambda = %.3g", lam * job.scaling.a)
     job.lam = lam  # kept on the job: a rebuild (the bound's rescaling) reads it
     job.lmi.set_parameter("lam", lam)
 

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import budget
 from ..exceptions import CertificationError, InfeasibleError
 from ..lmi import default_solvers, schur_norm_bound, symmetric_norm_bound
 from ..regions import LMIRegion
@@ -50,7 +51,7 @@ from .ladder import (
     solve_stage,
 )
 from .options import guard_estimate
-from .parametric import coefficients
+from .parametric import coefficient_count, coefficients
 from .problem import EPSILONS, build_problem
 from .results import Certificate, StateFeedbackDesign
 from .scaling import Scaling, channel_scales, pow2, riccati_scaling
@@ -70,7 +71,7 @@ def run_general(
     `GainBound`, at most one `Saturation`), in the model's units.
     """
     start = time.perf_counter()
-    deadline = None if time_limit is None else start + time_limit
+    deadline = budget.deadline()  # the call's (`ctrl_lpv.budget`)
     original = []
     for A, B, C, D in sys.vertex_data():
         vertex = {"A": A, "B2": B[:, iu]}
@@ -126,8 +127,9 @@ def run_general(
             record.append(f"{rung}: not tried (refuted: {refuted.brief(name)})")
             continue
         if deadline is not None and time.perf_counter() > deadline:
-            record.append(f"{rung}: not tried (time_limit {time_limit:g} s)")
+            record.append(f"{rung}: not tried (time_limit reached)")
             continue
+        budget.progress("rung %s", rung, rung=rung)
         job = make_job(base, margin * factor, one_solver)
         job.carried = refuted.last
         try:
@@ -188,7 +190,7 @@ def run_general(
             rational=point.rational,
         )
     hint = "".join(f"; weakly controllable: {m}" for m in suspects)
-    reasons = "; ".join(dict.fromkeys(note.split(": ", 1)[-1] for note in record))
+    reasons = budget.digest("; ".join(note.split(": ", 1)[-1] for note in record))
     raise CertificationError(
         f"{method}: no certified solution found after {len(rungs)} rungs "
         f"(solvers {[one[0][0] for one in solvers]}, prescalings "
@@ -208,7 +210,7 @@ def _guard(sys, original, specs, constraints, lyap, time_limit) -> None:
     if saturation is not None:
         per_point += 1
         per_coefficient += m + len(saturation.points)
-    ncoef = len(coefficients(sys.domain, sys.nvertices))
+    ncoef = coefficient_count(sys.domain, sys.nvertices)
     nlmis = ncoef * (len(lyap.rates) * per_point + per_coefficient)
     channels = max(
         [original[0][(i, "Bw")].shape[1] + original[0][(i, "Cz")].shape[0]
@@ -553,6 +555,11 @@ class _Job:
                 f"{label}: closed-loop verification failed ({certificate})"
             )
             return None
+        budget.reached(
+            f"a certified point ({label})"
+            + "".join(f", {s} {v:.6g}" for s, v in zip(self.specs, values)),
+            values[0] if values and self.objective is not None else None,
+        )
         Ps = tuple(sc.unscale_P(np.linalg.inv(W)) for W in Ws)
         P = (
             Ps[0]

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import budget
 from ..exceptions import CertificationError, InfeasibleError
 from ..lmi import (
     SolveAttempt,
@@ -50,7 +51,7 @@ def run_ladder(
         regions, backoff, gamma, gain_bound, margin, solvers, time_limit
     )
     suspects = check_stabilizability(sys, iu)
-    deadline = None if time_limit is None else start + time_limit
+    deadline = budget.deadline()  # the call's (`ctrl_lpv.budget`)
     original = vertex_channels(sys, iw, iu, iz)
     guard_size(Structure.of(original, hinf, scheduled, regions, gain_bound), time_limit)
 
@@ -96,8 +97,9 @@ def run_ladder(
             record.append(f"{rung}: not tried (refuted: {refuted.brief(scaling_name)})")
             continue
         if deadline is not None and time.perf_counter() > deadline:
-            record.append(f"{rung}: not tried (time_limit {time_limit:g} s)")
+            record.append(f"{rung}: not tried (time_limit reached)")
             continue
+        budget.progress("rung %s", rung, rung=rung)
         job = make_job(scaling, margin * factor, one_solver)
         job.carried = refuted.last
         try:
@@ -304,6 +306,11 @@ class _Job:
                 f"{label}: closed-loop verification failed ({certificate})"
             )
             return None
+        budget.reached(
+            f"a certified point ({label})"
+            + ("" if certified is None else f", gamma {certified:.6g}"),
+            certified,
+        )
         return _Point(sol, gains, certificate, certified, P)
 
     def gate_bounds(self, stage):

@@ -5,18 +5,18 @@ from __future__ import annotations
 import os
 import warnings
 
+from .. import budget
 from .._checks import real_number
-from ..exceptions import CertificationError, ProblemSizeWarning
+from ..exceptions import ProblemSizeWarning
 from ..lmi import solver_chain
 from ..problem_cache import synthesis_cache
 from ..regions import LMIRegion
 from .assembly import vertex_pairs
 
 # Compile-time and memory estimates of a problem (see `guard_size`): a
-# warning above _WARN_COMPILE_SECONDS, a refusal above the time limit or
-# half the memory.
-_COMPILE_SECONDS_PER_LMI = 0.05
-_COMPILE_SECONDS_PER_ENTRY = 1e-5
+# warning above _WARN_COMPILE_SECONDS, a refusal above the time left or
+# half the memory. The stages after the first compile about as much again
+# (`ctrl_lpv.budget.compile_seconds` is the estimate of one).
 _WARN_COMPILE_SECONDS = 30.0
 _BYTES_PER_ENTRY = 400  # cvxpy's compiled problem, measured order of magnitude
 
@@ -68,14 +68,21 @@ def guard_size(structure, time_limit=None) -> None:
 def guard_estimate(nlmis, entries, largest, time_limit=None, cached=False) -> None:
     """Warn about, or refuse, a problem too large for this machine or time.
 
-    cvxpy compiles each LMI in Python: measured here about 0.03-0.07 s per
-    LMI of a vertex pair and 1e-2 s per thousand matrix entries, all stages
-    together, so a scheduled design on 200 vertices (20,100 LMIs) takes
-    about a quarter of an hour before any solver runs. A `cached` problem is
-    compiled already: only the memory is checked.
+    cvxpy compiles each LMI in Python (`ctrl_lpv.budget.compile_seconds`),
+    so a scheduled design on 200 vertices (20,100 LMIs) takes minutes
+    before any solver runs. The time is that of the call's budget, or
+    `time_limit` if shorter. A `cached` problem is compiled already: only
+    the memory is checked.
+
+    Raises
+    ------
+    ValueError
+        If the compiled problem would not fit in half the memory.
+    `ctrl_lpv.budget.TimeLimitReached`
+        If its first stage would not compile in the time left.
     """
     estimate = entries * _BYTES_PER_ENTRY
-    seconds = _COMPILE_SECONDS_PER_LMI * nlmis + _COMPILE_SECONDS_PER_ENTRY * entries
+    seconds = budget.compile_seconds(nlmis, entries)
     text = (
         f"{nlmis} LMIs of size up to {largest}, about {entries:,} "
         f"matrix entries, estimated {estimate / 2**30:.2g} GiB and "
@@ -93,10 +100,12 @@ def guard_estimate(nlmis, entries, largest, time_limit=None, cached=False) -> No
         )
     if cached:
         return
-    if time_limit is not None and seconds > time_limit:
-        raise CertificationError(
+    left = min(budget.remaining(), float("inf") if time_limit is None else time_limit)
+    if seconds > left:
+        raise budget.TimeLimitReached(
             f"time_limit: no design tried, the problem would not compile within "
-            f"{time_limit:g} s ({text})"
+            f"the {left:.3g} s left ({text})",
+            time_limit=time_limit,
         )
     if seconds > _WARN_COMPILE_SECONDS:
         warnings.warn(

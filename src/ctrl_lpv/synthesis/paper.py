@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from .._checks import real_number
+from ..budget import DEFAULT_TIME_LIMIT, time_budget
 from ..regions import LMIRegion
 from ..systems import PolytopicStateSpace
 from .compose import synthesize
@@ -14,6 +15,7 @@ from .results import StateFeedbackDesign
 from .specs import Hinf
 
 
+@time_budget
 def quadratic_stabilization(
     sys: PolytopicStateSpace,
     u=None,
@@ -22,7 +24,7 @@ def quadratic_stabilization(
     gain_bound: float | None = None,
     margin: float = 1e-6,
     solvers=None,
-    time_limit: float | None = None,
+    time_limit: float | None = DEFAULT_TIME_LIMIT,
 ) -> StateFeedbackDesign:
     """Common state feedback that quadratically stabilizes the polytope.
 
@@ -59,11 +61,12 @@ def quadratic_stabilization(
         (``options``: keywords of that cvxpy solver); default Clarabel,
         then SCS, then CVXOPT and MOSEK if installed. A solver that is not
         installed is a `ValueError`.
-    time_limit : float, optional
-        Wall-time limit of the whole call, in seconds (default none):
-        solvers get the time left and no fallback is started after it; a
-        problem whose estimated compile time exceeds it is refused before
-        any solve. Both end in `CertificationError`.
+    time_limit : float or None, optional
+        Wall-time budget of the call in seconds (default 600,
+        `ctrl_lpv.budget.DEFAULT_TIME_LIMIT`; None for no limit). Solvers
+        get the time left; when it runs out the call ends with a
+        `CertificationError` whose first line is ``time_limit: ... s
+        reached`` with the best point reached.
 
     Returns
     -------
@@ -91,6 +94,7 @@ def quadratic_stabilization(
     )  # fmt: skip
 
 
+@time_budget
 def gain_scheduled_stabilization(
     sys: PolytopicStateSpace,
     u=None,
@@ -99,7 +103,7 @@ def gain_scheduled_stabilization(
     gain_bound: float | None = None,
     margin: float = 1e-6,
     solvers=None,
-    time_limit: float | None = None,
+    time_limit: float | None = DEFAULT_TIME_LIMIT,
 ) -> StateFeedbackDesign:
     """Vertex gains that quadratically stabilize the polytope.
 
@@ -136,11 +140,12 @@ def gain_scheduled_stabilization(
         (``options``: keywords of that cvxpy solver); default Clarabel,
         then SCS, then CVXOPT and MOSEK if installed. A solver that is not
         installed is a `ValueError`.
-    time_limit : float, optional
-        Wall-time limit of the whole call, in seconds (default none):
-        solvers get the time left and no fallback is started after it; a
-        problem whose estimated compile time exceeds it is refused before
-        any solve. Both end in `CertificationError`.
+    time_limit : float or None, optional
+        Wall-time budget of the call in seconds (default 600,
+        `ctrl_lpv.budget.DEFAULT_TIME_LIMIT`; None for no limit). Solvers
+        get the time left; when it runs out the call ends with a
+        `CertificationError` whose first line is ``time_limit: ... s
+        reached`` with the best point reached.
 
     Returns
     -------
@@ -160,6 +165,7 @@ def gain_scheduled_stabilization(
     )  # fmt: skip
 
 
+@time_budget
 def hinf_state_feedback(
     sys: PolytopicStateSpace,
     w=None,
@@ -172,7 +178,7 @@ def hinf_state_feedback(
     gain_bound: float | None = None,
     margin: float = 1e-6,
     solvers=None,
-    time_limit: float | None = None,
+    time_limit: float | None = DEFAULT_TIME_LIMIT,
 ) -> StateFeedbackDesign:
     """Common state feedback with a certified H-infinity bound.
 
@@ -218,11 +224,12 @@ def hinf_state_feedback(
         (``options``: keywords of that cvxpy solver); default Clarabel,
         then SCS, then CVXOPT and MOSEK if installed. A solver that is not
         installed is a `ValueError`.
-    time_limit : float, optional
-        Wall-time limit of the whole call, in seconds (default none):
-        solvers get the time left and no fallback is started after it; a
-        problem whose estimated compile time exceeds it is refused before
-        any solve. Both end in `CertificationError`.
+    time_limit : float or None, optional
+        Wall-time budget of the call in seconds (default 600,
+        `ctrl_lpv.budget.DEFAULT_TIME_LIMIT`; None for no limit). Solvers
+        get the time left; when it runs out the call ends with a
+        `CertificationError` whose first line is ``time_limit: ... s
+        reached`` with the best point reached.
 
     Returns
     -------
@@ -243,6 +250,7 @@ def hinf_state_feedback(
     )  # fmt: skip
 
 
+@time_budget
 def gain_scheduled_hinf(
     sys: PolytopicStateSpace,
     w=None,
@@ -255,7 +263,7 @@ def gain_scheduled_hinf(
     gain_bound: float | None = None,
     margin: float = 1e-6,
     solvers=None,
-    time_limit: float | None = None,
+    time_limit: float | None = DEFAULT_TIME_LIMIT,
 ) -> StateFeedbackDesign:
     """Vertex gains with a certified H-infinity bound.
 
@@ -300,11 +308,12 @@ def gain_scheduled_hinf(
         (``options``: keywords of that cvxpy solver); default Clarabel,
         then SCS, then CVXOPT and MOSEK if installed. A solver that is not
         installed is a `ValueError`.
-    time_limit : float, optional
-        Wall-time limit of the whole call, in seconds (default none):
-        solvers get the time left and no fallback is started after it; a
-        problem whose estimated compile time exceeds it is refused before
-        any solve. Both end in `CertificationError`.
+    time_limit : float or None, optional
+        Wall-time budget of the call in seconds (default 600,
+        `ctrl_lpv.budget.DEFAULT_TIME_LIMIT`; None for no limit). Solvers
+        get the time left; when it runs out the call ends with a
+        `CertificationError` whose first line is ``time_limit: ... s
+        reached`` with the best point reached.
 
     Returns
     -------
