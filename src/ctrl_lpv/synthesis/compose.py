@@ -118,9 +118,9 @@ def synthesize(
     -------
     `StateFeedbackDesign`
         ``.gamma`` the certified bound of the objective (None without one),
-        ``.gamma_opt`` the raw optimum, ``.bounds`` the certified bound of
-        every `Hinf`, `H2` and `Peak` spec (for a `Saturation` spec with
-        points, the largest ``x0' P x0``, below 1).
+        ``.gamma_opt`` an estimate of the optimum from above, ``.bounds``
+        the certified bound of every `Hinf`, `H2` and `Peak` spec (for a
+        `Saturation` spec with points, the largest ``x0' P x0``, below 1).
 
     Raises
     ------
@@ -391,7 +391,8 @@ def h2_state_feedback(
     Returns
     -------
     `StateFeedbackDesign`
-        ``.gamma`` the certified H2 bound, ``.gamma_opt`` the raw optimum.
+        ``.gamma`` the certified H2 bound, ``.gamma_opt`` an estimate of
+        the optimum from above (see `StateFeedbackDesign`).
 
     Raises
     ------

@@ -127,9 +127,11 @@ class StateFeedbackDesign:
         Certified bound on the L2 gain from `w` to `z` (None without a
         performance channel).
     gamma_opt : float or None
-        The minimum ``gamma*`` the solver found before back-off (None if not
-        computed). With back-off it is an estimate whose point need not pass
-        the certificate; only `gamma` is certified.
+        An estimate of the minimum ``gamma*`` from above, never below it:
+        the smallest bound of a solver point that meets the LMIs in float64
+        (non-strictly), or `gamma` when no such point was found (None
+        without an objective to minimise). It is not certified (its point
+        may miss the strict margin); only `gamma` is.
     w, u, z : tuple of str
         Exogenous inputs, control inputs and performance outputs.
     certificate : `Certificate`
