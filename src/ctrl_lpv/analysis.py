@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import control as ct
 import numpy as np
 
-from ._checks import signal_indices
+from ._checks import real_number, signal_indices
 from .budget import DEFAULT_TIME_LIMIT, time_budget
 from .exceptions import CertificationError, InfeasibleError
 from .lmi import LMICheck, LMIProblem, symmetric_norm_bound
@@ -238,6 +238,7 @@ def quadratic_stability(
     CertificationError
         If no certified common Lyapunov matrix was found otherwise.
     """
+    margin = real_number(margin, "margin", positive=True, below=1.0)
     if not isinstance(sys, PolytopicStateSpace):
         raise TypeError(f"sys: expected a PolytopicStateSpace, got {type(sys)!r}")
     As = [d[0] for d in sys.vertex_data()]
@@ -333,6 +334,7 @@ def l2_gain_bound(
     InfeasibleError
         If the closed loop is not quadratically stable with this bound.
     """
+    margin = real_number(margin, "margin", positive=True, below=1.0)
     gains, iu = _as_closed_loop_data(sys, gains, u)
     iw = signal_indices(w, sys.physical_inputs, "w")
     iz = signal_indices(z, sys.output_labels, "z")
@@ -438,6 +440,7 @@ def h2_bound(
     CertificationError
         If no certified bound was found.
     """
+    margin = real_number(margin, "margin", positive=True, below=1.0)
     from .synthesis import H2
 
     gains, iu = _as_closed_loop_data(sys, gains, u)
