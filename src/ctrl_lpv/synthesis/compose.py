@@ -134,6 +134,7 @@ def synthesize(
     Examples
     --------
     >>> import control as ct
+    >>> from ctrl_lpv import H2, Hinf, PolytopicStateSpace, synthesize
     >>> v1 = ct.ss([[0.0, 1.0], [1.0, 0.0]], [[0.0, 0.0], [1.0, 1.0]],
     ...            [[1.0, 0.0]], [[0.0, 0.0]], inputs=["w", "u"])
     >>> v2 = ct.ss([[0.0, 1.0], [3.0, 0.0]], [[0.0, 0.0], [1.0, 1.0]],
