@@ -105,6 +105,15 @@ CASES = [
     ("saturated discrete plant",
      lambda: lpv.saturated_state_feedback(unstable_plant(0.1), u=0, u_max=1),
      ValueError, r"^sys: discrete-time plant"),
+    # analysis: the margin is a number
+    ("quadratic_stability string margin",
+     lambda: lpv.quadratic_stability(
+         lpv.PolytopicStateSpace([stable_system()]), margin="1e-6"),
+     TypeError, r"^margin: expected a real number"),
+    ("l2_gain_bound margin 0",
+     lambda: lpv.l2_gain_bound(
+         lpv.PolytopicStateSpace([stable_system()]), [[0.0]], [], 0, 0, margin=0),
+     ValueError, r"^margin: "),
     # specs: bytes are not signal names
     ("Hinf bytes w", lambda: lpv.Hinf(w=b"w"),
      TypeError, r"^w: expected signal names .* got b'w'"),

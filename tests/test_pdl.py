@@ -509,3 +509,71 @@ def test_rolmip_bound_nondecreasing_in_the_rate_bound():
     ]  # fmt: skip
     bounds.append(lpv.l2_gain_bound(sys, zero, "w", "u", 0).gamma)
     assert all(a <= b * (1 + ROUND) for a, b in zip(bounds, bounds[1:]))
+
+
+@functools.lru_cache(maxsize=4)
+def _rolmip_common_gain(nu):
+    return lpv.synthesize(
+        rolmip_system(), "u", objective=lpv.Hinf("w"), lyapunov="affine",
+        rate_bounds=dict.fromkeys(ROLMIP_BOX, nu),
+    )  # fmt: skip
+
+
+def test_common_gain_synthesis_contains_the_published_analysis():
+    # B_u = 0: the gain cannot act, so the synthesis is the analysis of the
+    # open loop. The extended LMIs alone certified 1.4197 (issue 19); the
+    # published parameter-dependent bound is 1.0540.
+    design = _rolmip_common_gain(0.0)
+    assert design.certificate.verified and design.primal
+    assert design.gamma == pytest.approx(ROLMIP_AFFINE, abs=1e-4)
+    assert ROLMIP_WORST * (1 - ROUND) <= design.gamma_opt <= design.gamma
+    # P(p) multi-affine: its value at an interior point is the convex
+    # combination of the vertex matrices, and it is positive definite.
+    theta = {"t1": 1.1, "t2": 1.0, "t3": 1.7}
+    delta = rolmip_system().weights(theta)
+    P = design.lyapunov_matrix(theta)
+    assert np.allclose(P, sum(d * Pj for d, Pj in zip(delta, design.P)))
+    assert np.linalg.eigvalsh(P)[0] > 0
+
+
+def test_primal_common_gain_design_round_trips(tmp_path):
+    design = _rolmip_common_gain(0.0)
+    path = design.save(tmp_path / "primal.json")
+    loaded = lpv.load(path)
+    assert loaded.primal and loaded.gamma == design.gamma
+    # Forged: the inverse form of the same vertex matrices is refused.
+    import json
+
+    document = json.loads(path.read_text())
+    document["design"]["primal"] = False
+    path.write_text(json.dumps(document))
+    with pytest.raises(ValueError, match="P"):
+        lpv.load(path)
+
+
+@pytest.mark.slow
+def test_common_gain_bound_nondecreasing_in_the_rate_bound():
+    # Issue 19: 2.757 at rate 1 and 2.7255 at rate 10 before.
+    bounds = [_rolmip_common_gain(nu).gamma for nu in (0.0, 0.1, 1.0, 10.0)]
+    assert all(a <= b * (1 + ROUND) for a, b in zip(bounds, bounds[1:])), bounds
+
+
+def test_primal_analysis_P_satisfies_the_primal_bounded_real_inequality():
+    # L2GainBound.P of a continuous-time affine analysis is P(p) of the
+    # primal inequality [[A'P + PA, PB, C'], [B'P, -I, D'], [C, D, -g^2 I]]
+    # (it was off by a factor gamma^2 before issue 19).
+    sys = rolmip_system()
+    result = lpv.l2_gain_bound(
+        sys, np.zeros((1, 4)), "w", "u", 0, lyapunov="affine",
+        rate_bounds=dict.fromkeys(ROLMIP_BOX, 0.0),
+    )  # fmt: skip
+    g = result.gamma
+    for v, P in zip(sys.vertices, result.P):
+        A, B, C = v.A, v.B[:, :1], v.C
+        M = np.block([
+            [A.T @ P + P @ A, P @ B, C.T],
+            [B.T @ P, -np.eye(1), np.zeros((1, 1))],
+            [C, np.zeros((1, 1)), -(g**2) * np.eye(1)],
+        ])  # fmt: skip
+        d = 1 / np.sqrt(-np.diag(M))
+        assert np.linalg.eigvalsh(M * d[:, None] * d)[-1] < 0

@@ -67,6 +67,7 @@ def write_state_feedback(design) -> dict:
         "lyapunov": design.lyapunov,
         "P": [_matrix(P) for P in design.P] if affine else _matrix(design.P),
         "rate_bounds": design.rate_bounds,
+        "primal": design.primal,
         "rational": None
         if design.rational is None
         else {
@@ -192,6 +193,9 @@ def read_state_feedback(reader: DocumentReader, section: dict, plant):
     gains = reader.array(raw_gains, "design.gains", (count, len(u), n))
     lyapunov, P, rates = _read_lyapunov(reader, section, n, N)
     rational = _read_rational(reader, section.get("rational"), len(u), n, N)
+    primal = reader.boolean(section.get("primal", False), "design.primal")
+    if primal and not (lyapunov == "affine" and continuous):
+        raise reader.fail("design.primal", "only for an affine P in continuous time")
     if rational is not None and (lyapunov != "affine" or count == 1):
         raise reader.fail("design.rational", "only for vertex gains with an affine P")
     gamma = reader.number(section.get("gamma"), "design.gamma", allow_none=True,
@@ -232,6 +236,7 @@ def read_state_feedback(reader: DocumentReader, section: dict, plant):
             regions=tuple(regions), lyapunov=lyapunov,
             bounds={spec: value for spec, _, value in specs},
             rational=rational, rate_bounds=rates,
+            primal=primal,
         )  # fmt: skip
         result = recheck(design, specs)
     except (TypeError, ValueError) as exc:  # e.g. rate_bounds naming no parameter

@@ -253,3 +253,50 @@ class AffineMap:
         g_err += 1.01 * float(np.linalg.norm(sums))
         norm = float(np.linalg.norm(g)) * (1 + 1.01 * float(_gamma(g.size + 2)))
         return b - b_err, norm + g_err
+
+    def block_slopes(self, y, groups) -> list[float | None]:
+        """Bounds on ``||g_v||_2`` for column groups ``v`` of ``g = M' y``.
+
+        `groups` are slices of the columns (one per variable). Each bound
+        carries the whole rounding bound of `bound` (the evaluation's and
+        the sums' of every entry of ``g``), so it holds whatever part of
+        the error falls in the group. A group that no inequality with a
+        nonzero block of `y` reads (no nonzero entry of ``M`` in its rows)
+        gets None: such a variable does not enter those ``F_i`` at all.
+        """
+        abs_y = np.abs(y)
+        largest = np.zeros(self.count)
+        for d, members, index in self._groups:
+            largest[members] = abs_y[index].reshape(-1, d * d).max(axis=1)
+        scale = 10 * self.sizes * EPS * largest
+        g = self.slope(y)
+        sums = _gamma(self._column_terms) * (self._absMT @ abs_y)
+        rows = self.nonzero(y)[self._owner].astype(float)
+        read = (self._absMT @ rows) > 0
+        evaluation = float(scale @ self.abs_M_sums)
+        out: list[float | None] = []
+        for group in groups:
+            if not np.any(read[group]):
+                out.append(None)
+                continue
+            norm = float(np.linalg.norm(g[group]))
+            norm *= 1 + 1.01 * float(_gamma(g[group].size + 2))
+            out.append(norm + evaluation + 1.01 * float(np.linalg.norm(sums[group])))
+        return out
+
+    def evaluation_bounds(self, y) -> tuple[int, float, float]:
+        """Size and entry sums of the inequalities that `y` weighs.
+
+        ``(d, base, spread)``: the largest size, ``max sum |F_i(0)|`` and
+        ``max sum |M_i|`` over the inequalities with a nonzero block of `y`,
+        so that ``||F_i(x)||_2 <= base + spread ||x||_2`` for each of them
+        (the rounding of a float64 check of ``F_i`` scales with it).
+        """
+        used = self.nonzero(y)
+        if not used.any():
+            return 0, 0.0, 0.0
+        return (
+            int(self.sizes[used].max()),
+            float(self.abs_base_sums[used].max()),
+            float(self.abs_M_sums[used].max()),
+        )

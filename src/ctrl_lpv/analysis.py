@@ -8,10 +8,10 @@ from dataclasses import dataclass
 import control as ct
 import numpy as np
 
-from ._checks import signal_indices
+from ._checks import real_number, signal_indices
 from .budget import DEFAULT_TIME_LIMIT, time_budget
-from .exceptions import InfeasibleError
-from .lmi import LMICheck, LMIProblem
+from .exceptions import CertificationError, InfeasibleError
+from .lmi import LMICheck, LMIProblem, symmetric_norm_bound
 from .systems import PolytopicStateSpace
 
 __all__ = [
@@ -231,17 +231,22 @@ def quadratic_stability(
     ------
     InfeasibleError
         If a vertex has an eigenvalue with ``Re >= 0`` (then no ``P > 0``
-        has ``A' P + P A < 0``).
+        has ``A' P + P A < 0``), or if a dual certificate verified in
+        float64 shows that every common Lyapunov matrix has a relative
+        margin below what the certificate accepts (no certifiable one
+        exists; the message gives both numbers).
     CertificationError
         If no certified common Lyapunov matrix was found otherwise.
     """
+    margin = real_number(margin, "margin", positive=True, below=1.0)
     if not isinstance(sys, PolytopicStateSpace):
         raise TypeError(f"sys: expected a PolytopicStateSpace, got {type(sys)!r}")
     As = [d[0] for d in sys.vertex_data()]
     _require_stable_vertices(sys, As)
     if lyapunov != "constant" or rate_bounds is not None or sys.isdtime(strict=True):
         cl = _autonomous(sys, As)
-        _, P, checks = _general_analysis(cl, None, lyapunov, rate_bounds, margin)
+        _, P, cert = _general_analysis(cl, None, lyapunov, rate_bounds, margin)
+        checks = cert.lmi_checks
         return QuadraticStability(P, checks, sys)
     scale = max(1.0, max(np.linalg.norm(A, 2) for A in As))
     As = [A / scale for A in As]
@@ -259,7 +264,23 @@ def quadratic_stability(
         strict=False,
         normalization=True,
     )
-    sol = lmi.solve(lambda v: -v.t[0, 0])
+    try:
+        sol = lmi.solve(lambda v: -v.t[0, 0])
+    except CertificationError as exc:
+        # Every point the certificate accepts has P <= I (to the tolerance
+        # of the check): a dual that bounds the relative margin below what
+        # such a point needs proves that none exists.
+        bounds = {"P": symmetric_norm_bound(1.0, n)}
+        if exc.farkas is None or not exc.farkas.excludes(margin, bounds):
+            raise
+        raise InfeasibleError(
+            f"no certifiable common Lyapunov matrix exists: "
+            f"{exc.farkas.exclusion(margin, bounds)} (P <= I, the matrices "
+            f"A_j divided by {scale:.6g}). A P with a smaller relative margin "
+            f"is not excluded, but none could pass the certificate",
+            exc.attempts,
+            exc.farkas,
+        ) from None
     return QuadraticStability(sol.P, sol.checks)
 
 
@@ -313,6 +334,7 @@ def l2_gain_bound(
     InfeasibleError
         If the closed loop is not quadratically stable with this bound.
     """
+    margin = real_number(margin, "margin", positive=True, below=1.0)
     gains, iu = _as_closed_loop_data(sys, gains, u)
     iw = signal_indices(w, sys.physical_inputs, "w")
     iz = signal_indices(z, sys.output_labels, "z")
@@ -320,7 +342,8 @@ def l2_gain_bound(
         from .synthesis import Hinf
 
         cl = _closed_loop(sys, gains, iw, iu, iz, lyapunov)
-        gamma, P, checks = _general_analysis(cl, Hinf(), lyapunov, rate_bounds, margin)
+        gamma, P, cert = _general_analysis(cl, Hinf(), lyapunov, rate_bounds, margin)
+        checks = cert.lmi_checks
         return L2GainBound(gamma, P, checks, sys)
     data = []
     for A, B, C, D in sys.vertex_data():
@@ -417,13 +440,15 @@ def h2_bound(
     CertificationError
         If no certified bound was found.
     """
+    margin = real_number(margin, "margin", positive=True, below=1.0)
     from .synthesis import H2
 
     gains, iu = _as_closed_loop_data(sys, gains, u)
     iw = signal_indices(w, sys.physical_inputs, "w")
     iz = signal_indices(z, sys.output_labels, "z")
     cl = _closed_loop(sys, gains, iw, iu, iz, lyapunov)
-    gamma, P, checks = _general_analysis(cl, H2(), lyapunov, rate_bounds, margin)
+    gamma, P, cert = _general_analysis(cl, H2(), lyapunov, rate_bounds, margin)
+    checks = cert.lmi_checks
     return H2Bound(gamma, P, checks, sys)
 
 
@@ -478,8 +503,8 @@ def _closed_loop(sys, gains, iw, iu, iz, lyapunov):
 def _general_analysis(cl, spec, lyapunov, rate_bounds, margin):
     """The bound of `spec` (None: stability) of a closed loop without inputs.
 
-    Returns ``(gamma, P, checks)``, ``P`` the Lyapunov matrix or its vertex
-    matrices (see `_LyapunovResult.lyapunov_matrix`).
+    Returns ``(gamma, P, certificate)``, ``P`` the Lyapunov matrix or its
+    vertex matrices (see `_LyapunovResult.lyapunov_matrix`).
 
     The engine writes its LMIs in the dual variable ``W``. In continuous
     time with ``lyapunov="affine"`` it analyses the transposed loop
@@ -493,6 +518,7 @@ def _general_analysis(cl, spec, lyapunov, rate_bounds, margin):
     from .lmi import solver_chain
     from .synthesis.general import run_general
     from .synthesis.parametric import lyapunov_structure
+    from .synthesis.specs import Hinf
 
     lyap = lyapunov_structure(cl, lyapunov, rate_bounds)
     primal = not lyap.constant and not cl.isdtime(strict=True)
@@ -508,8 +534,13 @@ def _general_analysis(cl, spec, lyapunov, rate_bounds, margin):
     )  # fmt: skip
     P = design.P
     if primal:
-        P = tuple(_sym(np.linalg.inv(Pj)) for Pj in P)
-    return design.gamma, P, design.certificate.lmi_checks
+        # The transposed loop's dual bounded-real inequality in W is the
+        # loop's primal one in P = W / gamma^2 (the identity and gamma^2
+        # blocks trade places); the Lyapunov and H2 inequalities need no
+        # factor.
+        factor = design.gamma**2 if isinstance(spec, Hinf) else 1.0
+        P = tuple(_sym(np.linalg.inv(Pj)) / factor for Pj in P)
+    return design.gamma, P, design.certificate
 
 
 def _sym(M):

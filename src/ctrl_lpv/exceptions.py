@@ -5,7 +5,9 @@ things and neither is a subclass of the other:
 
 * `InfeasibleError`: no solution exists, and the library has a proof of it
   (a vertex with an uncontrollable unstable mode in balanced coordinates, or
-  a dual (Farkas) certificate of the LMIs verified in float64);
+  a dual (Farkas) certificate of the LMIs verified in float64), or no
+  certifiable one exists (a verified dual bounds the relative margin of
+  every point below what the certificate accepts, in every rung left);
 * `CertificationError`: no certified solution was found, with what was
   tried. The problem may well be feasible.
 
@@ -48,6 +50,15 @@ class InfeasibleError(SynthesisError):
     polytope that is not stabilizable (the vertex, the uncontrollable mode
     and its PBH residual in balanced coordinates), or a dual certificate of
     infeasibility of the LMIs verified in float64 (`farkas` holds it).
+
+    For homogeneous LMIs (a Lyapunov inequality: their solutions form a
+    cone) the dual proves a bound on the margin of every point relative
+    to its norm. When that bound is below the relative margin that any
+    point the certificate accepts must have (its margin, within the bounds
+    the stage puts on the variables), in every prescaling the ladder would
+    try, the message says "no certifiable design exists" and gives both
+    numbers per prescaling: a solution with a smaller relative margin is
+    not excluded, but no design or Lyapunov matrix can be certified.
 
     Attributes
     ----------

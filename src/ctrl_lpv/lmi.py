@@ -51,6 +51,13 @@ BlockFunction = Callable[[SimpleNamespace], Sequence[Sequence[object]]]
 
 # The fraction of the nominal margin that a certified point must keep.
 _CERTIFIED_FRACTION = 0.5
+# Non-strict side constraints (bounds, normalisations) pass their check with
+# ``lambda_max(F) <= _SIDE_TOLERANCE * max(1, max |F_ij|)``.
+_SIDE_TOLERANCE = 1e-6
+# Rounding of a float64 check of ``lambda_max(F)`` (assembly and eigvalsh)
+# is bounded by this many ``size * eps * ||F||_2`` (generously: LAPACK's
+# backward error is a small multiple of it).
+_CHECK_ROUNDING = 100.0
 # Retries with a larger margin after a point misses its certificate on
 # strict LMIs only: at most this many, each margin at most this factor up.
 _MARGIN_RETRIES = 2
@@ -141,7 +148,9 @@ class FarkasCertificate:
     margin of a strict one, 0 otherwise) scaled to ``sum_i tr Y_i = 1``,
     the affine function ``sum_i <F_i(x), Y_i> = b + g'x`` is evaluated in
     float64 (``b`` at ``x = 0``, ``g`` one entry of the variables at a time,
-    both with bounds on their rounding). Any point has
+    both with bounds on their rounding). Here ``x`` is the vector of the
+    free entries of the variables (a symmetric matrix's upper triangle,
+    each entry once), in the units the LMIs are posed in. Any point has
     ``max_i lambda_max(F_i(x)) >= b + g'x``, so:
 
     * no point with ``||x|| < b / ||g||`` (`radius`) satisfies the
@@ -150,6 +159,11 @@ class FarkasCertificate:
       ``||g|| ||x|| - b``: for homogeneous LMIs (``b = 0``, such as a
       Lyapunov inequality), whose solutions form a cone, the margin
       relative to ``||x||`` is at most ``||g||`` (`relative_margin`).
+
+    A point that passes `LMIProblem.check` has a margin of at least
+    ``margin / 2`` less the check's rounding; if the side constraints of
+    the stage also bound its variables, its relative margin is at least
+    `accepted_relative_margin`, and `excludes` compares the two.
 
     Attributes
     ----------
@@ -163,12 +177,35 @@ class FarkasCertificate:
         Whether the certificate uses the inequalities added with
         ``normalization=True``: it then refutes the stage with its
         normalisations, not the LMIs alone.
+    slopes : tuple of (str, float)
+        Per variable that an inequality the certificate weighs reads (the
+        others do not enter them), ``||g_v||_2`` (its entries of ``g``)
+        plus the whole rounding bound.
+    strict_only : bool
+        Whether every inequality the certificate weighs is strict.
+    homogeneous : bool
+        Whether every inequality it weighs has ``F_i(0) = 0`` exactly.
+    size : int
+        Largest size of an inequality it weighs.
+    spread : float
+        ``max_i sum |M_i|`` over them: ``||F_i(x)||_2 <= spread ||x||``
+        for a homogeneous one (the rounding of a check scales with it).
+    duals : list of ndarray
+        The polished ``Y_i``, one per active inequality of the stage (zero
+        for those the certificate drops): a start for `LMIProblem.farkas`
+        on the same stage with other data.
     """
 
     stage: str
     offset: float
     slope: float
     normalized: bool = False
+    slopes: tuple = ()
+    strict_only: bool = False
+    homogeneous: bool = False
+    size: int = 0
+    spread: float = 0.0
+    duals: list = field(default_factory=list, compare=False, repr=False)
 
     @property
     def radius(self) -> float:
@@ -189,9 +226,76 @@ class FarkasCertificate:
         A bound on the relative margin is not a proof: homogeneous LMIs
         whose only solutions have relative margins near the rounding level
         (modes whose time scales differ by 1e18) give the same bound as
-        infeasible ones.
+        infeasible ones. It proves only that no point passes the check
+        within given bounds on the variables (`excludes`).
         """
         return self.radius >= INFEASIBLE_RADIUS
+
+    @property
+    def variables(self) -> tuple[str, ...]:
+        """The variables the inequalities it weighs read (``x`` of
+        `used_relative_margin`)."""
+        return tuple(name for name, _ in self.slopes)
+
+    def _reach(self, bounds) -> float:
+        return float(
+            np.sqrt(sum(float(bounds.get(v, np.inf)) ** 2 for v in self.variables))
+        )
+
+    def used_relative_margin(self) -> float:
+        """Bound on ``margin / ||x||`` with ``x`` over `variables` only."""
+        per_variable = np.sqrt(sum(value**2 for _, value in self.slopes))
+        return float(min(self.slope, per_variable))
+
+    def accepted_relative_margin(self, margin: float, bounds) -> float:
+        """Least relative margin of a point that passes the check.
+
+        A point whose strict inequalities pass `LMIProblem.check` with
+        `margin` has ``max_i lambda_max(F_i(x)) <= -margin / 2`` as
+        computed, so at most the check's rounding above it in exact
+        arithmetic; with ``||x_v||_2 <= bounds[v]`` for each of
+        `variables` (a variable without a bound: no claim, 0.0), its
+        margin relative to ``||x||`` (over `variables`) is at least the
+        value returned. Meaningful for a homogeneous certificate only.
+        """
+        reach = self._reach(bounds)
+        if not np.isfinite(reach):
+            return 0.0
+        if reach == 0:
+            return np.inf
+        rounding = _CHECK_ROUNDING * self.size * np.finfo(float).eps * self.spread
+        return max(0.0, _CERTIFIED_FRACTION * margin / reach - rounding)
+
+    def excludes(self, margin: float, bounds) -> bool:
+        """Whether no point within `bounds` passes the check with `margin`.
+
+        True when the certificate weighs strict homogeneous inequalities
+        only, without the normalisations, and its `used_relative_margin`
+        is below `accepted_relative_margin`: every point has a relative
+        margin below what a point that passes the check must have.
+        """
+        return (
+            self.strict_only
+            and self.homogeneous
+            and not self.normalized
+            and self.used_relative_margin()
+            < self.accepted_relative_margin(margin, bounds)
+        )
+
+    def exclusion(self, margin: float, bounds) -> str:
+        """The statement `excludes` proves, in words and numbers."""
+        names = ", ".join(self.variables) or "none"
+        reach = self._reach(bounds)
+        return (
+            f"a dual certificate verified in float64 shows that every point "
+            f"of the '{self.stage}' LMIs has a margin of at most "
+            f"{self.used_relative_margin():.2g} ||x|| (x: the free entries "
+            f"of {names}, in the units the LMIs are posed in), while a point "
+            f"passes the certificate only with a margin of "
+            f"{_CERTIFIED_FRACTION * margin:.3g} at ||x|| <= {reach:.4g}, a "
+            f"relative margin of at least "
+            f"{self.accepted_relative_margin(margin, bounds):.2g}"
+        )
 
     def __str__(self) -> str:
         if self.radius >= INFEASIBLE_RADIUS:
@@ -206,6 +310,37 @@ class FarkasCertificate:
             f"a dual certificate verified in float64 refutes the "
             f"'{self.stage}' LMIs{scope}: {claim}"
         )
+
+
+def symmetric_norm_bound(w_max: float, n: int) -> float:
+    """Bound on ``||x_W||_2`` of ``W > 0`` that passed ``W - w_max I <= 0``.
+
+    `LMIProblem.check` passes the side constraint when ``lambda = lambda_max
+    (W) <= w_max + t max(1, max|W - w_max I|)`` (``t`` its tolerance,
+    doubled here for the check's own rounding), and ``max|W - w_max I| <=
+    max(lambda, w_max)`` for ``W > 0``; so ``lambda <= (w_max + t max(1,
+    w_max)) / (1 - t)``, and the free entries have ``||x_W|| <= ||W||_F <=
+    sqrt(n) lambda``.
+    """
+    t = 2 * _SIDE_TOLERANCE
+    return float(np.sqrt(n) * (w_max + t * max(1.0, w_max)) / (1 - t))
+
+
+def schur_norm_bound(z_max: float, shape) -> float:
+    """Bound on ``||Z||_F`` of a ``Z`` that passed ``[[-z_max I, Z'], [Z, -I]]
+    <= 0``.
+
+    With ``zeta = ||Z||_2`` and the check's tolerance ``tau <= t max(1,
+    z_max, zeta)`` (``t`` doubled for rounding), ``zeta^2 <= (z_max + tau)
+    (1 + tau)`` (Schur complement); if ``zeta <= max(1, z_max)`` this is
+    ``zeta^2 <= (z_max + tau0) (1 + tau0)`` with ``tau0 = t max(1, z_max)``,
+    otherwise ``zeta < (1 + t) / (1 - t - t^2)``. ``||Z||_F <= sqrt(min(m,
+    n)) zeta``.
+    """
+    t = 2 * _SIDE_TOLERANCE
+    tau0 = t * max(1.0, z_max)
+    zeta = max(np.sqrt((z_max + tau0) * (1 + tau0)), (1 + t) / (1 - t - t * t))
+    return float(np.sqrt(min(shape)) * zeta)
 
 
 @dataclass
@@ -359,6 +494,43 @@ def _stronger(proof, other) -> bool:
         return (p.proves_infeasible, not p.normalized, p.radius, -p.slope)
 
     return rank(proof) > rank(other)
+
+
+def _certificate(
+    stage, amap, y, members, sizes, normalizing, strict, groups
+) -> FarkasCertificate:
+    """The `FarkasCertificate` of a polished dual point `y` of `amap`.
+
+    `members` are the indices, among the stage's active inequalities
+    (of sizes `sizes`), of those `amap` holds; `normalizing` and `strict`
+    mark the active ones.
+    """
+    offset, slope = amap.bound(y)
+    weighed = amap.nonzero(y)
+    size, base, spread = amap.evaluation_bounds(y)
+    per_variable = amap.block_slopes(y, [group for _, group in groups])
+    # One matrix per active inequality (zero for those the variant drops),
+    # as `LMIProblem.farkas` takes them: a start for another prescaling.
+    duals = [np.zeros((d, d)) for d in sizes]
+    for k, i in enumerate(members):
+        d = int(amap.sizes[k])
+        duals[i] = y[amap.offsets[k] : amap.offsets[k + 1]].reshape(d, d)
+    return FarkasCertificate(
+        stage,
+        offset,
+        slope,
+        normalized=bool(np.any(weighed & normalizing[members])),
+        slopes=tuple(
+            (name, value)
+            for (name, _), value in zip(groups, per_variable)
+            if value is not None
+        ),
+        strict_only=bool(np.all(strict[members][weighed])),
+        homogeneous=base == 0.0,
+        size=size,
+        spread=spread,
+        duals=duals,
+    )
 
 
 def _recording_namespace(values, read: set, names) -> SimpleNamespace:
@@ -860,7 +1032,7 @@ class LMIProblem:
             else:
                 # Non-strict side constraints (bounds, normalisations) are kept
                 # to the solver's accuracy; they do not enter the certificate.
-                required = 1e-6 * max(1.0, float(np.abs(F).max()))
+                required = _SIDE_TOLERANCE * max(1.0, float(np.abs(F).max()))
             checks.append(LMICheck(name, max_eig, required, strict))
         return tuple(checks)
 
@@ -980,6 +1152,8 @@ class LMIProblem:
                     problem, stage, solver, timed, factor
                 )
                 attempts.append(attempt)
+                if duals is not None:  # judged without the margin: as good
+                    dual_points.append(duals)
             if attempt.certified:
                 value = None if objective is None else problem.value
                 solution = LMISolution(values, value, checks, attempts)
@@ -1007,7 +1181,7 @@ class LMIProblem:
         best = None
         for duals in dual_points:
             proof = self.farkas(duals, stage)
-            if proof is not None and (best is None or proof.radius > best.radius):
+            if proof is not None and (best is None or _stronger(proof, best)):
                 best = proof
         return best
 
@@ -1039,29 +1213,42 @@ class LMIProblem:
             )
         full = self._affine_map(active)
         normalizing = np.array([name in self._normalizations for name, *_ in active])
+        strict = np.array([is_strict for _, _, is_strict, _ in active])
+        groups = self._column_groups()
         symmetric = full.stack(duals)
         # Without the normalisations (their inequalities dropped, so their
         # duals are exactly zero): a certificate that does not need them
         # refutes the LMIs themselves (for homogeneous strict LMIs the
         # normalisations are often what makes the solver's problem
         # infeasible).
-        variants = [(full, normalizing, symmetric)]
+        everything = np.arange(len(active))
+        variants = [(full, everything, symmetric)]
         if normalizing.any() and not normalizing.all():
             reduced = full.restrict(~normalizing)
             kept = np.flatnonzero(~normalizing[full._owner])
-            variants.append((reduced, np.zeros(reduced.count, bool), symmetric[kept]))
+            variants.append((reduced, np.flatnonzero(~normalizing), symmetric[kept]))
         best = None
         for sign in (1.0, -1.0):  # conventions differ
-            for amap, marks, y0 in variants:
+            for amap, members, y0 in variants:
                 y = amap.polish(sign * y0)
                 if y is None:
                     continue
-                offset, slope = amap.bound(y)
-                used = bool(np.any(amap.nonzero(y) & marks))
-                proof = FarkasCertificate(stage, offset, slope, used)
+                proof = _certificate(
+                    stage, amap, y, members, full.sizes, normalizing, strict, groups
+                )
                 if best is None or _stronger(proof, best):
                     best = proof
         return best
+
+    def _column_groups(self) -> list[tuple[str, slice]]:
+        """Each variable's columns in the affine map (`_affine_map`)."""
+        groups, start = [], 0
+        for name, x in self._vars.items():
+            n = x.shape[0]
+            count = n * (n + 1) // 2 if _is_symmetric(x) else int(np.prod(x.shape))
+            groups.append((name, slice(start, start + count)))
+            start += count
+        return groups
 
     def _affine_map(self, active) -> _farkas.AffineMap:
         """``F_i(0)`` and the sparse map ``x -> vec(F_i(x) - F_i(0))``.

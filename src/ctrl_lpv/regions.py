@@ -160,7 +160,8 @@ def disk(radius: float, center: float = 0.0) -> LMIRegion:
     Returns
     -------
     `LMIRegion`
-        The region, for the ``regions`` argument of the synthesis functions.
+        The region: for ``constraints=`` of `ctrl_lpv.synthesize`, or
+        ``regions=`` of the four paper functions and `ctrl_lpv.h2_state_feedback`.
 
     Raises
     ------
@@ -189,7 +190,8 @@ def sector(angle: float) -> LMIRegion:
     Returns
     -------
     `LMIRegion`
-        The region, for the ``regions`` argument of the synthesis functions.
+        The region: for ``constraints=`` of `ctrl_lpv.synthesize`, or
+        ``regions=`` of the four paper functions and `ctrl_lpv.h2_state_feedback`.
 
     Raises
     ------

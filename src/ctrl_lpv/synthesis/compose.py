@@ -20,6 +20,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..budget import DEFAULT_TIME_LIMIT, time_budget
+from ..exceptions import SynthesisError
 from ..regions import LMIRegion
 from ..stabilizability import check_stabilizability
 from ..systems import PolytopicStateSpace
@@ -117,9 +118,9 @@ def synthesize(
     -------
     `StateFeedbackDesign`
         ``.gamma`` the certified bound of the objective (None without one),
-        ``.gamma_opt`` the raw optimum, ``.bounds`` the certified bound of
-        every `Hinf`, `H2` and `Peak` spec (for a `Saturation` spec with
-        points, the largest ``x0' P x0``, below 1).
+        ``.gamma_opt`` an estimate of the optimum from above, ``.bounds``
+        the certified bound of every `Hinf`, `H2` and `Peak` spec (for a
+        `Saturation` spec with points, the largest ``x0' P x0``, below 1).
 
     Raises
     ------
@@ -133,6 +134,7 @@ def synthesize(
     Examples
     --------
     >>> import control as ct
+    >>> from ctrl_lpv import H2, Hinf, PolytopicStateSpace, synthesize
     >>> v1 = ct.ss([[0.0, 1.0], [1.0, 0.0]], [[0.0, 0.0], [1.0, 1.0]],
     ...            [[1.0, 0.0]], [[0.0, 0.0]], inputs=["w", "u"])
     >>> v2 = ct.ss([[0.0, 1.0], [3.0, 0.0]], [[0.0, 0.0], [1.0, 1.0]],
@@ -230,7 +232,46 @@ def synthesize(
         return design
     # The certificate holds for these rates only: kept for `save`/`load`.
     finite = {k: float(v) for k, v in rate_bounds.items() if float(v) != np.inf}
-    return dataclasses.replace(design, rate_bounds=finite)
+    design = dataclasses.replace(design, rate_bounds=finite)
+    if continuous and not (scheduled or performance or constraints):
+        design = _with_primal_analysis(design, objective, iu, channels, rate_bounds)
+    return design
+
+
+def _with_primal_analysis(design, objective, iu, channels, rate_bounds):
+    """The design's gain with the smaller of its bound and its analysis's.
+
+    A common gain with a parameter-dependent Lyapunov function comes from
+    the extended LMIs in ``W(p) = P(p)^-1``; the analysis of the gain it
+    returns, with ``P(p)`` itself multi-affine (`ctrl_lpv.l2_gain_bound`),
+    certifies another family of Lyapunov functions. Keeping the better of
+    the two makes the synthesis contain the analysis (a gain that cannot
+    act gets the analysis's bound).
+    """
+    if objective is None or objective.bound is not None:
+        return design
+    from ..analysis import _closed_loop, _general_analysis
+
+    iw, _, iz = channels[0]
+    try:
+        closed = _closed_loop(design.system, design.gains, iw, iu, iz, "affine")
+        gamma, P, certificate = _general_analysis(
+            closed, type(objective)(), "affine", rate_bounds, 1e-6
+        )
+    except SynthesisError as exc:
+        note = f"primal analysis of the gain: {str(exc).splitlines()[0]}"
+        return dataclasses.replace(design, ladder=(*design.ladder, note))
+    if not (certificate.verified and gamma < design.gamma):
+        return design
+    note = (
+        f"primal analysis of the gain: bound {gamma:.6g} (extended LMIs "
+        f"{design.gamma:.6g}), P(p) multi-affine"
+    )
+    return dataclasses.replace(
+        design, gamma=gamma, gamma_opt=min(design.gamma_opt or np.inf, gamma),
+        P=P, certificate=certificate, bounds={objective: gamma}, primal=True,
+        ladder=(*design.ladder, note),
+    )  # fmt: skip
 
 
 def _split_constraints(constraints):
@@ -351,7 +392,8 @@ def h2_state_feedback(
     Returns
     -------
     `StateFeedbackDesign`
-        ``.gamma`` the certified H2 bound, ``.gamma_opt`` the raw optimum.
+        ``.gamma`` the certified H2 bound, ``.gamma_opt`` an estimate of
+        the optimum from above (see `StateFeedbackDesign`).
 
     Raises
     ------

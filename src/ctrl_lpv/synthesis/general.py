@@ -31,7 +31,7 @@ import numpy as np
 
 from .. import budget
 from ..exceptions import CertificationError, InfeasibleError
-from ..lmi import default_solvers
+from ..lmi import default_solvers, schur_norm_bound, symmetric_norm_bound
 from ..regions import LMIRegion
 from .constraints import GainBound, Saturation
 from .decay import LAMBDAS, search_decay
@@ -41,7 +41,10 @@ from .ladder import (
     GAIN_RTOL,
     MARGIN_FACTORS,
     STABILIZE_Z_MAX,
+    Refutations,
+    RungRefuted,
     back_off,
+    carry,
     gain_tangent,
     meets_lmis,
     reached_optimum,
@@ -103,25 +106,40 @@ def run_general(
     # other prescalings at the nominal margin are asked for one that
     # certifies; if none does, the first design stands.
     fallback = None
+    refuted = Refutations(method, [name for name, _ in scalings], attempts)
+
+    def make_job(base, rung_margin, one_solver):
+        job = _Job(
+            sys, original, specs, objective, constraints, scheduled, lyap,
+            continuous, base, backoff, rung_margin, one_solver, deadline,
+            attempts,
+        )  # fmt: skip
+        job.floor_margin = margin * min(MARGIN_FACTORS)
+        return job
+
     for one_solver, name, base, factor in rungs:
         rung = f"{one_solver[0][0]}, {name} scaling, margin {margin * factor:g}"
         if fallback is not None and (
             one_solver is not solvers[0] or factor != MARGIN_FACTORS[0]
         ):
             continue
+        if name in refuted:
+            record.append(f"{rung}: not tried (refuted: {refuted.brief(name)})")
+            continue
         if deadline is not None and time.perf_counter() > deadline:
             record.append(f"{rung}: not tried (time_limit reached)")
             continue
         budget.progress("rung %s", rung, rung=rung)
-        job = _Job(
-            sys, original, specs, objective, constraints, scheduled, lyap,
-            continuous, base, backoff, margin * factor, one_solver, deadline,
-            attempts,
-        )  # fmt: skip
+        job = make_job(base, margin * factor, one_solver)
+        job.carried = refuted.last
         try:
             found = job.run()
         except InfeasibleError as exc:
             raise InfeasibleError(f"{method}: {exc}", attempts, exc.farkas) from None
+        except RungRefuted as exc:
+            found = None
+            refuted.add(name, exc)  # raises once every prescaling is
+            job.notes.append(f"refuted: {refuted.brief(name)}")
         record.extend(f"{rung}: {note}" for note in job.notes)
         if found is None:
             continue
@@ -133,6 +151,14 @@ def run_general(
         record.append(
             f"{rung}: a design, but its optimum did not certify; other "
             "prescalings asked for a certified one"
+        )
+    if fallback is None:
+        # A prescaling refuted late (by the slower solvers) may refute the
+        # ones tried before it: judged without a solver call.
+        refuted.complete(
+            scalings,
+            lambda base: make_job(base, margin, solvers[0]),
+            lambda job: job.run() if job.gate_bounds("stabilize") else None,
         )
     if fallback is not None:
         point, gamma_opt = fallback
@@ -263,6 +289,12 @@ class _Job:
         self.deadline = deadline
         self.attempts = attempts
         self.notes: list[str] = []
+        # The smallest margin any rung with this prescaling tries (`refute`;
+        # set by the ladder), another prescaling's refutation (`carry`), and
+        # whether to solve at all (not when only judging `carried`).
+        self.floor_margin = margin
+        self.carried = None
+        self.solving = True
         # Whether the optimum's estimate comes from a point that certified
         # (True where there is no estimate to doubt).
         self.optimum_certified = True
@@ -313,7 +345,8 @@ class _Job:
             return self.stages()
         # The extended LMIs hold for each fixed eps; none is best for every
         # problem: a feasibility problem takes the first that certifies, a
-        # minimisation the smallest certified bound.
+        # minimisation the smallest certified bound. Their optimum at one
+        # eps is not the problem's, so no other prescaling is asked for it.
         best = None
         for eps in EPSILONS:
             # Kept on the job: a rebuild (the bound's rescaling) reads it.
@@ -327,6 +360,7 @@ class _Job:
                 return found
             if best is None or found[0].values[0] < best[0].values[0]:
                 best = found
+        self.optimum_certified = True
         return best
 
     def stages(self):
@@ -348,11 +382,40 @@ class _Job:
     def solve(self, stage, objective, certify=True, proof=False):
         return solve_stage(self, stage, objective, certify, proof)
 
+    @property
+    def _w_bounds(self) -> tuple[float, ...]:
+        """The bounds ``W <= w_max I`` of the stabilization stage, in turn.
+
+        Points of a Saturation spec fix W's scale: W <= I may exclude them.
+        """
+        return (1.0,) if self.saturation is None else (1.0, *_GIVEN_W_MAX)
+
+    def gate_bounds(self, stage):
+        """Bounds on the variables of a point `stage` accepts, or None.
+
+        Without an objective every design passes through an accepted point
+        of the stabilization stage, posed with ``W_l <= w_max I`` (the
+        largest `w_max` that `_stabilize` tries) and ``||Z_k||^2 <= z_max``
+        up to the largest of `STABILIZE_Z_MAX`. None where a refutation
+        does not carry over to the rung (`_proves`). Variables without a
+        bound here (a spec's, the slack ``G``) leave a certificate that
+        reads them no claim.
+        """
+        if stage != "stabilize" or self.objective is not None or not self._proves:
+            return None
+        n, m = self.original[0]["B2"].shape
+        w = symmetric_norm_bound(max(self._w_bounds), n)
+        z = schur_norm_bound(max(STABILIZE_Z_MAX), (m, n))
+        return {f"W{e}": w for e in range(self.lyap.count)} | {
+            f"Z{k}": z for k in range(self._nZ())
+        }
+
     def _stabilize(self):
+        carry(self, "stabilize", self.carried)
+        if not self.solving:
+            return None
         best = None
-        # Points of a Saturation spec fix W's scale: W <= I may exclude them.
-        w_bounds = (1.0,) if self.saturation is None else (1.0, *_GIVEN_W_MAX)
-        for w_max in w_bounds:
+        for w_max in self._w_bounds:
             self.lmi.set_parameter("w_max", w_max)
             for z_max in STABILIZE_Z_MAX:
                 self.lmi.set_parameter("z_max", z_max)

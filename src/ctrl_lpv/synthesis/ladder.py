@@ -10,7 +10,12 @@ import numpy as np
 
 from .. import budget
 from ..exceptions import CertificationError, InfeasibleError
-from ..lmi import SolveAttempt, default_solvers
+from ..lmi import (
+    SolveAttempt,
+    default_solvers,
+    schur_norm_bound,
+    symmetric_norm_bound,
+)
 from ..problem_cache import synthesis_cache
 from ..stabilizability import check_stabilizability
 from .assembly import Structure, build, load
@@ -72,40 +77,68 @@ def run_ladder(
     # balanced coordinates): the other prescalings at the nominal margin are
     # asked for one that certifies; if none does, the first design stands.
     fallback = None
+    refuted = Refutations(method, [name for name, _ in scalings], attempts)
+
+    def make_job(scaling, rung_margin, one_solver):
+        job = _Job(
+            original, scaling, regions, scheduled, hinf, gamma, backoff,
+            gain_bound, rung_margin, one_solver, deadline,
+        )  # fmt: skip
+        job.floor_margin = margin * min(MARGIN_FACTORS)
+        return job
+
     for one_solver, (scaling_name, scaling), factor in rungs:
         rung = f"{one_solver[0][0]}, {scaling_name} scaling, margin {margin * factor:g}"
         if fallback is not None and (
             one_solver is not solver_rungs[0] or factor != MARGIN_FACTORS[0]
         ):
             continue
+        if scaling_name in refuted:
+            record.append(f"{rung}: not tried (refuted: {refuted.brief(scaling_name)})")
+            continue
         if deadline is not None and time.perf_counter() > deadline:
             record.append(f"{rung}: not tried (time_limit reached)")
             continue
         budget.progress("rung %s", rung, rung=rung)
-        job = _Job(
-            original, scaling, regions, scheduled, hinf, gamma, backoff,
-            gain_bound, margin * factor, one_solver, deadline,
-        )  # fmt: skip
+        job = make_job(scaling, margin * factor, one_solver)
+        job.carried = refuted.last
         try:
             found = job.run(attempts)
         except InfeasibleError as exc:
             raise InfeasibleError(f"{method}: {exc}", attempts, exc.farkas) from None
+        except RungRefuted as exc:
+            found = None
+            refuted.add(scaling_name, exc)  # raises once every scaling is
+            job.notes.append(f"refuted: {refuted.brief(scaling_name)}")
         compiling += job.compiling
         verifying += job.verifying
         record.extend(f"{rung}: {note}" for note in job.notes)
         if found is None:
             continue
+        if fallback is None or (
+            found[0].gamma is not None and found[0].gamma < fallback[0].gamma
+        ):
+            fallback = found
         if job.estimate_certified:
-            fallback = found
             break
-        if fallback is None:
-            fallback = found
-            record.append(
-                f"{rung}: a design, but its minimum-gamma point did not certify; "
-                "other prescalings asked for a certified one"
-            )
+        record.append(
+            f"{rung}: a design, but its minimum-gamma point did not certify; "
+            "other prescalings asked for a certified one"
+        )
+    if fallback is None:
+        # A prescaling refuted late (by the slower solvers) may refute the
+        # ones tried before it: judged without a solver call.
+        refuted.complete(
+            scalings,
+            lambda base: make_job(base, margin, solver_rungs[0]),
+            lambda job: job.run(attempts),
+        )
     if fallback is not None:
         point, gamma_opt = fallback
+        if hinf and gamma is None:
+            # An estimate from above (see `meets_lmis`), never above what
+            # is certified.
+            gamma_opt = min(gamma_opt or np.inf, point.gamma)
         solved = time.perf_counter()
         labels = sys.physical_inputs
         return StateFeedbackDesign(
@@ -192,6 +225,12 @@ class _Job:
         self.structure = Structure.of(self.data, hinf, scheduled, regions, gain_bound)
         self.notes: list[str] = []
         self.compiling = self.verifying = 0.0
+        # The smallest margin any rung with this prescaling tries (`refute`;
+        # set by the ladder), another prescaling's refutation (`carry`), and
+        # whether to solve at all (not when only judging `carried`).
+        self.floor_margin = margin
+        self.carried = None
+        self.solving = True
         # Whether gamma_opt comes from a point that certified (True where
         # there is no estimate to doubt: stabilization, a given gamma).
         self.estimate_certified = True
@@ -204,7 +243,7 @@ class _Job:
             self.lmi = compiled.lmi
             self.attempts = attempts
             if s.hinf:
-                return self._hinf()
+                return self._hinf() if self.solving else None
             return self._stabilize()
 
     # -- one solve -----------------------------------------------------
@@ -274,10 +313,27 @@ class _Job:
         )
         return _Point(sol, gains, certificate, certified, P)
 
+    def gate_bounds(self, stage):
+        """Bounds on the variables of a point `stage` accepts, or None.
+
+        Every design of this job passes through an accepted point of the
+        stabilization stage (the others start from one), posed with
+        ``W <= I`` and ``||Z_k||^2 <= z_max`` up to the largest of
+        `STABILIZE_Z_MAX`: what `refute` needs to call the rung refuted.
+        """
+        s = self.structure
+        if stage != "stabilize" or s.hinf:
+            return None
+        z = schur_norm_bound(max(STABILIZE_Z_MAX), (s.m, s.n))
+        return {"W": symmetric_norm_bound(1.0, s.n)} | {f"Z{k}": z for k in range(s.nZ)}
+
     # -- stage sequences -------------------------------------------------
     def _stabilize(self):
         lmi = self.lmi
         lmi.set_parameter("w_max", 1.0)
+        carry(self, "stabilize", self.carried)
+        if not self.solving:
+            return None
         best = None
         for z_max in STABILIZE_Z_MAX:
             lmi.set_parameter("z_max", z_max)
@@ -350,6 +406,9 @@ class _Job:
                 f"optimal: the solver's gamma^2 = {g_opt:g} is not positive"
             )
             return None
+        # What is reported comes from points that meet the LMIs; g_opt,
+        # the solver's word, only sets where the back-off starts.
+        met = [self._gamma_of(p) for p in (raw.nominal, raw) if meets_lmis(p)]
         if abs(np.log2(g_opt)) > 2:
             # The stages after this one are posed with gamma^2 about 1, and
             # the optimum is estimated again there; W and Z do not depend on
@@ -367,7 +426,10 @@ class _Job:
                 )
                 if g_again is not None and 0 < g_again < g_opt:
                     raw, g_opt = again, g_again
-        gamma_opt = float(np.sqrt(self.scaling.unscale_g(g_opt)))
+                if again is not None:
+                    met += [self._gamma_of(p) for p in (again.nominal, again)
+                            if meets_lmis(p)]  # fmt: skip
+        gamma_opt = min(met, default=None)
         raw_design = self._accept(raw, "raw optimum")
         # The estimate is the nominal-margin point's: trusted when that
         # point itself certified.
@@ -385,6 +447,10 @@ class _Job:
         if not self.backoff and self.gain_bound is None:
             return best, gamma_opt
         return self._minimise_gain(best, gamma_opt)
+
+    def _gamma_of(self, sol) -> float:
+        """The bound of a point's ``g`` in the model's units."""
+        return float(np.sqrt(self.scaling.unscale_g(float(sol.g[0, 0]))))
 
     def _minimise_gain(self, best, gamma_opt):
         """Convex-concave gain iterations from a certified point.
@@ -486,14 +552,166 @@ def solve_stage(job, stage, objective, certify=True, proof=False):
         job.attempts.extend(exc.attempts)
         if proof and not exc.farkas.normalized:
             raise
+        refute(job, stage, exc.farkas)
         job.notes.append(f"{stage}: {exc.farkas}")
         return None
     except CertificationError as exc:
         job.attempts.extend(exc.attempts)
+        refute(job, stage, exc.farkas)
         job.notes.append(f"{stage}: {exc}")
         return None
     job.attempts.extend(sol.attempts)
     return sol
+
+
+class RungRefuted(Exception):
+    """No point a rung's stage could accept exists (a verified dual shows it).
+
+    Raised by `refute` out of a ladder job, so that its rung ends at once;
+    the ladder then skips every rung with the same prescaling.
+
+    Attributes
+    ----------
+    farkas : `ctrl_lpv.lmi.FarkasCertificate`
+        The certificate.
+    margin : float
+        The smallest margin any rung of the prescaling tries.
+    bounds : dict of str to float
+        Bounds on the variables of an accepted point (`gate_bounds`).
+    """
+
+    def __init__(self, farkas, margin, bounds, scaling):
+        super().__init__(farkas.exclusion(margin, bounds))
+        self.farkas = farkas
+        self.margin = margin
+        self.bounds = bounds
+        self.scaling = scaling
+
+
+def refute(job, stage, farkas) -> None:
+    """Raise `RungRefuted` if `farkas` leaves `stage` nothing to accept.
+
+    The stage must be the job's gate (``job.gate_bounds(stage)`` bounds
+    the variables of every point it accepts), and the certificate must
+    exclude every point within them at the smallest margin that any rung
+    with the job's prescaling tries (``job.floor_margin``): the LMIs of
+    those rungs differ only by their margin, so none of them can return
+    a design (`ctrl_lpv.lmi.FarkasCertificate.excludes`).
+    """
+    bounds = job.gate_bounds(stage)
+    if farkas is None or bounds is None:
+        return
+    if farkas.excludes(job.floor_margin, bounds):
+        raise RungRefuted(farkas, job.floor_margin, bounds, job.scaling.matrix)
+
+
+def carry(job, stage, source) -> None:
+    """Judge another prescaling's refutation on this job's LMIs (`refute`).
+
+    The LMIs of two prescalings are congruent: ``x = T x~`` turns each
+    block of ``n`` rows of the stabilization LMIs by ``T^-1`` (up to
+    positive factors), so the dual ``Y`` of prescaling ``T_r`` becomes
+    ``K' Y K``, ``K = kron(I, T_r^-1 T_s)``, in prescaling ``T_s``. That is
+    only a start: `ctrl_lpv.lmi.LMIProblem.farkas` polishes it and bounds
+    it on this job's own LMIs in float64, so the claim is this rung's own,
+    whatever the start (a block whose size is not a multiple of ``n`` is
+    left as it is). Costs no solver call.
+    """
+    if source is None or job.gate_bounds(stage) is None:
+        return
+    R = np.linalg.solve(source.scaling, job.scaling.matrix)
+    n = R.shape[0]
+    duals = []
+    for Y in source.farkas.duals:
+        d = Y.shape[0]
+        K = np.kron(np.eye(d // n), R) if d % n == 0 else np.eye(d)
+        duals.append(K.T @ Y @ K)
+    try:
+        proof = job.lmi.farkas(duals, stage)
+    except ValueError:  # another stage structure: nothing to carry
+        return
+    refute(job, stage, proof)
+
+
+class Refutations:
+    """The prescalings of a ladder refuted so far; the refusal once all are.
+
+    Parameters
+    ----------
+    method : str
+        Names the call in the message.
+    names : list of str
+        Every prescaling the ladder tries (each rung uses one of them).
+    attempts : list
+        The ladder's solver attempts (kept by the refusal).
+    """
+
+    def __init__(self, method, names, attempts):
+        self.method = method
+        self.names = list(names)
+        self.attempts = attempts
+        self.found: dict[str, RungRefuted] = {}
+
+    def __contains__(self, name) -> bool:
+        return name in self.found
+
+    @property
+    def last(self) -> RungRefuted | None:
+        """The latest refutation (a start for the next prescaling), if any."""
+        return next(reversed(self.found.values()), None)
+
+    def brief(self, name) -> str:
+        """Short form: the two relative margins of one prescaling."""
+        exc = self.found[name]
+        needed = exc.farkas.accepted_relative_margin(exc.margin, exc.bounds)
+        return (
+            f"relative margin at most {exc.farkas.used_relative_margin():.2g}, "
+            f"the certificate needs {needed:.2g}"
+        )
+
+    def complete(self, scalings, make_job, run) -> None:
+        """Judge the latest refutation on every prescaling not refuted.
+
+        `make_job(scaling)` is a ladder job (its `floor_margin` set), and
+        `run(job)` runs it; the job only loads its LMIs and `carry`-es the
+        refutation (no solver call). Raises `InfeasibleError` if that
+        refutes every prescaling.
+        """
+        for name, scaling in scalings:
+            if self.last is None or name in self:
+                continue
+            job = make_job(scaling)
+            if job.deadline is not None and time.perf_counter() > job.deadline:
+                return
+            job.carried, job.solving = self.last, False
+            try:
+                run(job)
+            except RungRefuted as exc:
+                self.add(name, exc)
+
+    def add(self, name, exc: RungRefuted) -> None:
+        """Record a refuted prescaling; raise `InfeasibleError` once every
+        prescaling is refuted."""
+        self.found[name] = exc
+        if any(other not in self.found for other in self.names):
+            return
+        first = self.found[self.names[0]]
+        per_scaling = "; ".join(f"{n}: {self.brief(n)}" for n in self.names)
+        what = "Lyapunov matrix" if self.method == "analysis" else "design"
+        raise InfeasibleError(
+            f"{self.method}: no certifiable {what} exists: a dual certificate "
+            f"verified in float64 bounds the relative margin (-max lambda_max "
+            f"/ ||x||, x the free entries of {', '.join(first.farkas.variables)} "
+            f"in the prescaled units) of every point of the "
+            f"'{first.farkas.stage}' LMIs below the least one the certificate "
+            f"accepts (a margin of {first.margin / 2:.3g} at the smallest margin "
+            f"tried, {first.margin:g}, within the stage's bounds on the "
+            f"variables), in every prescaling tried: {per_scaling}. A solution "
+            f"with a smaller relative margin is not excluded, but none could "
+            f"pass the certificate",
+            self.attempts,
+            first.farkas,
+        )
 
 
 def gain_tangent(lmi, scaling, W, Z, gain_bound):

@@ -107,7 +107,9 @@ def recheck(design, performance=()) -> Recheck:
         P, W = _lyapunov_here(design, lyap, Wd, delta)
         for rate in lyap.rates:
             npoints += 1
-            P_moved, W_moved = _moved(sys, lyap, Wd, delta, p, rate, P, W, continuous)
+            P_moved, W_moved = _moved(
+                sys, lyap, Wd, delta, p, rate, P, W, continuous, design.primal
+            )
             loop = FrozenLoop(A, B2, K, Acl, eig, P, P_moved, W, W_moved)
             value = Stability().residual(loop, continuous) + _ROUNDING * len(P)
             worst["lyap"] = max(worst["lyap"], (value, where), key=_first)
@@ -214,27 +216,34 @@ def _lyapunov_data(design, sys, failures):
                       "differ")
             )  # fmt: skip
             return lyap, None, checks
-        Wd.setdefault(index, _sym_inv(P))
+        # A primal design's P(p) is multi-affine: its vertex matrices are
+        # kept as they are (`_lyapunov_here` and `_moved` read them so).
+        Wd.setdefault(index, P if design.primal else _sym_inv(P))
     return lyap, Wd, checks
 
 
 def _lyapunov_here(design, lyap, Wd, delta):
     if lyap.constant:
         return design.P, Wd[0]
-    W = sum(d * Wd[lyap.index[j]] for j, d in enumerate(delta))
-    return _sym_inv(W), W
+    M = sum(d * Wd[lyap.index[j]] for j, d in enumerate(delta))
+    return (M, _sym_inv(M)) if design.primal else (_sym_inv(M), M)
 
 
-def _moved(sys, lyap, Wd, delta, p, rate, P, W, continuous):
-    """``(P_moved, W_moved)``: derivatives (continuous) or next-sample values."""
+def _moved(sys, lyap, Wd, delta, p, rate, P, W, continuous, primal=False):
+    """``(P_moved, W_moved)``: derivatives (continuous) or next-sample values.
+
+    `Wd` holds the vertex values of ``W`` (of ``P`` when `primal`, in
+    continuous time only).
+    """
     if lyap.constant:
         return (np.zeros_like(P), np.zeros_like(W)) if continuous else (P, W)
     if continuous:
-        dW = np.zeros_like(W)
+        dM = np.zeros_like(W)
         for j, d in enumerate(delta):
             for w, f in step_terms(lyap, j, rate, True):
-                dW = dW + d * f * Wd[w]
-        return -P @ dW @ P, dW
+                dM = dM + d * f * Wd[w]
+        # d(M^-1)/dt = -M^-1 (dM/dt) M^-1.
+        return (dM, -W @ dM @ W) if primal else (-P @ dM @ P, dM)
     domain = sys.domain
     nxt = domain._weights(np.clip(p + rate, domain.lower, domain.upper))
     W_next = sum(d * Wd[lyap.index[j]] for j, d in enumerate(nxt))

@@ -127,9 +127,11 @@ class StateFeedbackDesign:
         Certified bound on the L2 gain from `w` to `z` (None without a
         performance channel).
     gamma_opt : float or None
-        The minimum ``gamma*`` the solver found before back-off (None if not
-        computed). With back-off it is an estimate whose point need not pass
-        the certificate; only `gamma` is certified.
+        An estimate of the minimum ``gamma*`` from above, never below it:
+        the smallest bound of a solver point that meets the LMIs in float64
+        (non-strictly), or `gamma` when no such point was found (None
+        without an objective to minimise). It is not certified (its point
+        may miss the strict margin); only `gamma` is.
     w, u, z : tuple of str
         Exogenous inputs, control inputs and performance outputs.
     certificate : `Certificate`
@@ -153,7 +155,8 @@ class StateFeedbackDesign:
     lyapunov : {"constant", "affine"}
         The Lyapunov function: one ``P``, or ``P(p) = W(p)^-1`` with ``W``
         multi-affine in the box parameters (then `P` holds the vertex
-        matrices, see `lyapunov_matrix`).
+        matrices, see `lyapunov_matrix`); with `primal`, ``P(p)`` itself
+        multi-affine.
     bounds : dict
         Certified bound of every `ctrl_lpv.Hinf` and `ctrl_lpv.H2` spec of
         the call, keyed by the spec.
@@ -165,6 +168,10 @@ class StateFeedbackDesign:
         For ``lyapunov="affine"``: the parameter rate bounds ``{name: nu}``
         the certificate holds for (a parameter not listed may vary
         arbitrarily fast); None for a constant Lyapunov matrix.
+    primal : bool
+        Whether an affine ``P(p)`` is multi-affine itself (the certificate of
+        a common gain's analysis, see `ctrl_lpv.synthesize`) rather than its
+        inverse.
     """
 
     system: PolytopicStateSpace
@@ -186,6 +193,7 @@ class StateFeedbackDesign:
     bounds: dict = field(default_factory=dict)
     rational: tuple | None = None
     rate_bounds: dict | None = None
+    primal: bool = False
 
     @property
     def scheduled(self) -> bool:
@@ -245,9 +253,13 @@ class StateFeedbackDesign:
         return self.lyapunov_at(self.system.weights(p))
 
     def lyapunov_at(self, delta) -> np.ndarray:
-        """``P`` at convex coordinates `delta`: ``(sum_j delta_j P_j^-1)^-1``."""
+        """``P`` at convex coordinates `delta`: ``(sum_j delta_j P_j^-1)^-1``,
+        or ``sum_j delta_j P_j`` for a `primal` design."""
         if self.lyapunov == "constant":
             return self.P.copy()
+        if self.primal:
+            P = sum(d * Pj for d, Pj in zip(delta, self.P))
+            return 0.5 * (P + P.T)
         W = sum(d * np.linalg.inv(Pj) for d, Pj in zip(delta, self.P))
         P = np.linalg.inv(W)
         return 0.5 * (P + P.T)
