@@ -42,6 +42,7 @@ _EXPORTS = {
     "SynthesisError": "exceptions",
     "InfeasibleError": "exceptions",
     "CertificationError": "exceptions",
+    "TimeLimitReached": "budget",
     "ProblemSizeWarning": "exceptions",
     "NominalPointWarning": "exceptions",
     "ParameterClipWarning": "exceptions",
