@@ -659,16 +659,18 @@ def test_sigterm_during_design_save_leaves_no_half_file(
 ):
     """Terminated while the gain file is half written: nothing at --save."""
 
-    def half_then_terminated(design, path, **metadata):
-        Path(path).write_text('{"gains": [[')
+    write_text = Path.write_text
+
+    def half_then_terminated(self, text, *args, **kwargs):
+        write_text(self, text[: len(text) // 2], *args, **kwargs)
         terminate_self()
 
-    monkeypatch.setattr(designs_module, "save_gains", half_then_terminated)
+    monkeypatch.setattr(Path, "write_text", half_then_terminated)
     target = tmp_path / "g.json"
     assert main(["design", "--save", str(target)]) == EXIT_TERMINATED
     assert list(tmp_path.iterdir()) == []
     # An existing file is left as it was.
-    target.write_text("previous gains\n")
+    write_text(target, "previous gains\n")
     assert main(["design", "--save", str(target)]) == EXIT_TERMINATED
     assert [p.name for p in tmp_path.iterdir()] == ["g.json"]
     assert target.read_text() == "previous gains\n"

@@ -22,8 +22,9 @@ was tried follows, without repeats (`digest`). A certified design found
 before the deadline is still returned.
 
 Progress goes to the ``logging`` logger ``"ctrl_lpv"`` (children
-``"ctrl_lpv.budget"``, ``"ctrl_lpv.lmi"``, ...): a line per call, rung and
-stage at INFO, each solver attempt at DEBUG. Enable it with, e.g.,
+``"ctrl_lpv.budget"``, ``"ctrl_lpv.lmi"``, ...): at INFO a line when a
+call starts and ends, per rung, per stage solved and per certified point;
+at DEBUG each stage's start and each solver attempt. Enable it with, e.g.,
 ``logging.basicConfig(level=logging.INFO)``.
 """
 

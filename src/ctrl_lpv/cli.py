@@ -419,7 +419,7 @@ def _run_reproduce(args) -> int:
 def _run_design(args) -> int:
     if args.p_min >= args.p_max:
         return _usage(f"--p-min ({args.p_min}) must be below --p-max ({args.p_max})")
-    from ._output import check_destination, staged_file
+    from ._output import check_destination
 
     if args.save is not None:
         try:  # before the design, which takes seconds
@@ -450,8 +450,8 @@ def _run_design(args) -> int:
     except ValueError as exc:
         return _usage(str(exc))
     if args.save:
-        with staged_file(args.save) as work:
-            designs.save_gains(design, work, model=model_options)
+        # Atomic: written beside the file, then moved into place.
+        designs.save_gains(design, args.save, model=model_options)
     if args.json:
         document = designs.gains_document(design, model=model_options)
         print(json.dumps(document, indent=2))

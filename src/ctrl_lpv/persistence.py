@@ -41,12 +41,12 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from ._checks import real_number
+from ._output import staged_file
 
 __all__ = ["save", "load", "read_json", "write_json", "DocumentReader"]
 
@@ -103,7 +103,7 @@ def read_json(path, name: str = "path"):
 
 
 def write_json(path, document, name: str = "path") -> Path:
-    """Write `document` as JSON to `path` atomically (temp file + `os.replace`).
+    """Write `document` as JSON to `path` atomically (`_output.staged_file`).
 
     The folder must exist. Non-finite numbers are refused (`ValueError`).
     """
@@ -119,22 +119,19 @@ def write_json(path, document, name: str = "path") -> Path:
         raise ValueError(
             f"{name}: the document has a non-finite number ({exc})"
         ) from None
-    fd, temp = tempfile.mkstemp(dir=folder, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(temp, path)
-    except BaseException:
-        Path(temp).unlink(missing_ok=True)
-        raise
+    with staged_file(path) as work:
+        work.write_text(text, encoding="utf-8")
     return path
 
 
 # ----------------------------------------------------------------------
 # Strict reading of a document: every error names the file and the key
 # ----------------------------------------------------------------------
+# `DocumentReader.section`'s default: the entry of the document itself (a
+# nested ``null`` must not fall back to it).
+_TOP_LEVEL = object()
+
+
 class DocumentReader:
     """Typed access to a JSON document; every error names file and key."""
 
@@ -145,10 +142,10 @@ class DocumentReader:
     def fail(self, key: str, message: str) -> ValueError:
         return ValueError(f"{self.path}: key {key!r}: {message}")
 
-    def section(self, key: str, value=None, required=True) -> dict:
-        value = self.doc.get(key) if value is None else value
-        if value is None and not required:
-            return {}
+    def section(self, key: str, value=_TOP_LEVEL) -> dict:
+        """`value` as a JSON object; by default the document's entry `key`."""
+        if value is _TOP_LEVEL:
+            value = self.doc.get(key)
         if not isinstance(value, dict):
             raise self.fail(key, f"expected a JSON object, got {_short(value)}")
         return value
@@ -194,10 +191,10 @@ class DocumentReader:
             raise self.fail(key, f"expected {expected}, got {_short(value)}")
         return value
 
-    def labels(self, value, key: str, unique: bool = True) -> tuple[str, ...]:
+    def labels(self, value, key: str) -> tuple[str, ...]:
         if not isinstance(value, list) or not all(isinstance(s, str) for s in value):
             raise self.fail(key, f"expected a list of names, got {_short(value)}")
-        if unique and len(set(value)) != len(value):
+        if len(set(value)) != len(value):
             raise self.fail(key, f"repeated names in {value}")
         return tuple(value)
 

@@ -394,7 +394,7 @@ def save_gains(design: StateFeedbackDesign, path: str | Path, **metadata) -> Pat
     design : `ctrl_lpv.StateFeedbackDesign`
         A design on `lpv_model` (see `gains_document`).
     path : str or path
-        File to write (parent folders are created).
+        File to write; its folder must exist.
     **metadata
         Extra JSON-serializable entries; ``model``: the options of
         `lpv_model` used (see `gains_document`).
@@ -410,9 +410,7 @@ def save_gains(design: StateFeedbackDesign, path: str | Path, **metadata) -> Pat
         For a `path` that is not a file name, and as `gains_document`.
     """
     path = as_path(path)
-    document = gains_document(design, **metadata)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    return write_json(path, document)
+    return write_json(path, gains_document(design, **metadata))
 
 
 def load_gains(path: str | Path) -> GainFile:
