@@ -1,4 +1,4 @@
-"""LTI H2 state feedback against the Riccati equation (issue 19).
+"""LTI H2 state feedback against the Riccati equations (issue 19).
 
 Reference: for ``z = C1 x + D12 u`` with ``D12'D12`` invertible, the H2
 optimum over stabilizing state feedback is ``sqrt(trace(B1' X B1))`` with
@@ -93,3 +93,34 @@ def test_h2_backoff_design_relative_to_riccati(i):
     design = _design(problem)
     assert optimum * (1 - 1e-6) <= design.gamma_opt <= optimum * (1 + 2e-3)
     assert design.gamma <= 1.2 * design.gamma_opt * (1 + 1e-9)
+
+
+def _discrete_problem(i):
+    rng = np.random.default_rng([SEED, 100 + i])
+    A = rng.normal(size=(5, 5))
+    A = 1.3 * A / np.abs(np.linalg.eigvals(A)).max()  # spectral radius 1.3
+    B2, B1 = rng.normal(size=(5, 1)), rng.normal(size=(5, 2))
+    C1 = np.vstack([rng.normal(size=(2, 5)), np.zeros((1, 5))])
+    D12 = np.array([[0.0], [0.0], [10 ** rng.uniform(-1, 0.5)]])
+    return A, B1, B2, C1, D12
+
+
+@pytest.mark.parametrize("i", range(6))
+def test_discrete_h2_raw_optimum_matches_riccati(i):
+    # Discrete time: the optimum is sqrt(trace(B1' X B1)) with X the
+    # stabilizing solution of the discrete LQR equation, and a loop's H2
+    # norm sqrt(trace(C L C')) with L its discrete Gramian.
+    A, B1, B2, C1, D12 = _discrete_problem(i)
+    X = sl.solve_discrete_are(A, B2, C1.T @ C1, D12.T @ D12, s=C1.T @ D12)
+    optimum = float(np.sqrt(np.trace(B1.T @ X @ B1)))
+    D = np.hstack([np.zeros((3, 2)), D12])
+    sys = ct.ss(A, np.hstack([B1, B2]), C1, D, inputs=["w0", "w1", "u"], dt=0.1)
+    design = lpv.h2_state_feedback(
+        lpv.PolytopicStateSpace([sys]), w=["w0", "w1"], u="u", backoff=None
+    )
+    K = design.gains[0]
+    L = sl.solve_discrete_lyapunov(A - B2 @ K, B1 @ B1.T)
+    Cc = C1 - D12 @ K
+    assert np.sqrt(np.trace(Cc @ L @ Cc.T)) <= design.gamma * (1 + 1e-9)
+    assert design.gamma <= optimum * (1 + 1e-4)
+    assert optimum * (1 - 1e-6) <= design.gamma_opt <= design.gamma
