@@ -234,11 +234,13 @@ def synthesize(
     finite = {k: float(v) for k, v in rate_bounds.items() if float(v) != np.inf}
     design = dataclasses.replace(design, rate_bounds=finite)
     if continuous and not (scheduled or performance or constraints):
-        design = _with_primal_analysis(design, objective, iu, channels, rate_bounds)
+        design = _with_primal_analysis(
+            design, objective, iu, channels, rate_bounds, margin
+        )
     return design
 
 
-def _with_primal_analysis(design, objective, iu, channels, rate_bounds):
+def _with_primal_analysis(design, objective, iu, channels, rate_bounds, margin):
     """The design's gain with the smaller of its bound and its analysis's.
 
     A common gain with a parameter-dependent Lyapunov function comes from
@@ -256,7 +258,7 @@ def _with_primal_analysis(design, objective, iu, channels, rate_bounds):
     try:
         closed = _closed_loop(design.system, design.gains, iw, iu, iz, "affine")
         gamma, P, certificate = _general_analysis(
-            closed, type(objective)(), "affine", rate_bounds, 1e-6
+            closed, type(objective)(), "affine", rate_bounds, margin
         )
     except SynthesisError as exc:
         note = f"primal analysis of the gain: {str(exc).splitlines()[0]}"
