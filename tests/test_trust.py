@@ -10,8 +10,8 @@ import pytest
 
 import ctrl_lpv as lpv
 from ctrl_lpv import twomass
-from ctrl_lpv.synthesis.assembly import Structure as _Structure
 from ctrl_lpv.synthesis.options import guard_size as _guard_size
+from ctrl_lpv.synthesis.problem import Structure as _Structure
 
 
 def test_refusal_classes_are_distinct():
@@ -179,9 +179,11 @@ def test_bad_matrices_are_refused(vertex, match):
 
 
 def test_large_problems_warn_with_an_estimate():
+    # Theorem 1 on 200 vertices: 200 * 201 / 2 Lyapunov LMIs of size 2.
     structure = _Structure(
-        hinf=False, scheduled=True, n=2, m=1, nw=0, nz=0, N=200, regions=(),
-        gain_bound=False,
+        n=2, m=1, N=200, nZ=200, scheduled=True, continuous=True, slack=False,
+        objective=False, coefficients=(), lyapunov=(), specs=(),
+        entries=20100 * 4 + 4, nlmis=20100, largest=2,
     )  # fmt: skip
     with pytest.warns(lpv.ProblemSizeWarning, match="20100 LMIs"):
         _guard_size(structure)

@@ -15,7 +15,7 @@ import cvxpy as cp
 import numpy as np
 
 from ._checks import real_number
-from .lmi import normalized_max_eig
+from .lmi import assemble, normalized_max_eig
 
 __all__ = ["LMIRegion", "halfplane", "disk", "sector"]
 
@@ -38,6 +38,29 @@ def region_block(L, M, W, q, twice):
         return out + 2 * M[a, b] * q if M[a, b] else out
 
     return cp.bmat([[block(a, b) for b in range(k)] for a in range(k)])
+
+
+def region_blocks(L, M, W, q):
+    """The lower block triangle of ``kron(L, W) + kron(M, q) + kron(M', q')``.
+
+    With ``q = A_cl W`` this is the region's LMI (see
+    `ctrl_lpv.lmi.assemble` for the form: a diagonal block stands for its
+    symmetric part). Written from scalar multiples of ``W`` and ``q``, so
+    that ``L`` may be a parameter of the problem.
+    """
+    k = M.shape[0]
+
+    def block(a, b):
+        out = L[a, b] * W
+        if a == b:
+            return out + 2 * M[a, a] * q if M[a, a] else out
+        if M[a, b]:
+            out = out + M[a, b] * q
+        if M[b, a]:
+            out = out + M[b, a] * q.T
+        return out
+
+    return [[block(a, b) for b in range(a + 1)] for a in range(k)]
 
 
 @dataclass(frozen=True)
@@ -111,8 +134,8 @@ class LMIRegion:
         eigenvalue of ``L + M s + M' conj(s)``, relative to the size of its
         terms.
         """
-        M = region_block(self.L, self.M, loop.W, loop.Acl @ loop.W, 1.0)
-        worst = normalized_max_eig(0.5 * (M + M.T)[None])
+        M = assemble(region_blocks(self.L, self.M, loop.W, loop.Acl @ loop.W))
+        worst = normalized_max_eig(M[None])
         for s in loop.eig:
             F = self.L + self.M * s + self.M.T * np.conj(s)
             scale = np.abs(self.L).max() + 2 * np.abs(self.M).max() * abs(s)

@@ -24,58 +24,60 @@ Numerical policy
 2. The data are prescaled by powers of two (state balancing, input, w and z
    normalisation, and a time scaling), so that the scaled LMIs are exactly
    congruent to the original ones and a certificate of one is a certificate
-   of the other.
+   of the other; a Riccati prescaling and the model's own units follow in
+   the fallback ladder.
 3. Strict inequalities are posed as ``F <= -margin I`` in scaled units.
-4. Back-off (default 20 %): after the minimum ``gamma*``, the problem is
-   re-solved with ``gamma <= (1 + backoff) gamma*``, first maximising the
-   smallest eigenvalue of ``W`` under ``W <= lambda_max(W*)`` (a
-   well-conditioned Lyapunov matrix), then minimising the gain norm in the
-   model's units by a convex-concave iteration: the bound
-   ``||K_j||^2 <= kappa`` is linearised at the previous point (exact there,
-   sufficient everywhere) and re-solved until it improves by less than 5 %.
-   Each stage is one cvxpy problem built with parameters (DPP): its
-   iterations and the margin retries re-solve without recompiling.
+4. One solve where one solve suffices: the minimum ``gamma*`` is posed
+   again (its bound rescaled to order one) only when its point does not
+   certify or the margin is not negligible against it. Back-off (default
+   20 %): one solve of the smallest gain norm under ``gamma <= (1 +
+   backoff) gamma*`` (the gain bound linearised at a ``W`` of the margin's
+   order, so that the minimisation prefers a large, well-conditioned ``W``),
+   then one convex-concave step of the gain norm in the model's units
+   (exact at that point); the centering stage (the smallest eigenvalue of
+   ``W`` maximised) only where these do not certify.
 5. Every returned design is verified in float64: every LMI, the closed-loop
-   Lyapunov inequality and Hurwitz stability at every vertex and at sampled
-   interior points.
+   Lyapunov inequality and every spec's statement and Hurwitz (Schur)
+   stability at every vertex and at sampled interior points.
 
 Re-solves
 ---------
-The prescaled vertex data, the margin, the pole-region offsets and every
-stage bound are cvxpy parameters, so a compiled problem depends only on the
-structure of the call (function, dimensions, number of vertices, region
-shapes, whether a gain bound is set); the power-of-two state and input
-scalings, read as constants by the gain stage alone, rebuild that stage
-when they change (rarely: not for new weights or gammas). `synthesis_cache`
-keeps compiled problems by structure: a gamma or back-off sweep, new
-performance weights (the rows of ``C`` and ``D`` of z) or another plant of
-the same size reuse them, and a call then costs the solver and the
-verification only (``design.timing["compile"]`` is 0). Each call sets every
-parameter and verifies its own result from scratch, so a reused problem
-gives the same certified design as a fresh one.
+The prescaled vertex data, the channel weights, the specs' constants
+(pole-region offsets, saturation levels), the margin and every stage bound
+are parameters, so a compiled problem depends only on the structure of the
+call (dimensions, number of vertices, the relaxation, the specs'
+structures, the Lyapunov structure); the state and input scalings, read as
+constants by a gain bound's stage alone, rebuild that stage when they
+change. `synthesis_cache` keeps compiled problems by structure: a gamma or
+back-off sweep, new performance weights or another plant of the same size
+reuse them, and a call then costs the solver and the verification only
+(``design.timing["compile"]`` is 0). Each call sets every parameter and
+verifies its own result from scratch.
 
 Modules
 -------
 Data flow one way through the package:
 
-``channels`` (which signals are w, u, z) -> ``scaling`` (exact prescaling)
--> ``assembly`` (the LMIs as a parametrised cvxpy problem) -> ``ladder``
-(solvers, prescalings, margins, stages) -> ``verification`` (float64
-checks) -> ``results`` (`StateFeedbackDesign`, `Certificate`); ``paper``
-holds the four public functions, thin wrappers of `synthesize`
-(``compose``). It takes the performance specs of ``specs`` and the
-constraint specs of ``constraints`` (and `~ctrl_lpv.regions.LMIRegion`),
-and sends the paper's cases to ``ladder``, the others to ``general``, which
-assembles them over the relaxation of ``parametric`` with ``terms`` (and
-``problem``), searches the decay of a `Peak` spec with ``decay`` and checks
-each point with ``frozen``.
+``spec`` (the protocol every spec implements), ``specs`` (`Hinf`, `H2`,
+`Peak`) and ``constraints`` (`GainBound`, `Saturation`, pole regions) ->
+``compose`` (`synthesize`: checks, the plant partitioned once by
+``channels``, an immutable ``problem.Problem``) -> ``general`` (the
+fallback ladder; prescalings of ``scaling``, the cached LMIs of
+``problem`` over the relaxation of ``parametric`` with ``terms``) ->
+``stages`` and ``gains`` (one rung; the decay search of ``decay``,
+refutations of ``refutation``) -> ``points`` and ``frozen`` (float64 checks
+in the model's units) -> ``results`` (`StateFeedbackDesign`,
+`Certificate`); ``paper`` holds the public wrappers (the paper's four
+functions and `h2_state_feedback`), ``recheck`` re-checks a design read
+back from a file.
 """
 
-from .compose import h2_state_feedback, synthesize
+from .compose import synthesize
 from .constraints import GainBound, Saturation
 from .paper import (
     gain_scheduled_hinf,
     gain_scheduled_stabilization,
+    h2_state_feedback,
     hinf_state_feedback,
     quadratic_stabilization,
 )

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..lmi import LMIProblem
 from ..regions import region_block
-from .constraints import GainBound
+from .problem import gain_tangent_blocks
 
 
 def vertex_pairs(N, scheduled):
@@ -227,7 +227,7 @@ def build(s: Structure) -> Compiled:
         # Normalised ||K_k||^2 <= kappa in original units (see _gain_tangent).
         lmi.add(
             f"||K{k}||^2 <= kappa",
-            lambda v, k=k: GainBound.tangent(
+            lambda v, k=k: gain_tangent_blocks(
                 v.W,
                 getattr(v, f"Z{k}"),
                 v.gain_Ginv,

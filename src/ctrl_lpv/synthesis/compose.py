@@ -1,40 +1,41 @@
 """`synthesize`: state feedback from composable objectives and constraints.
 
-The paper's cases (continuous time, a constant Lyapunov matrix, no
-objective or an H-infinity objective, pole regions and a gain bound) go to
-the tuned engine of `ctrl_lpv.synthesis.ladder`, the one the four paper
-functions use. Everything else (H2, several performance specs, parameter-
-dependent Lyapunov matrices, discrete time) is assembled here from the spec
-classes of `ctrl_lpv.synthesis.specs` over the relaxation of
-`ctrl_lpv.synthesis.parametric`, and solved by the fallback ladder of
-`ctrl_lpv.synthesis.general`, with the same certificate policy: a design
-is returned only when every LMI checks in float64 and the frozen closed
-loops pass their own checks in the model's units.
+The call is checked here, at the boundary: the specs (each a
+`~ctrl_lpv.synthesis.spec.Spec`, pole regions wrapped by
+`~ctrl_lpv.synthesis.constraints.as_spec`) validate themselves against the
+design, the plant is partitioned once into its channels
+(`~ctrl_lpv.synthesis.channels.Partition`) and every vertex is tested for
+stabilizability. The immutable `~ctrl_lpv.synthesis.problem.Problem` then
+goes to the one engine (`ctrl_lpv.synthesis.general`), whose certificate
+policy is the same for every spec: a design is returned only when every
+LMI checks in float64 and the frozen closed loops pass their own checks
+in the model's units.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
 
 import numpy as np
 
 from ..budget import DEFAULT_TIME_LIMIT, time_budget
 from ..exceptions import SynthesisError
-from ..regions import LMIRegion
 from ..stabilizability import check_stabilizability
 from ..systems import PolytopicStateSpace
-from .channels import require_pss, resolve_channels
-from .constraints import GainBound, Saturation
-from .general import run_general
-from .ladder import run_ladder
-from .options import validated_options, validated_regions
+from .channels import Partition, require_pss, resolve_channels
+from .constraints import as_spec
+from .general import run
+from .options import validated_options
 from .parametric import lyapunov_structure
+from .problem import Problem
 from .results import StateFeedbackDesign
-from .specs import H2, PERFORMANCE, Peak
+from .spec import DesignContext, Spec, with_stability
 
-__all__ = ["synthesize", "h2_state_feedback"]
+__all__ = ["synthesize"]
 
+# The paper's names of its four cases (continuous time, a constant
+# Lyapunov matrix, no objective or an H-infinity one; regions and a gain
+# bound allowed), by (scheduled, objective).
 _METHODS = {
     (False, False): "Lemma 1",
     (False, True): "Lemma 2",
@@ -148,86 +149,36 @@ def synthesize(
     if gains not in ("common", "scheduled"):
         raise ValueError(f"gains: expected 'common' or 'scheduled', got {gains!r}")
     scheduled = gains == "scheduled"
-    if objective is not None and not isinstance(objective, PERFORMANCE):
+    if objective is not None and not (
+        isinstance(objective, Spec) and objective.channel
+    ):
         raise TypeError(
             f"objective: expected None, Hinf(...), H2(...) or Peak(...), got "
             f"{objective!r}"
         )
     performance, constraints = _split_constraints(constraints)
-    regions = tuple(c for c in constraints if isinstance(c, LMIRegion))
-    gain_bound = next((c for c in constraints if isinstance(c, GainBound)), None)
-    saturation = next((c for c in constraints if isinstance(c, Saturation)), None)
+    _check_unique(([objective] if objective is not None else []) + performance
+                  + list(constraints))  # fmt: skip
     continuous = not sys.isdtime(strict=True)
-    if (
-        continuous
-        and lyapunov == "constant"
-        and rate_bounds is None
-        and not performance
-        and saturation is None
-        and not isinstance(objective, (H2, Peak))
-    ):
-        hinf = objective is not None
-        design = run_ladder(
-            sys, objective.w if hinf else None, u, objective.z if hinf else None,
-            _METHODS[(scheduled, hinf)], scheduled,
-            objective.bound if hinf else None, regions, backoff,
-            None if gain_bound is None else gain_bound.bound, margin, solvers,
-            time_limit, hinf=hinf,
-        )  # fmt: skip
-        bounds = {objective: design.gamma} if hinf else {}
-        return dataclasses.replace(design, bounds=bounds)
-
     lyap = lyapunov_structure(sys, lyapunov, rate_bounds)
     _, backoff, _, _, margin, chain, time_limit = validated_options(
         (), backoff, None, None, margin, solvers, time_limit
     )
-    if not continuous:
-        for region in regions:
-            _require_unit_disk(region)
     specs = ([objective] if objective is not None else []) + performance
     _, iu, _ = resolve_channels(sys, None, u, None, hinf=False)
     channels = [resolve_channels(sys, s.w, u, s.z, hinf=True) for s in specs]
-    if not lyap.constant and not scheduled and regions:
-        raise ValueError(
-            "constraints: pole regions with a common gain and lyapunov='affine' "
-            "are not implemented (the extended LMIs have no region form here); "
-            "use gains='scheduled' or a constant Lyapunov matrix"
-        )
-    if saturation is not None:
-        if not continuous:
-            raise ValueError(
-                "constraints: Saturation is implemented for continuous time only"
-            )
-        if not lyap.constant and not scheduled:
-            raise ValueError(
-                "constraints: Saturation with a common gain and lyapunov='affine' is "
-                "not implemented (the extended LMIs have no sector form here); use "
-                "gains='scheduled' or a constant Lyapunov matrix"
-            )
-        if not iu:
-            raise ValueError("constraints: Saturation needs control inputs u")
-        saturation.check_sizes(sys.nstates, len(iu))
-    if sum(isinstance(s, Peak) for s in specs) > 1:
-        raise ValueError("constraints: at most one Peak spec (one invariant ellipsoid)")
-    if any(isinstance(s, Peak) for s in specs) and not lyap.constant and not scheduled:
-        raise ValueError(
-            "constraints: Peak with a common gain and lyapunov='affine' is not "
-            "implemented (the extended LMIs have no invariance form here); use "
-            "gains='scheduled' or a constant Lyapunov matrix"
-        )
-    if gain_bound is not None and not lyap.constant:
-        raise ValueError(
-            "constraints: GainBound is implemented for a constant Lyapunov matrix only"
-        )
-    if continuous:
-        suspects = check_stabilizability(sys, iu)
-    else:
-        suspects = ()
-    method = _describe(objective, performance, scheduled, lyapunov, continuous)
-    design = run_general(
-        sys, iu, specs, channels, objective, constraints, scheduled, lyap,
-        continuous, backoff, margin, chain, time_limit, method, suspects,
+    context = DesignContext(continuous, scheduled, lyap.constant, sys.nstates, len(iu))
+    for spec in (*specs, *constraints):
+        spec.validate(context)
+    suspects = check_stabilizability(sys, iu) if continuous else ()
+    method = _describe(objective, performance, scheduled, lyapunov, continuous,
+                       constraints)  # fmt: skip
+    plant = Partition.of(sys, iu, [(iw, iz) for iw, _, iz in channels])
+    problem = Problem(
+        plant, with_stability((*specs, *constraints)), objective, scheduled, lyap,
+        continuous, backoff, margin, chain, method, tuple(suspects),
     )  # fmt: skip
+    design = run(problem, time_limit)
     if lyap.constant:
         return design
     # The certificate holds for these rates only: kept for `save`/`load`.
@@ -277,8 +228,8 @@ def _with_primal_analysis(design, objective, iu, channels, rate_bounds, margin):
 
 
 def _split_constraints(constraints):
-    """The performance specs, and the other constraint specs."""
-    if isinstance(constraints, (LMIRegion, GainBound, Saturation, *PERFORMANCE)):
+    """The bound specs with a channel, and the other specs."""
+    if isinstance(constraints, Spec) or not hasattr(constraints, "__iter__"):
         constraints = (constraints,)
     try:
         constraints = tuple(constraints)
@@ -286,127 +237,43 @@ def _split_constraints(constraints):
         raise TypeError(
             f"constraints: expected a spec or a sequence of specs, got {constraints!r}"
         ) from None
+    if any(isinstance(item, (str, bytes)) for item in constraints):
+        raise TypeError(f"constraints: expected specs, got {constraints!r}")
     performance, others = [], []
-    for item in constraints:
-        if isinstance(item, PERFORMANCE):
+    for item in map(as_spec, constraints):
+        if item.channel:
             if item.bound is None:
                 raise ValueError(
                     f"constraints: {item} needs a bound (only the objective is "
                     "minimised)"
                 )
             performance.append(item)
-        elif isinstance(item, (LMIRegion, GainBound, Saturation)):
-            others.append(item)
         else:
-            raise TypeError(
-                f"constraints: expected Hinf, H2, Peak, GainBound, Saturation or "
-                f"pole regions, got {item!r}"
-            )
-    for kind in (GainBound, Saturation):
-        if sum(isinstance(item, kind) for item in others) > 1:
-            raise ValueError(f"constraints: at most one {kind.__name__}")
+            others.append(item)
     return performance, tuple(others)
 
 
-def _require_unit_disk(region: LMIRegion) -> None:
-    """A discrete-time region must be a disk inside the unit circle."""
-    L, M = region.L, region.M
-    is_disk = (
-        L.shape == (2, 2)
-        and np.array_equal(M, [[0.0, 1.0], [0.0, 0.0]])
-        and L[0, 0] == L[1, 1]
-        and L[0, 1] == L[1, 0]
-    )
-    if not is_disk:
-        raise ValueError(
-            f"constraints: {region} is a continuous-time region; a discrete-time "
-            "system takes disk(radius, center) regions of the z-plane"
-        )
-    radius, center = -L[0, 0], -L[0, 1]
-    if abs(center) + radius > 1:
-        raise ValueError(
-            f"constraints: {region} is not inside the unit circle, so it does not "
-            "imply stability"
-        )
+def _check_unique(specs) -> None:
+    """At most one of each spec that shares its multipliers (`Spec.unique`)."""
+    kinds = [type(spec) for spec in specs if spec.unique]
+    for kind in dict.fromkeys(kinds):
+        if kinds.count(kind) > 1:
+            raise ValueError(f"constraints: at most one {kind.__name__}")
 
 
-def _describe(objective, performance, scheduled, lyapunov, continuous) -> str:
+def _describe(objective, performance, scheduled, lyapunov, continuous, constraints):
+    """The paper's name of its four cases, else what the call asks."""
+    if (
+        continuous
+        and lyapunov == "constant"
+        and not performance
+        and all(s.paper_case for s in constraints)
+        and (objective is None or objective.paper_case)
+    ):
+        return _METHODS[(scheduled, objective is not None)]
     goal = "stability" if objective is None else type(objective).__name__
     extra = "".join(f" + {type(s).__name__} bound" for s in performance)
     return (
         f"synthesize ({goal}{extra}, {'vertex' if scheduled else 'common'} gains, "
         f"{lyapunov} Lyapunov, {'continuous' if continuous else 'discrete'} time)"
     )
-
-
-@time_budget
-def h2_state_feedback(
-    sys: PolytopicStateSpace,
-    w=None,
-    u=None,
-    z=None,
-    *,
-    gamma: float | None = None,
-    gains: str = "common",
-    regions: Sequence[LMIRegion] = (),
-    backoff: float | None = 0.2,
-    gain_bound: float | None = None,
-    margin: float = 1e-6,
-    solvers=None,
-    time_limit: float | None = DEFAULT_TIME_LIMIT,
-) -> StateFeedbackDesign:
-    """State feedback with a certified H2 bound (quadratic, constant ``P``).
-
-    Parameters
-    ----------
-    sys : `PolytopicStateSpace`
-        The plant, continuous or discrete time, with `w` and `u` among its
-        inputs and `z` among its outputs (continuous time: no feedthrough
-        from `w` to `z`).
-    w : str, int or list, optional
-        Exogenous inputs; default every physical input not in `u`.
-    u : str, int or list
-        Control inputs.
-    z : str, int or list, optional
-        Performance outputs; default all outputs.
-    gamma : float, optional
-        Required H2 bound, met strictly, instead of the minimum.
-    gains : {"common", "scheduled"}, optional
-        One gain, or one per vertex (default "common").
-    regions : LMIRegion or sequence of LMIRegion, optional
-        Pole regions every frozen closed loop must lie in.
-    backoff : float or None, optional
-        Relax the minimum by this fraction (default 0.2) for a
-        well-conditioned design; None or 0 returns the raw optimum.
-    gain_bound : float, optional
-        Bound on the spectral norm of the gain(s), model units.
-    margin : float, optional
-        Margin of the strict LMIs (prescaled units), default 1e-6.
-    solvers : str or sequence, optional
-        Solvers tried in turn (see `synthesize`).
-    time_limit : float or None, optional
-        Wall-time budget of the call in seconds (default 600,
-        `ctrl_lpv.budget.DEFAULT_TIME_LIMIT`; None for no limit). Solvers
-        get the time left; when it runs out the call ends with a
-        `CertificationError` whose first line is ``time_limit: ... s
-        reached`` with the best point reached.
-
-    Returns
-    -------
-    `StateFeedbackDesign`
-        ``.gamma`` the certified H2 bound, ``.gamma_opt`` an estimate of
-        the optimum from above (see `StateFeedbackDesign`).
-
-    Raises
-    ------
-    InfeasibleError
-        If a vertex is not stabilizable.
-    CertificationError
-        If no certified design was found.
-    """
-    bound = (GainBound(gain_bound),) if gain_bound is not None else ()
-    constraints = validated_regions(regions) + bound
-    return synthesize(
-        sys, u, objective=H2(w, z, bound=gamma), constraints=constraints, gains=gains,
-        backoff=backoff, margin=margin, solvers=solvers, time_limit=time_limit,
-    )  # fmt: skip

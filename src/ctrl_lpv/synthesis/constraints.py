@@ -1,19 +1,9 @@
 """Constraint specs of `synthesize` beyond performance bounds.
 
 `GainBound` bounds the gains; `Saturation` certifies a region of attraction
-under input saturation. Pole regions are `ctrl_lpv.regions.LMIRegion`
-objects, which follow the same protocol. A constraint spec may have
-
-* ``prescale(scaling, n, m)``: its constants in a job's prescaled units,
-  read back by its blocks through ``t.prescaled(spec)``;
-* ``variables(lmi, n, m, nZ)``: its own LMI variables;
-* ``lmis(t, continuous)``: its blocks at one coefficient of the relaxation
-  and one vertex of the rate box (those that contain ``dW/dt``);
-* ``coefficient_lmis(t, continuous)``: its blocks at one coefficient (those
-  that do not depend on the rate);
-* ``residual(loop, continuous)``: the largest excess of its statements at
-  one frozen closed loop in the model's units (a `FrozenLoop` of
-  `ctrl_lpv.synthesis.frozen`), below rounding for a certified design.
+under input saturation; `PoleRegion` is the spec of a pole region (an
+`ctrl_lpv.regions.LMIRegion`, which `as_spec` wraps). Each implements the
+protocol of `~ctrl_lpv.synthesis.spec.Spec`.
 """
 
 from __future__ import annotations
@@ -22,13 +12,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._checks import real_number
+from .._checks import per_input, positive_levels, real_number
 from ..lmi import normalized_max_eig
-from .specs import Peak, per_input, positive_levels, unit
+from ..regions import LMIRegion, region_blocks
+from .spec import Spec, unit
 
 
 @dataclass(frozen=True)
-class GainBound:
+class GainBound(Spec):
     """Bound on the spectral norm of every gain, in the model's units.
 
     Parameters
@@ -43,6 +34,9 @@ class GainBound:
     not returned.
     """
 
+    unique = True
+    paper_case = True
+
     bound: float
 
     def __post_init__(self):
@@ -53,38 +47,32 @@ class GainBound:
     def __str__(self) -> str:
         return f"GainBound({self.bound:g})"
 
-    @staticmethod
-    def tangent(W, Z, Ginv, Ginv_K, kappa, T, Su):
-        """``||K||^2 <= kappa kappa0`` linearised at the previous point.
+    def validate(self, context) -> None:
+        if not context.constant:
+            raise ValueError(
+                "constraints: GainBound is implemented for a constant Lyapunov "
+                "matrix only"
+            )
 
-        With ``K = Su Z W^-1 T^-1`` in prescaled units, the bound is
-        ``(Su Z)'(Su Z) <= kappa kappa0 (T W)'(T W)``, whose right side is
-        bounded below by its tangent at ``G0 = T W0``; a Schur complement
-        and the congruence with ``G0^-1`` give the block returned,
-        sufficient everywhere and exact at ``W0``. The gain iterations set
-        ``Ginv`` and ``Ginv_K`` at each new point (`ladder.gain_tangent`).
+    @property
+    def gain_limit(self) -> float:
+        """The bound: the engine's gain stage imposes it."""
+        return self.bound
 
-        Parameters
-        ----------
-        W, Z : ndarray or cvxpy expression
-            The prescaled Lyapunov matrix and gain variable.
-        Ginv, Ginv_K : ndarray or cvxpy parameter
-            ``G0^-1`` and ``G0^-1 / sqrt(kappa0)``.
-        kappa : float or cvxpy expression
-            The squared gain relative to ``kappa0``, the previous point's.
-        T, Su : ndarray
-            The state and input scalings (matrices).
+    def variables(self, declare) -> None:
+        """None: the gain stage's tangent bound is the engine's."""
 
-        Returns
-        -------
-        list of list
-            The lower-triangular blocks of an LMI ``<= 0``.
-        """
-        n, m = W.shape[0], Z.shape[0]
-        return [
-            [-(T @ W @ Ginv + Ginv.T @ W @ T.T - np.eye(n))],
-            [Su @ Z @ Ginv_K, -kappa * np.eye(m)],
-        ]
+    def prescale(self, frame, dims) -> dict:
+        """No constants."""
+        return {}
+
+    def lmis(self, t, continuous):
+        """None: see `gain_limit`."""
+        return []
+
+    def coefficient_lmis(self, t, continuous):
+        """None: see `gain_limit`."""
+        return []
 
     def residual(self, loop, continuous) -> float:
         """Relative excess ``||K||_2 / bound - 1`` of the frozen gain."""
@@ -92,7 +80,7 @@ class GainBound:
 
 
 @dataclass(frozen=True)
-class Saturation:
+class Saturation(Spec):
     """Certified region of attraction under actuator saturation.
 
     The plant sees ``sat(u)``, each input clipped at ``|u_i| <= u_max_i``,
@@ -132,6 +120,8 @@ class Saturation:
     Continuous time, with a constant or a scheduled ``W``.
     """
 
+    unique = True
+
     u_max: tuple
     points: tuple = ()
 
@@ -151,6 +141,29 @@ class Saturation:
     def __str__(self) -> str:
         return f"Saturation(u_max={list(self.u_max)}, {len(self.points)} points)"
 
+    def structure(self) -> tuple:
+        return (*super().structure(), len(self.points))
+
+    def validate(self, context) -> None:
+        if not context.continuous:
+            raise ValueError(
+                "constraints: Saturation is implemented for continuous time only"
+            )
+        if not (context.constant or context.scheduled):
+            raise ValueError(
+                "constraints: Saturation with a common gain and lyapunov='affine' is "
+                "not implemented (the extended LMIs have no sector form here); use "
+                "gains='scheduled' or a constant Lyapunov matrix"
+            )
+        if not context.m:
+            raise ValueError("constraints: Saturation needs control inputs u")
+        self.check_sizes(context.n, context.m)
+
+    @property
+    def fixes_scale(self) -> bool:
+        """Its points fix the scale of ``W``."""
+        return True
+
     def check_sizes(self, n: int, m: int) -> np.ndarray:
         """The levels, one per input; refuse sizes that do not fit."""
         out = per_input(self.u_max, m, "u_max", "control inputs")
@@ -159,68 +172,81 @@ class Saturation:
                 raise ValueError(f"points: a point has {len(point)} entries, not {n}")
         return out
 
-    def prescale(self, scaling, n: int, m: int) -> dict:
-        """Levels and points in the prescaled units of a job.
+    def variables(self, declare) -> None:
+        """``Zg`` (one per gain, the auxiliary gain times ``W``), the diagonal
+        of ``S``, and the parameters ``levels`` and ``point{q}``."""
+        n, m = declare.n, declare.m
+        for k in range(declare.nZ):
+            declare.variable(f"Zg{k}", (m, n))
+        declare.variable("S", (m, 1))
+        declare.parameter("levels", (m,), nonneg=True)
+        for q in range(len(self.points)):
+            declare.parameter(f"point{q}", (n, 1))
+
+    def prescale(self, frame, dims) -> dict:
+        """Levels and points in the prescaled units of a rung.
 
         With ``W = k T W~ T'`` and ``K = Su K~ T^-1`` (``k`` the scaling's
         `w_factor`), ``(K - G) W (K - G)' = k Su (Z~ + Zg~) W~^-1 (.)' Su``
         and ``x0' W^-1 x0 = x~0' W~^-1 x~0 / k`` with ``x~0 = T^-1 x0``.
         """
-        k = scaling.w_factor
-        levels = self.check_sizes(n, m) ** 2 / (k * scaling.Su**2)
-        Ti = np.linalg.inv(scaling.matrix)
-        points = [Ti @ np.array(p) / np.sqrt(k) for p in self.points]
-        return {"levels": levels, "points": points}
-
-    def variables(self, lmi, n: int, m: int, nZ: int) -> None:
-        """``Zg`` (one per gain, the auxiliary gain times ``W``) and the
-        diagonal of ``S``."""
-        for k in range(nZ):
-            lmi.variable(f"Zg{k}", (m, n))
-        lmi.variable("S", (m, 1))
+        sc = frame.scaling
+        k = sc.w_factor
+        out = {"levels": self.check_sizes(dims.n, dims.m) ** 2 / (k * sc.Su**2)}
+        Ti = np.linalg.inv(sc.matrix)
+        for q, p in enumerate(self.points):
+            out[f"point{q}"] = (Ti @ np.array(p) / np.sqrt(k))[:, None]
+        return out
 
     def lmis(self, t, continuous):
         """The sector inequality at one coefficient and rate."""
-        m = t.m
-        S = t.const(sum(t.v.S[i, 0] * unit(m, i) for i in range(m)))
+        m, S = t.m, t.var("S")
+        S = t.const(sum(S[i, 0] * unit(m, i) for i in range(m)))
         sector = [
             [2 * t.AW() - t.W_moved()],
-            [-S @ t.B2().T - t.linear("Zg"), -2 * S],
+            [-S @ t.B2().T - t.local_linear("Zg"), -2 * S],
         ]
-        peak = next((spec for spec in t.specs if isinstance(spec, Peak)), None)
-        if peak is not None:
+        for lam, Bw, D in t.disturbances():
             # E must be invariant for the saturated loop under the disturbance.
-            sector[0][0] = sector[0][0] + t.v.lam * t.W()
-            sector.append([t.data(peak, "Bw").T, 0, peak.disturbance(t)])
+            sector[0][0] = sector[0][0] + lam * t.W()
+            sector.append([Bw.T, 0, D])
         return [("saturation sector", sector)]
 
     def coefficient_lmis(self, t, continuous):
         """``E`` inside the sector's region, and the points inside ``E``."""
-        scaled = t.prescaled(self)
-        Zsum = t.linear("Z") + t.linear("Zg")
+        Zsum = t.Z() + t.local_linear("Zg")
+        levels = t.var("levels")
         out = []
-        for i, level in enumerate(scaled["levels"]):
+        for i in range(t.m):
             out.append((
                 f"saturation level {i}",
-                [[-t.const(level * np.eye(1))], [Zsum[i : i + 1, :].T, -t.W()]],
+                [[-t.const(levels[i] * np.eye(1))], [Zsum[i : i + 1, :].T, -t.W()]],
             ))  # fmt: skip
-        for q, x0 in enumerate(scaled["points"]):
+        for q in range(len(self.points)):
             out.append((
                 f"saturation point {q}",
-                [[-t.identity(1)], [t.const(x0[:, None]), -t.W()]],
+                [[-t.identity(1)], [t.const(t.var(f"point{q}")), -t.W()]],
             ))  # fmt: skip
         return out
 
-    def unscale(self, sol, scaling, nZ):
-        """The auxiliary gains ``Zg~`` and the multiplier in model units.
+    def loop_fields(self, here) -> dict:
+        """The auxiliary gain ``G`` and the multiplier ``T`` in model units.
 
-        ``T = (a / w_factor) Su^-1 S~^-1 Su^-1`` (``S~`` the solution's
-        diagonal), so that the sector inequality in the model's units is
-        congruent to the prescaled one.
+        ``G = Zg W^-1`` (unscaled as a gain), ``T = (a / w_factor) Su^-1
+        S~^-1 Su^-1`` (``S~`` the solution's diagonal), so that the sector
+        inequality in the model's units is congruent to the prescaled one.
         """
-        Zg = [getattr(sol, f"Zg{k}") for k in range(nZ)]
-        S = np.asarray(sol.S, float).reshape(-1)
-        return Zg, np.diag(scaling.a / scaling.w_factor / (scaling.Su**2 * S))
+        sc = here.frame.scaling
+        Zg = here.gain_like("Zg")
+        S = np.ravel(here.var("S"))
+        return {
+            "G": sc.unscale_K(Zg @ np.linalg.inv(here.W_scaled)),
+            "T": np.diag(sc.a / sc.w_factor / (sc.Su**2 * S)),
+        }
+
+    def reported(self, P):
+        """The largest ``x0' P x0`` over the points (below 1), or None."""
+        return self.level(P)
 
     def level(self, P) -> float | None:
         """The largest ``x0' P x0`` over the points (None without points)."""
@@ -257,3 +283,104 @@ class Saturation:
             worst = max(worst, float(F[i] @ loop.W @ F[i]) / levels[i] ** 2 - 1)
         level = self.level(P)
         return worst if level is None else max(worst, level - 1)
+
+
+@dataclass(frozen=True, eq=False)
+class PoleRegion(Spec):
+    """The spec of a pole region: every frozen closed loop in `region`.
+
+    Parameters
+    ----------
+    lmi_region : `ctrl_lpv.regions.LMIRegion`
+        ``{s : L + M s + M' conj(s) < 0}``: ``kron(L, W) + sym(kron(M,
+        A_cl W)) < 0`` at each coefficient (in discrete time a disk of the
+        z-plane).
+    """
+
+    paper_case = True
+
+    lmi_region: LMIRegion
+
+    @property
+    def region(self) -> LMIRegion:
+        """The region imposed."""
+        return self.lmi_region
+
+    def __str__(self) -> str:
+        return str(self.region)
+
+    def structure(self) -> tuple:
+        """``M`` (it multiplies the data); ``L`` is a parameter."""
+        M = self.region.M
+        return (*super().structure(), M.shape, tuple(M.ravel().tolist()))
+
+    def validate(self, context) -> None:
+        if not (context.constant or context.scheduled):
+            raise ValueError(
+                "constraints: pole regions with a common gain and lyapunov='affine' "
+                "are not implemented (the extended LMIs have no region form here); "
+                "use gains='scheduled' or a constant Lyapunov matrix"
+            )
+        if not context.continuous:
+            _require_unit_disk(self.region)
+
+    def variables(self, declare) -> None:
+        """The parameter ``L`` (time-scaled)."""
+        declare.parameter("L", self.region.L.shape)
+
+    def prescale(self, frame, dims) -> dict:
+        """``L`` for the prescaled time ``t~ = a t`` (``M`` is unchanged)."""
+        return {"L": self.region.L / frame.a}
+
+    def lmis(self, t, continuous):
+        """None that depend on the rate."""
+        return []
+
+    def coefficient_lmis(self, t, continuous):
+        """The region LMI at one coefficient."""
+        blocks = region_blocks(t.var("L"), self.region.M, t.W(), t.AW())
+        return [(f"region {self.region}", blocks)]
+
+    def residual(self, loop, continuous) -> float:
+        """The region's own residual (`ctrl_lpv.regions.LMIRegion.residual`)."""
+        return self.region.residual(loop, continuous)
+
+
+def as_spec(item):
+    """`item` as a `Spec`: a pole region is wrapped in a `PoleRegion`.
+
+    Raises
+    ------
+    TypeError
+        If `item` is not a spec or a pole region.
+    """
+    if isinstance(item, LMIRegion):
+        return PoleRegion(item)
+    if isinstance(item, Spec):
+        return item
+    raise TypeError(
+        f"constraints: expected Hinf, H2, Peak, GainBound, Saturation or pole "
+        f"regions, got {item!r}"
+    )
+
+
+def _require_unit_disk(region: LMIRegion) -> None:
+    """A discrete-time region must be a disk inside the unit circle."""
+    L, M = region.L, region.M
+    is_disk = (
+        L.shape == (2, 2)
+        and np.array_equal(M, [[0.0, 1.0], [0.0, 0.0]])
+        and L[0, 0] == L[1, 1]
+        and L[0, 1] == L[1, 0]
+    )
+    if not is_disk:
+        raise ValueError(
+            f"constraints: {region} is a continuous-time region; a discrete-time "
+            "system takes disk(radius, center) regions of the z-plane"
+        )
+    radius, center = -L[0, 0], -L[0, 1]
+    if abs(center) + radius > 1:
+        raise ValueError(
+            f"constraints: {region} is not inside the unit circle, so it does not "
+            "imply stability"
+        )

@@ -1,76 +1,140 @@
-"""The decay search of a `Peak` spec.
+"""The search of a spec's decay (a `Peak` spec's ``lambda``).
 
 The invariance inequality of `~ctrl_lpv.synthesis.specs.Peak` is an LMI for
-a fixed decay ``lambda`` (a cvxpy parameter of the job's problem) and is
+a fixed decay ``lambda`` (a parameter of the rung's problem) and is
 bilinear otherwise; no ``lambda`` is best for every problem. Every
 ``lambda`` gives a valid certificate, so the search only decides how good
 the design is, never whether it is certified.
+
+The flow is one way: `search_decay` gets an immutable `DecaySearch` and two
+functions of the decay (the raw optimum, the stages), and returns what it
+found with its notes; it holds no state of the rung.
 """
 
 from __future__ import annotations
 
-from contextlib import contextmanager
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import minimize_scalar
 
 from .. import budget
-from ..lmi import default_solvers
 
-# The decays tried: prescaled time units in continuous time, where the data
-# are of order one; the contraction of V per sample in discrete time, up to
-# 0.999 because with |w| <= 1 the bound tends to the exact one as lambda
-# tends to 1 (for x+ = w it is 1 / sqrt(lambda)).
-LAMBDAS = {
-    True: tuple(10.0 ** np.arange(-3.0, 2.01, 0.5)),
-    False: (0.02, 0.05, 0.1, 0.2, 0.35, 0.5, 0.7, 0.9, 0.97, 0.99, 0.999),
-}
 # Grid decays, best first, at which the stages run after the refined one.
 _TRIES = 2
 # Evaluations of the bounded scalar minimisation between grid neighbours.
 _REFINE_EVALUATIONS = 10
 
 
-@contextmanager
-def _first_solver(job):
-    """The job's solves with its first solver only (the servo's search
-    does the same): a fallback such as SCS may take a minute per solve where
-    the first fails, and the search solves dozens of times."""
-    chain, job.chain = job.chain, (job.chain or default_solvers())[:1]
-    try:
-        yield
-    finally:
-        job.chain = chain
+@dataclass(frozen=True)
+class DecaySearch:
+    """What the search needs to know.
+
+    Attributes
+    ----------
+    grid : tuple of float
+        The decays tried (prescaled units).
+    continuous : bool
+        Refine in ``log lambda`` (continuous time) or ``lambda``.
+    minimise : bool
+        Whether there is an objective to minimise (else the first decay
+        that certifies wins).
+    a : float
+        The time scaling, for messages in the model's units.
+    whole_chain : bool
+        Whether a solver chain beyond the first solver exists (tried once,
+        at the best decay, after the first solver failed at every decay).
+    """
+
+    grid: tuple
+    continuous: bool
+    minimise: bool
+    a: float
+    whole_chain: bool
 
 
-def _set(job, lam) -> None:
+def _announce(search, lam) -> None:
     # Each decay is a solve or more: stop the search once the deadline
     # has passed (the stages would only refuse, one note per decay).
-    budget.check(f"the Peak decay lambda = {lam * job.scaling.a:.3g}")
-    budget.progress("Peak decay lambda = %.3g", lam * job.scaling.a)
-    job.lam = lam  # kept on the job: a rebuild (the bound's rescaling) reads it
-    job.lmi.set_parameter("lam", lam)
+    budget.check(f"the Peak decay lambda = {lam * search.a:.3g}")
+    budget.progress("Peak decay lambda = %.3g", lam * search.a)
 
 
-def _raw_optimum(job, lam) -> float:
-    """The objective's raw optimum at the decay `lam` (inf if none)."""
-    _set(job, lam)
-    with _first_solver(job):
-        raw = job.solve("optimal", lambda v: v.g0[0, 0], certify=False)
-    value = np.inf if raw is None else float((raw.nominal or raw).g0[0, 0])
-    return value if np.isfinite(value) and value > 0 else np.inf
+def search_decay(
+    search: DecaySearch,
+    raw_optimum: Callable[[float], tuple[float, list]],
+    stages: Callable[[float, bool], tuple[object, list]],
+):
+    """The stages at the decays of the search; the first found.
+
+    `raw_optimum(lam)` is the objective's raw optimum at a decay with the
+    first solver (``inf`` if none) and its notes; `stages(lam, first)` the
+    rung's stages at a decay (with the first solver only, or the whole
+    chain) and their notes.
+
+    To minimise an objective, the raw optimum is evaluated on the grid and
+    refined between the grid neighbours of the best (scipy's bounded
+    scalar minimisation); the stages then run at the refined decay, then at
+    the best of the grid. For a given bound or stability alone, the grid
+    is tried in turn until a point certifies. All with the first solver (a
+    fallback such as SCS may take a minute per solve where the first
+    fails, and the search solves dozens of times); then the first decay
+    once more with the whole chain.
+
+    Returns
+    -------
+    found, list of str
+        The stages' result (None if nothing certified) and the notes.
+    """
+    grid = search.grid
+    order = list(grid)
+    notes: list[str] = []
+
+    def raw(lam):
+        _announce(search, lam)
+        value, failed = raw_optimum(lam)
+        return (value if np.isfinite(value) and value > 0 else np.inf), failed
+
+    if search.minimise:
+        evaluated = [raw(lam) for lam in grid]
+        values = [value for value, _ in evaluated]
+        failed = [note for _, some in evaluated for note in some[:1]]
+        if failed:  # one note for the grid, not one per decay
+            notes.append(
+                f"Peak decay search: {len(failed)} of {len(grid)} decays gave no "
+                f"optimum (at lambda = {grid[0] * search.a:.3g}: {failed[0]})"
+            )
+        order = [grid[i] for i in np.argsort(values) if np.isfinite(values[i])]
+        order = order[:_TRIES]
+        if order:
+            best = grid.index(order[0])
+            lo, hi = grid[max(best - 1, 0)], grid[min(best + 1, len(grid) - 1)]
+            penalty = 2 * max(v for v in values if np.isfinite(v))
+            order.insert(0, _refine(search, raw, lo, hi, penalty))
+    for lam in order:
+        _announce(search, lam)
+        found, more = stages(lam, True)
+        notes.extend(more)
+        if found is not None:
+            return found, notes
+        notes.append(f"Peak decay lambda = {lam * search.a:.3g}: no certified point")
+    if not order or not search.whole_chain:
+        return None, notes
+    _announce(search, order[0])
+    found, more = stages(order[0], False)
+    return found, notes + more
 
 
-def _refine(job, lo, hi, penalty) -> float:
+def _refine(search, raw, lo, hi, penalty) -> float:
     """The minimum of the raw optimum on ``[lo, hi]`` (``log lambda`` in
-    continuous time), by `scipy.optimize.minimize_scalar` (bounded);
-    `penalty` stands for an infeasible decay (the interpolation needs
-    finite values)."""
-    to, back = (np.log, np.exp) if job.continuous else (float, float)
+    continuous time); `penalty` stands for an infeasible decay (the
+    interpolation needs finite values)."""
+    to, back = (np.log, np.exp) if search.continuous else (float, float)
 
     def value(x):
-        raw = _raw_optimum(job, float(back(x)))
-        return raw if np.isfinite(raw) else penalty
+        found, _ = raw(float(back(x)))
+        return found if np.isfinite(found) else penalty
 
     result = minimize_scalar(
         value,
@@ -79,47 +143,3 @@ def _refine(job, lo, hi, penalty) -> float:
         options={"maxiter": _REFINE_EVALUATIONS, "xatol": 1e-3},
     )
     return float(back(result.x))
-
-
-def search_decay(job):
-    """The job's stages at the decays of its `Peak` spec; the first found.
-
-    To minimise an objective, the raw optimum is evaluated on the grid and
-    refined between the grid neighbours of the best; the stages (back-off,
-    verification) then run at the refined decay, then at the best of the
-    grid. For a given bound or stability alone, the grid is tried in turn
-    until a point certifies. All with the first solver; then the first
-    decay once more with the whole solver chain.
-    """
-    grid = LAMBDAS[job.continuous]
-    order = list(grid)
-    if job.objective is not None and job.objective.bound is None:
-        start = len(job.notes)
-        values = [_raw_optimum(job, lam) for lam in grid]
-        failed = job.notes[start:]
-        del job.notes[start:]  # one note for the grid, not one per decay
-        if failed:
-            job.notes.append(
-                f"Peak decay search: {len(failed)} of {len(grid)} decays gave no "
-                f"optimum (at lambda = {grid[0] * job.scaling.a:.3g}: {failed[0]})"
-            )
-        order = [grid[i] for i in np.argsort(values) if np.isfinite(values[i])]
-        order = order[:_TRIES]
-        if order:
-            best = grid.index(order[0])
-            lo, hi = grid[max(best - 1, 0)], grid[min(best + 1, len(grid) - 1)]
-            penalty = 2 * max(v for v in values if np.isfinite(v))
-            order.insert(0, _refine(job, lo, hi, penalty))
-    for lam in order:
-        _set(job, lam)
-        with _first_solver(job):
-            found = job.stages()
-        if found is not None:
-            return found
-        job.notes.append(
-            f"Peak decay lambda = {lam * job.scaling.a:.3g}: no certified point"
-        )
-    if not order or len(job.chain or default_solvers()) == 1:
-        return None
-    _set(job, order[0])
-    return job.stages()

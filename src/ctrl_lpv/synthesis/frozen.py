@@ -1,4 +1,4 @@
-"""Checks of a point of the general engine on frozen closed loops, in model units.
+"""Checks of a point on frozen closed loops, in the model's units.
 
 At the vertices, random parameter points and the centre, and at every
 vertex of the rate box: closed-loop eigenvalues (Hurwitz or Schur), and
@@ -16,14 +16,10 @@ import numpy as np
 
 from .parametric import step_terms
 from .results import Certificate
-from .specs import Stability
+from .spec import lyapunov_residual
+from .terms import names
 
 _VERIFY_SAMPLES = 64
-
-
-def _points(job):
-    """Convex coordinates (and box points) of the verification points."""
-    return verification_points(job.sys)
 
 
 def verification_points(sys):
@@ -49,25 +45,6 @@ def verification_points(sys):
     if N > 1:
         deltas += list(rng.dirichlet(np.ones(N), size=_VERIFY_SAMPLES))
     return [(d, None) for d in deltas]
-
-
-def _moved(job, Ws, delta, p, rate):
-    """``dW/dt`` (continuous) or ``W`` at the next sample, model units."""
-    lyap, sc = job.lyap, job.scaling
-    N = len(delta)
-    if job.continuous:
-        dW = np.zeros_like(Ws[0])
-        for j in range(N):
-            for w, f in step_terms(lyap, j, rate, True):
-                dW = dW + delta[j] * f * Ws[w]
-        return sc.unscale_W(dW)
-    nxt = delta
-    if p is not None and not lyap.constant:
-        domain = job.sys.domain
-        nxt = domain._weights(np.clip(p + rate, domain.lower, domain.upper))
-    return sc.unscale_W(
-        np.tensordot(nxt, np.stack([Ws[lyap.index[j]] for j in range(N)]), axes=1)
-    )
 
 
 @dataclass(frozen=True)
@@ -105,93 +82,151 @@ class FrozenLoop:
     mu_w: np.ndarray | None = None
 
 
-def verify_frozen(job, sol, gains, values, Ws, Zs):
+class Here:
+    """A frozen point as a spec's `loop_fields` reads it.
+
+    Attributes: ``frame`` (the rung's prescaling), ``W_scaled`` (``W`` here
+    in prescaled units), ``nw`` (the spec's channel width); `mix` (the
+    channel's data here, model units), `var` (the spec's own values) and
+    `gain_like` (a spec's gain-like variable here, prescaled).
+    """
+
+    def __init__(self, problem, frame, values, delta, W_scaled, q):
+        self.frame = frame
+        self.W_scaled = W_scaled
+        self._problem, self._values, self._delta, self._q = problem, values, delta, q
+        i = problem.channels[q]
+        self._channel = None if i is None else problem.plant.channels[i]
+        self.nw = 0 if self._channel is None else self._channel.nw
+
+    def mix(self, key):
+        return np.tensordot(self._delta, getattr(self._channel, key), axes=1)
+
+    def var(self, name):
+        return self._values[names.local(self._q, name)]
+
+    def gain_like(self, name):
+        count = self._problem.nZ
+        items = [self.var(f"{name}{k}") for k in range(count)]
+        if self._problem.scheduled:
+            return np.tensordot(self._delta, np.stack(items), axes=1)
+        return items[0]
+
+
+def _moved(problem, lyap, frame, Ws, delta, p, rate):
+    """``dW/dt`` (continuous) or ``W`` at the next sample, model units."""
+    sc = frame.scaling
+    N = len(delta)
+    if problem.continuous:
+        dW = np.zeros_like(Ws[0])
+        for j in range(N):
+            for w, f in step_terms(lyap, j, rate, True):
+                dW = dW + delta[j] * f * Ws[w]
+        return sc.unscale_W(dW)
+    nxt = delta
+    if p is not None and not lyap.constant:
+        domain = problem.plant.system.domain
+        nxt = domain._weights(np.clip(p + rate, domain.lower, domain.upper))
+    return sc.unscale_W(
+        np.tensordot(nxt, np.stack([Ws[lyap.index[j]] for j in range(N)]), axes=1)
+    )
+
+
+def verify_frozen(problem, shape, frame, values, gains, bounds, margin, checks,
+                  final=True):  # fmt: skip
     """Frozen closed loops in the model's units at vertices and samples.
 
-    Returns the `Certificate` and, with a `Saturation` spec, the largest
-    ``x0' P x0`` over its points (None without one).
+    Parameters
+    ----------
+    problem : `~ctrl_lpv.synthesis.problem.Problem`
+    shape : `~ctrl_lpv.synthesis.terms.Shape`
+        Its structure in the rung's frame (the prescaled rates).
+    frame : `~ctrl_lpv.synthesis.scaling.Frame`
+    values : dict
+        The point's variables and the searched parameters (prescaled).
+    gains : tuple of ndarray
+        The gains in the model's units.
+    bounds : tuple of float
+        The certified bound of each channel spec.
+    margin : float
+        The margin the LMIs were posed with.
+    checks : tuple of `ctrl_lpv.lmi.LMICheck`
+        The point's LMI checks.
+    final : bool, optional
+        Whether to check a spec's gain bound too (the last stage's point).
+
+    Returns
+    -------
+    `Certificate`, dict
+        The certificate, and the largest value each spec reports over the
+        points (`~ctrl_lpv.synthesis.spec.Spec.reported`).
     """
-    sc, lyap = job.scaling, job.lyap
+    sc, lyap = frame.scaling, problem.lyap
+    plant = problem.plant
     worst_eig = worst_lyap = worst_spec = -np.inf
-    saturation = job.saturation
-    if saturation is not None:
-        Zgs, T_sector = saturation.unscale(sol, sc, len(Zs))
-    level = None
-    peak = job.peak
-    if peak is not None:
-        ip = job.index[peak]
-        nw = job.original[0][(ip, "Bw")].shape[1]
-        # mu = a mu~, lambda = a lambda~ (a = 1 in discrete time).
-        disturbance = {
-            "lam": job.lam * sc.a,
-            "mu_w": sc.a * np.asarray(sol.mu, float).ravel() * peak.weights(nw),
-        }
+    Ws = [values[f"W{e}"] for e in range(lyap.count)]
+    Zs = [values[f"Z{k}"] for k in range(problem.nZ)]
+    reported = {}
     npoints = 0
-    performance = job.specs or [Stability()]
-    bounds = values or (None,)
-    for delta, p in _points(job):
+    for delta, p in verification_points(plant.system):
 
         def mix(items, delta=delta):
-            return np.tensordot(delta, np.stack(items), axes=1)
+            return np.tensordot(delta, items, axes=1)
 
-        A = mix([v["A"] for v in job.original])
-        B2 = mix([v["B2"] for v in job.original])
-        W_here = mix([Ws[lyap.index[j]] for j in range(len(delta))])
+        A, B2 = mix(plant.A), mix(plant.B2)
+        W_here = mix(np.stack([Ws[lyap.index[j]] for j in range(len(delta))]))
         if not Zs:
             K = np.zeros((0, A.shape[0]))
-        elif job.scheduled and not lyap.constant:
-            K = sc.unscale_K(-mix(Zs) @ np.linalg.inv(W_here))
-        elif job.scheduled:
-            K = mix(gains)
+        elif problem.scheduled and not lyap.constant:
+            K = sc.unscale_K(-mix(np.stack(Zs)) @ np.linalg.inv(W_here))
+        elif problem.scheduled:
+            K = mix(np.stack(gains))
         else:
             K = gains[0]
         Acl = A - B2 @ K
         eig = np.linalg.eigvals(Acl)
-        worst_eig = max(worst_eig, (eig.real.max() if job.continuous
+        worst_eig = max(worst_eig, (eig.real.max() if problem.continuous
                                     else np.abs(eig).max() - 1))  # fmt: skip
-        sector = {}
-        if peak is not None:
-            Bd = mix([v[(ip, "Bw")] for v in job.original])
-            sector = {"Bd": Bd, **disturbance}
-        if saturation is not None:
-            Zg = mix(Zgs) if job.scheduled else Zgs[0]
-            sector |= {"G": sc.unscale_K(Zg @ np.linalg.inv(W_here)), "T": T_sector}
+        fields = {}
+        for q, spec in enumerate(problem.specs):
+            here = Here(problem, frame, values, delta, W_here, q)
+            fields |= spec.loop_fields(here)
         P = sc.unscale_P(np.linalg.inv(W_here))
         W = sc.unscale_W(W_here)
-        for rate in lyap.rates:
-            W_moved = _moved(job, Ws, delta, p, rate)
-            if job.continuous:
+        for rate in shape.lyap.rates:
+            W_moved = _moved(problem, shape.lyap, frame, Ws, delta, p, rate)
+            if problem.continuous:
                 # d(W^-1)/dt = -W^-1 (dW/dt) W^-1.
                 P_moved = -P @ W_moved @ P
             else:
                 P_moved = _sym_inv(W_moved) if not lyap.constant else P
             npoints += 1
-            loop = FrozenLoop(A, B2, K, Acl, eig, P, P_moved, W, W_moved, **sector)
-            for i, (spec, bound) in enumerate(zip(performance, bounds)):
+            loop = FrozenLoop(A, B2, K, Acl, eig, P, P_moved, W, W_moved, **fields)
+            for spec, i in zip(problem.specs, problem.channels):
+                if spec.gain_limit is not None and not final:
+                    continue
                 channel = loop
-                if not isinstance(spec, Stability):
-                    Bw, Cz, Dzu, Dzw = (
-                        mix([v[(i, key)] for v in job.original])
-                        for key in ("Bw", "Cz", "Dzu", "Dzw")
-                    )
+                if i is not None:
+                    c = plant.channels[i]
                     channel = replace(
-                        loop, Bw=Bw, Cz=Cz - Dzu @ K, Dzw=Dzw, bound=bound
-                    )
-                worst_spec = max(worst_spec, spec.residual(channel, job.continuous))
-            worst_lyap = max(worst_lyap, Stability().residual(loop, job.continuous))
-            for spec in job.constraints:
-                worst_spec = max(worst_spec, spec.residual(loop, job.continuous))
-        if saturation is not None and saturation.points:
-            level = max(level or 0.0, saturation.level(P))
+                        loop, Bw=mix(c.Bw), Cz=mix(c.Cz) - mix(c.Dzu) @ K,
+                        Dzw=mix(c.Dzw), bound=bounds[i],
+                    )  # fmt: skip
+                worst_spec = max(worst_spec, spec.residual(channel, problem.continuous))
+            worst_lyap = max(worst_lyap, lyapunov_residual(loop, problem.continuous))
+        for q, spec in enumerate(problem.specs):
+            value = spec.reported(P)
+            if value is not None:
+                reported[q] = max(reported.get(q, value), value)
     certificate = Certificate(
-        lmi_checks=sol.checks,
-        margin=job.lmi.margin,
+        lmi_checks=checks,
+        margin=margin,
         max_closed_loop_real=float(worst_eig),
         max_lyapunov_eig=float(worst_lyap),
         npoints=npoints,
         max_original_eig=float(worst_spec),
     )
-    return certificate, level
+    return certificate, reported
 
 
 def _sym_inv(W):

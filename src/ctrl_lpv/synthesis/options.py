@@ -11,7 +11,6 @@ from ..exceptions import ProblemSizeWarning
 from ..lmi import solver_chain
 from ..problem_cache import synthesis_cache
 from ..regions import LMIRegion
-from .assembly import vertex_pairs
 
 # Compile-time and memory estimates of a problem (see `guard_size`): a
 # warning above _WARN_COMPILE_SECONDS, a refusal above the time left or
@@ -58,10 +57,10 @@ def validated_options(regions, backoff, gamma, gain_bound, margin, solvers, time
 
 
 def guard_size(structure, time_limit=None) -> None:
-    """`guard_estimate` for a structure of the paper's engine."""
+    """`guard_estimate` for a `~ctrl_lpv.synthesis.problem.Structure`."""
     guard_estimate(
-        len(vertex_pairs(structure.N, structure.scheduled)), structure.entries,
-        structure.lmi_size, time_limit, cached=structure in synthesis_cache,
+        structure.nlmis, structure.entries, structure.largest, time_limit,
+        cached=structure in synthesis_cache,
     )  # fmt: skip
 
 

@@ -1,4 +1,7 @@
-"""The paper's Lemma 1, Lemma 2, Theorem 1 and Theorem 2 (Section III)."""
+"""The paper's Lemma 1, Lemma 2, Theorem 1 and Theorem 2 (Section III), and H2.
+
+Each is a thin wrapper of `synthesize` with its specs.
+"""
 
 from __future__ import annotations
 
@@ -12,7 +15,7 @@ from .compose import synthesize
 from .constraints import GainBound
 from .options import validated_regions
 from .results import StateFeedbackDesign
-from .specs import Hinf
+from .specs import H2, Hinf
 
 
 @time_budget
@@ -353,4 +356,77 @@ def _paper(
         constraints=validated_regions(regions) + bound,
         gains="scheduled" if scheduled else "common", backoff=backoff,
         margin=margin, solvers=solvers, time_limit=time_limit,
+    )  # fmt: skip
+
+
+@time_budget
+def h2_state_feedback(
+    sys: PolytopicStateSpace,
+    w=None,
+    u=None,
+    z=None,
+    *,
+    gamma: float | None = None,
+    gains: str = "common",
+    regions: Sequence[LMIRegion] = (),
+    backoff: float | None = 0.2,
+    gain_bound: float | None = None,
+    margin: float = 1e-6,
+    solvers=None,
+    time_limit: float | None = DEFAULT_TIME_LIMIT,
+) -> StateFeedbackDesign:
+    """State feedback with a certified H2 bound (quadratic, constant ``P``).
+
+    Parameters
+    ----------
+    sys : `PolytopicStateSpace`
+        The plant, continuous or discrete time, with `w` and `u` among its
+        inputs and `z` among its outputs (continuous time: no feedthrough
+        from `w` to `z`).
+    w : str, int or list, optional
+        Exogenous inputs; default every physical input not in `u`.
+    u : str, int or list
+        Control inputs.
+    z : str, int or list, optional
+        Performance outputs; default all outputs.
+    gamma : float, optional
+        Required H2 bound, met strictly, instead of the minimum.
+    gains : {"common", "scheduled"}, optional
+        One gain, or one per vertex (default "common").
+    regions : LMIRegion or sequence of LMIRegion, optional
+        Pole regions every frozen closed loop must lie in.
+    backoff : float or None, optional
+        Relax the minimum by this fraction (default 0.2) for a
+        well-conditioned design; None or 0 returns the raw optimum.
+    gain_bound : float, optional
+        Bound on the spectral norm of the gain(s), model units.
+    margin : float, optional
+        Margin of the strict LMIs (prescaled units), default 1e-6.
+    solvers : str or sequence, optional
+        Solvers tried in turn (see `synthesize`).
+    time_limit : float or None, optional
+        Wall-time budget of the call in seconds (default 600,
+        `ctrl_lpv.budget.DEFAULT_TIME_LIMIT`; None for no limit). Solvers
+        get the time left; when it runs out the call ends with a
+        `CertificationError` whose first line is ``time_limit: ... s
+        reached`` with the best point reached.
+
+    Returns
+    -------
+    `StateFeedbackDesign`
+        ``.gamma`` the certified H2 bound, ``.gamma_opt`` an estimate of
+        the optimum from above (see `StateFeedbackDesign`).
+
+    Raises
+    ------
+    InfeasibleError
+        If a vertex is not stabilizable.
+    CertificationError
+        If no certified design was found.
+    """
+    bound = (GainBound(gain_bound),) if gain_bound is not None else ()
+    constraints = validated_regions(regions) + bound
+    return synthesize(
+        sys, u, objective=H2(w, z, bound=gamma), constraints=constraints, gains=gains,
+        backoff=backoff, margin=margin, solvers=solvers, time_limit=time_limit,
     )  # fmt: skip

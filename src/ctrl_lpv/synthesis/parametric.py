@@ -88,21 +88,24 @@ class Coefficient:
     bilinear: tuple[tuple[int, int], ...]
 
 
-def coefficient_count(domain, nvertices: int) -> int:
-    """``len(coefficients(domain, nvertices))``, without enumerating them."""
-    if nvertices == 1:
-        return 1
-    if isinstance(domain, ParameterBox):
-        return 3**domain.nparams
-    return nvertices * (nvertices + 1) // 2
+def coefficients(domain, nvertices: int, affine=False) -> tuple[Coefficient, ...]:
+    """The relaxation's coefficients for a domain (module docstring).
 
-
-def coefficients(domain, nvertices: int) -> tuple[Coefficient, ...]:
-    """The relaxation's coefficients for a domain (module docstring)."""
+    With `affine` the LMIs have no degree-two terms (a common gain with a
+    constant ``W`` or the extended LMIs' slack): their homogeneous form has
+    the vertex values among its coefficients and every other coefficient
+    is a sum of them, so the vertex coefficients alone are the same
+    condition (the paper's Lemma 1 and Lemma 2).
+    """
     if nvertices == 1:
         return (Coefficient("vertex 0", 1.0, (0,), ((0, 0),)),)
     if isinstance(domain, ParameterBox):
-        return _multi_simplex(domain)
+        out = _multi_simplex(domain)
+        return tuple(c for c in out if len(c.linear) == 1) if affine else out
+    if affine:
+        return tuple(
+            Coefficient(f"vertex {j}", 1.0, (j,), ((j, j),)) for j in range(nvertices)
+        )
     out = []
     for j, k in itertools.combinations_with_replacement(range(nvertices), 2):
         if j == k:

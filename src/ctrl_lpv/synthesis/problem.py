@@ -1,204 +1,478 @@
-"""The LMI problem of the general engine: specs over the relaxation, with stages.
+"""The engine's problem: an immutable description, its structure, its LMIs.
+
+`Problem` is what a call asks (the partitioned plant, the specs, the
+options). `Structure` is what fixes its compiled LMIs (sizes, the specs'
+structures, the relaxation and the Lyapunov structure): the key of
+`ctrl_lpv.synthesis_cache`. `build` poses the LMIs of a structure with
+every number that changes between calls or rungs as a parameter (the
+prescaled vertex data, the channel weights, the specs' constants, the
+stage bounds), and `load` sets them for one rung, so that a compiled
+problem serves every call and rung of its structure.
 
 Variables: ``W_l`` (one per Lyapunov vertex), ``Z_k`` (one per gain),
-``G`` (the slack of the extended LMIs), ``g_i`` and ``Y_i`` of the specs,
-and the stage variables ``t`` (conditioning or decay) and ``kappa`` (gain).
-Every strict LMI is one spec's block at one coefficient of the relaxation
-and one vertex of the rate box (`ctrl_lpv.synthesis.parametric`). Stages:
-"optimal" (the objective alone), "center" (a bound on it, the smallest
-eigenvalue of ``W`` maximised), "stabilize" (the decay, without an
-objective) and "gain" (the gain iterations).
+``G`` (the slack of the extended LMIs), ``g_i`` (the squared bound of
+channel ``i``), the specs' own, and the stage variables ``t``
+(conditioning or decay) and ``kappa`` (gain). Every strict LMI is one
+spec's block at one coefficient of the relaxation and one vertex of the
+rate box (`ctrl_lpv.synthesis.parametric`). Stages: "optimal" (the
+objective alone), "center" (a bound on it, the smallest eigenvalue of
+``W`` maximised), "stabilize" (the decay, without an objective), "gain"
+(the smallest gain under a bound on the objective) and "bounded" (the
+same under a gain bound).
 """
 
 from __future__ import annotations
 
+import dataclasses
+from dataclasses import dataclass, field
 from types import SimpleNamespace
 
 import numpy as np
 
-from ..lmi import LMIProblem
-from .specs import H2, Peak, Stability
-from .terms import Terms
+from ..lmi import LMIProblem, assemble
+from .parametric import Coefficient, coefficients
+from .terms import Shape, Terms, names
 
 # A given bound is posed as bound^2 (1 - BOUND_SLACK), met strictly.
 BOUND_SLACK = 1e-6
-# The scalar of the continuous-time extended LMIs (prescaled time units,
-# where the data are of order one), tried in turn.
-EPSILONS = (100.0, 30.0, 10.0, 3.0, 1.0, 0.1, 0.01)
 
 
-def _rho(job):
-    a, kappa = job.scaling.a, job.scaling.w_factor
-    return {i: sw**2 * kappa / a for i, (sw, _) in enumerate(job.channel)}
+@dataclass(frozen=True, eq=False)
+class Problem:
+    """What one call asks of the engine (immutable).
+
+    Attributes
+    ----------
+    plant : `~ctrl_lpv.synthesis.channels.Partition`
+        The plant, one channel per spec with a channel (in order).
+    specs : tuple of `~ctrl_lpv.synthesis.spec.Spec`
+        Every spec: the objective (if any) first.
+    objective : `~ctrl_lpv.synthesis.spec.Spec` or None
+        The channel spec minimised (``bound`` None) or met; None asks for
+        stability alone.
+    scheduled : bool
+        One gain per vertex.
+    lyap : `~ctrl_lpv.synthesis.parametric.LyapunovStructure`
+    continuous : bool
+    backoff, margin : float or None, float
+    chain : list or None
+        Solvers, ``(name, options)``; None the defaults.
+    method : str
+        Names the call in messages and the design.
+    suspects : tuple
+        Weakly controllable modes, for a refusal's hint.
+    """
+
+    plant: object
+    specs: tuple
+    objective: object
+    scheduled: bool
+    lyap: object
+    continuous: bool
+    backoff: float | None
+    margin: float
+    chain: list | None
+    method: str
+    suspects: tuple = ()
+
+    @property
+    def channels(self) -> tuple:
+        """The channel index of each spec (None without a channel)."""
+        out, i = [], 0
+        for spec in self.specs:
+            out.append(i if spec.channel else None)
+            i += spec.channel
+        return tuple(out)
+
+    @property
+    def bound_specs(self) -> tuple:
+        """The specs with a channel, in channel order."""
+        return tuple(s for s in self.specs if s.channel)
+
+    @property
+    def nZ(self) -> int:
+        """Number of ``Z`` variables (none for an analysis, without inputs)."""
+        if not self.plant.m:
+            return 0
+        return self.plant.N if self.scheduled else 1
+
+    @property
+    def slack(self) -> bool:
+        """A common gain with a parameter-dependent ``W``: the extended LMIs."""
+        return not (self.lyap.constant or self.scheduled) and self.nZ > 0
+
+    @property
+    def affine(self) -> bool:
+        """Whether the LMIs have no degree-two terms (see `coefficients`)."""
+        return not self.scheduled and (self.lyap.constant or self.slack)
+
+    @property
+    def gain_limit(self) -> float | None:
+        """The smallest gain bound of the specs (model units), if any."""
+        limits = [s.gain_limit for s in self.specs if s.gain_limit is not None]
+        return min(limits) if limits else None
+
+    @property
+    def decay(self):
+        """``(spec position, parameter, grid)`` of a searched decay, or None."""
+        for q, spec in enumerate(self.specs):
+            found = spec.decays(self.continuous)
+            if found is not None:
+                return q, names.local(q, "lam"), found
+        return None
+
+    @property
+    def fixes_scale(self) -> bool:
+        return any(s.fixes_scale for s in self.specs)
 
 
-def _scaled_data(job):
-    sc = job.scaling
-    T, Ti = sc.matrix, np.linalg.inv(sc.matrix)
-    if sc.T.ndim == 1:
-        Ti = np.diag(1.0 / sc.T)  # exact: powers of two
-    Su, a = sc.Su, sc.a
-    out = []
-    for v in job.original:
-        d = {"A": Ti @ v["A"] @ T / a, "B2": Ti @ v["B2"] * Su / a}
-        for i, (sw, sz) in enumerate(job.channel):
-            d[(i, "Bw")] = Ti @ v[(i, "Bw")] * sw / a
-            d[(i, "Cz")] = v[(i, "Cz")] @ T / sz
-            d[(i, "Dzw")] = v[(i, "Dzw")] * sw / sz
-            d[(i, "Dzu")] = v[(i, "Dzu")] * Su / sz
-        out.append(d)
-    return out
+@dataclass(frozen=True)
+class Structure:
+    """What fixes a compiled problem (the cache key; see the module doc).
+
+    `entries` (the number of strict LMI matrix entries, ``sum size^2``)
+    measures its compiled size.
+    """
+
+    n: int
+    m: int
+    N: int
+    nZ: int
+    scheduled: bool
+    continuous: bool
+    slack: bool
+    objective: bool
+    coefficients: tuple
+    lyapunov: tuple
+    specs: tuple
+    entries: int = field(default=0, compare=False)
+    nlmis: int = field(default=0, compare=False)
+    largest: int = field(default=0, compare=False)
+
+    @classmethod
+    def of(cls, problem: Problem, a: float) -> Structure:
+        """The structure of `problem` in a frame with time scaling `a`."""
+        plant, lyap = problem.plant, problem.lyap
+        rates = tuple(tuple((r / a).tolist()) for r in lyap.rates)
+        key = cls(
+            n=plant.n, m=plant.m, N=plant.N, nZ=problem.nZ,
+            scheduled=problem.scheduled, continuous=problem.continuous,
+            slack=problem.slack, objective=problem.objective is not None,
+            coefficients=coefficients(plant.system.domain, plant.N, problem.affine),
+            lyapunov=(lyap.index, lyap.count, lyap.moving, rates,
+                      tuple(lyap.widths.tolist()), lyap.flip.tobytes()),
+            specs=tuple(
+                (s.structure(), i) + (() if i is None else
+                                      (plant.channels[i].nw, plant.channels[i].nz))
+                for s, i in zip(problem.specs, problem.channels)
+            ),
+        )  # fmt: skip
+        zero = _declarations(problem, key).zeros()
+        strict = [
+            assemble(blocks(zero)).shape[0]
+            for _, blocks, is_strict, _, _ in _inequalities(problem, key, zero)
+            if is_strict
+        ]
+        return dataclasses.replace(
+            key, entries=sum(k * k for k in strict), nlmis=len(strict),
+            largest=max(strict, default=0),
+        )  # fmt: skip
+
+    def shape(self, problem: Problem) -> Shape:
+        """What the blocks read (`~ctrl_lpv.synthesis.terms.Shape`)."""
+        rates = tuple(np.array(r) for r in self.lyapunov[3])
+        lyap = dataclasses.replace(problem.lyap, rates=rates)
+        sizes = tuple((c.nw, c.nz) for c in problem.plant.channels)
+        return Shape(self.n, self.m, lyap, self.scheduled, self.continuous,
+                     self.slack, self.nZ, sizes)  # fmt: skip
 
 
-# -- the problem -----------------------------------------------------
-def build_problem(job) -> LMIProblem:
-    """The LMIs of a job's specs over the relaxation, with its stages."""
-    data = _scaled_data(job)
-    rho = _rho(job)
-    n, m = data[0]["A"].shape[0], data[0]["B2"].shape[1]
-    nZ = job._nZ()
-    lmi = LMIProblem(margin=job.margin)
-    for ell in range(job.lyap.count):
-        lmi.variable(f"W{ell}", (n, n), symmetric=True)
-        lmi.add(f"W{ell} > 0", lambda v, e=ell: [[-getattr(v, f"W{e}")]])
-    for k in range(nZ):
-        lmi.variable(f"Z{k}", (m, n))
-    for i, spec in enumerate(job.specs):
-        lmi.variable(f"g{i}", (1, 1))
-        if isinstance(spec, H2):
-            nz = data[0][(i, "Cz")].shape[0]
-            lmi.variable(f"Y{i}", (nz, nz), symmetric=True)
-        if isinstance(spec, Peak):
-            ones = np.ones((1, data[0][(i, "Bw")].shape[1]))
-            lmi.variable("mu", (ones.size, 1))
-            # The decay of the invariance inequality, searched by the job.
-            lmi.parameter("lam", nonneg=True, value=job.lam)
-            lmi.add("sum(mu) <= lambda",
-                    lambda v, ones=ones: [[ones @ v.mu - v.lam * np.eye(1)]],
-                    strict=False)  # fmt: skip
-    for spec in job.constraints:
-        if hasattr(spec, "variables"):
-            spec.variables(lmi, n, m, nZ)
+class _Declarations:
+    """Names and shapes of the variables and parameters of a structure."""
+
+    def __init__(self):
+        self.items = {}
+
+    def variable(self, name, shape, symmetric=False):
+        self.items[name] = ("variable", tuple(shape), {"symmetric": symmetric})
+
+    def parameter(self, name, shape=(), **kwargs):
+        self.items[name] = ("parameter", tuple(shape), kwargs)
+
+    def zeros(self) -> SimpleNamespace:
+        return SimpleNamespace(**{k: np.zeros(v[1]) for k, v in self.items.items()})
+
+    def into(self, lmi: LMIProblem) -> None:
+        for name, (kind, shape, kwargs) in self.items.items():
+            getattr(lmi, kind)(name, shape, **kwargs)
+
+
+class _Local:
+    """A spec's view of the declarations: its names prefixed, its sizes."""
+
+    def __init__(self, declarations, q, n, m, nZ, i=None, nw=0, nz=0):
+        self._d, self._q = declarations, q
+        self.n, self.m, self.nZ, self.i, self.nw, self.nz = n, m, nZ, i, nw, nz
+
+    def variable(self, name, shape, symmetric=False):
+        self._d.variable(names.local(self._q, name), shape, symmetric)
+
+    def parameter(self, name, shape=(), **kwargs):
+        self._d.parameter(names.local(self._q, name), shape, **kwargs)
+
+
+def spec_dims(problem, q, s: Structure) -> _Local:
+    """The sizes a spec's `prescale` reads (as its `variables` declare)."""
+    return _local(_Declarations(), problem, q, s)
+
+
+def _local(declarations, problem, q, s):
+    i = problem.channels[q]
+    nw = nz = 0
+    if i is not None:
+        nw, nz = problem.plant.channels[i].nw, problem.plant.channels[i].nz
+    return _Local(declarations, q, s.n, s.m, s.nZ, i, nw, nz)
+
+
+def _declarations(problem: Problem, s: Structure) -> _Declarations:
+    d = _Declarations()
+    n, m = s.n, s.m
+    for ell in range(problem.lyap.count):
+        d.variable(f"W{ell}", (n, n), symmetric=True)
+    for k in range(s.nZ):
+        d.variable(f"Z{k}", (m, n))
+    for i in range(len(problem.plant.channels)):
+        d.variable(f"g{i}", (1, 1))
+        d.parameter(f"rho{i}", (), nonneg=True)
+        d.parameter(f"gfix{i}", (1, 1), nonneg=True)
+    for q in range(len(problem.specs)):
+        problem.specs[q].variables(_local(d, problem, q, s))
     for name in ("t", "kappa"):
-        lmi.variable(name, (1, 1))
-    if job.slack:
-        lmi.variable("G", (n, n))
-        lmi.parameter("eps", nonneg=True, value=job.eps)
-    lmi.parameter("g_max", (1, 1), nonneg=True, value=np.ones((1, 1)))
-    lmi.parameter("w_max", nonneg=True, value=1.0)
-    lmi.parameter("z_max", nonneg=True, value=1.0)
+        d.variable(name, (1, 1))
+    if s.slack:
+        d.variable("G", (n, n))
+        d.parameter("eps", (), nonneg=True)
+    for j in range(s.N):
+        _data_parameters(d, problem, s, j)
+    d.parameter("g_max", (1, 1), nonneg=True)
+    d.parameter("w_max", (), nonneg=True)
+    d.parameter("z_max", (), nonneg=True)
+    if s.nZ:
+        d.parameter("gain_Ginv", (n, n))
+        d.parameter("gain_Ginv_K", (n, n))
+        d.parameter("kappa_max", (), nonneg=True)
+    return d
 
-    # Keyed by identity: a region holds arrays and is not hashable.
-    prescaled = {
-        id(spec): spec.prescale(job.scaling, n, m)
-        for spec in (*job.specs, *job.constraints)
-        if hasattr(spec, "prescale")
-    }
-    performance = job.specs or [Stability()]
+
+def _data_parameters(d, problem, s, j) -> None:
+    n, m = s.n, s.m
+    keys = [("A", None, (n, n))] + ([("B2", None, (n, m))] if m else [])
+    for i, c in enumerate(problem.plant.channels):
+        keys += [("Bw", i, (n, c.nw)), ("Cz", i, (c.nz, n)), ("Dzw", i, (c.nz, c.nw))]
+        keys += [("Dzu", i, (c.nz, m))] if m else []
+    if s.slack:
+        keys += [("e" + key, i, shape) for key, i, shape in keys
+                 if key in ("A", "B2", "Cz", "Dzu")]  # fmt: skip
+    for key, i, shape in keys:
+        d.parameter(names.data(key, j, i), shape)
+
+
+def _inequalities(problem: Problem, s: Structure, zero, scales=None):
+    """``(name, blocks, strict, stages, normalization)`` of a structure.
+
+    `zero` is a numeric namespace of the declared names (the specs' block
+    lists are evaluated once on it, for their names); `scales` the state
+    and input scalings the gain stage reads as constants.
+    """
+    n, m = s.n, s.m
+    shape = s.shape(problem)
+    channels = problem.channels
+    specs = tuple(zip(problem.specs, channels))
+    rates = shape.lyap.rates
+    labels = [str(spec) for spec in problem.specs]
+    several = sum(c is not None for c in channels) > 1
     # Specs of one kind (two Hinf channels) are told apart by name, equal
     # constraints (a region given twice) by position.
-    names = [str(spec) for spec in job.constraints]
-    tagged = [(spec, f" [{spec}]" if len(performance) > 1 else "")
-              for spec in performance]  # fmt: skip
-    tagged += [(spec, f" #{q}" if names.count(x) > 1 else "")
-               for q, (spec, x) in enumerate(zip(job.constraints, names))]  # fmt: skip
+    tags = [f" #{q}" if labels.count(x) > 1 else
+            (f" [{x}]" if several and channels[q] is not None else "")
+            for q, x in enumerate(labels)]  # fmt: skip
+    cont = s.continuous
 
-    def terms(v, c, r):
-        return Terms(v, c, r, job.lyap, data, job.index, rho, job.scheduled,
-                     job.continuous, prescaled)  # fmt: skip
+    def view(c, r, q):
+        return lambda v: Terms(v, c, r, shape, specs).bind(q)
 
-    zero = SimpleNamespace(**{
-        name: np.zeros(item.shape)
-        for name, item in (*lmi._vars.items(), *lmi._params.items())
-    })  # fmt: skip
-    for c in job.coefficients:
-        for r in job.rates:
-            at = c.label + (f", rate {np.round(r * job.scaling.a, 12).tolist()}"
-                            if len(job.rates) > 1 else "")  # fmt: skip
-            for spec, tag in tagged:
-                if hasattr(spec, "lmis"):
-                    _add(lmi, spec.lmis, lambda v, c=c, r=r: terms(v, c, r),
-                         job.continuous, zero, f"{tag} {at}")  # fmt: skip
-            if not job.specs:
-                # The decay of the stabilization stage, as in Lemma 1.
-                def decay(v, c=c, r=r):
-                    blocks = Stability().lmis(terms(v, c, r), job.continuous)[0][1]
-                    return _shifted(blocks, v.t[0, 0] * c.const)
+    def named(method, terms_of, at, strict=True, stages=None, norm=False):
+        for k, (name, _) in enumerate(method(terms_of(zero), cont)):
+            yield (f"{name}{at}",
+                   lambda v, k=k: method(terms_of(v), cont)[k][1],
+                   strict, stages, norm)  # fmt: skip
 
-                lmi.add(f"decay {at}", decay, strict=False,
-                        stages=("stabilize",), normalization=True)  # fmt: skip
-        for spec, tag in tagged:
-            if hasattr(spec, "coefficient_lmis"):
-                _add(lmi, spec.coefficient_lmis,
-                     lambda v, c=c: terms(v, c, job.rates[0]), job.continuous,
-                     zero, f"{tag} {c.label}")  # fmt: skip
-    for i, spec in enumerate(job.specs):
-        g = f"g{i}"
-        if isinstance(spec, H2):
-            nw = data[0][(i, "Cz")].shape[0]
-            lmi.add(f"trace Y{i} < h{i}", lambda v, i=i, nw=nw, g=g: [[
-                sum(getattr(v, f"Y{i}")[k : k + 1, k : k + 1] for k in range(nw))
-                - getattr(v, g)
-            ]])  # fmt: skip
-        if spec.bound is not None:
-            fixed = spec.bound**2 / job._to_model(i) * (1 - BOUND_SLACK)
-            lmi.add(f"{spec} bound", lambda v, g=g, fixed=fixed: [
-                [getattr(v, g) - fixed]], strict=False)  # fmt: skip
-        elif i == 0:
-            lmi.add("g <= g_max", lambda v: [[v.g0 - v.g_max]], strict=False,
-                    stages=("center", "gain"))  # fmt: skip
-    for ell in range(job.lyap.count):
-        lmi.add(f"W{ell} <= w_max I",
-                lambda v, e=ell: [[getattr(v, f"W{e}") - v.w_max * np.eye(n)]],
-                strict=False, stages=("center", "stabilize"),
-                normalization=True)  # fmt: skip
-        lmi.add(f"W{ell} >= t I",
-                lambda v, e=ell: [[v.t[0, 0] * np.eye(n) - getattr(v, f"W{e}")]],
-                strict=False, stages=("center", "stabilize"),
-                normalization=True)  # fmt: skip
-    for k in range(nZ):
-        lmi.add(f"||Z{k}||^2 <= z_max", lambda v, k=k: [
-            [-v.z_max * np.eye(n)], [getattr(v, f"Z{k}"), -np.eye(m)]],
-            strict=False, stages=("stabilize",), normalization=True)  # fmt: skip
-    if job.gain_bound is not None:
-        T, Su = job.scaling.matrix, np.diag(job.scaling.Su)
-        lmi.parameter("gain_Ginv", (n, n), value=np.eye(n))
-        lmi.parameter("gain_Ginv_K", (n, n), value=np.eye(n))
-        lmi.parameter("kappa_max", nonneg=True, value=1.0)
-        for k in range(nZ):
-
-            def gain_lmi(v, k=k):
-                return job.gain_bound.tangent(
-                    v.W0, getattr(v, f"Z{k}"), v.gain_Ginv, v.gain_Ginv_K,
-                    v.kappa[0, 0], T, Su,
-                )  # fmt: skip
-
-            lmi.add(f"||K{k}||^2 <= kappa", gain_lmi, strict=False,
-                    stages=("gain",))  # fmt: skip
-        lmi.add("kappa <= kappa_max",
-                lambda v: [[v.kappa - v.kappa_max * np.eye(1)]],
-                strict=False, stages=("gain",))  # fmt: skip
-    return lmi
-
-
-def _add(lmi, method, terms_of, continuous, zero, at) -> None:
-    """Add the named blocks of a spec method (``lmis`` or
-    ``coefficient_lmis``), built once per name from fresh terms."""
-    for q, (name, _) in enumerate(method(terms_of(zero), continuous)):
-
-        def blocks(v, q=q):
-            return method(terms_of(v), continuous)[q][1]
-
-        lmi.add(f"{name}{at}", blocks)
+    for ell in range(problem.lyap.count):
+        yield (
+            f"W{ell} > 0",
+            lambda v, e=ell: [[-getattr(v, f"W{e}")]],
+            True,
+            None,
+            False,
+        )
+    for c in s.coefficients:
+        for r in rates:
+            at = c.label + (f", rate {np.round(r, 12).tolist()}"
+                            if len(rates) > 1 else "")  # fmt: skip
+            for q, spec in enumerate(problem.specs):
+                yield from named(spec.lmis, view(c, r, q), f"{tags[q]} {at}")
+                if not s.objective:
+                    yield from named(spec.decay_lmis, view(c, r, q),
+                                     f"{tags[q]} {at}", False, ("stabilize",),
+                                     True)  # fmt: skip
+        for q, spec in enumerate(problem.specs):
+            yield from named(spec.coefficient_lmis, view(c, rates[0], q),
+                             f"{tags[q]} {c.label}")  # fmt: skip
+    once = Coefficient("problem", 1.0, (), ())
+    for q, spec in enumerate(problem.specs):
+        terms_of = view(once, rates[0], q)
+        for k, (name, _, strict) in enumerate(spec.problem_lmis(terms_of(zero))):
+            yield (f"{name}{tags[q]}",
+                   lambda v, k=k, spec=spec, terms_of=terms_of:
+                   spec.problem_lmis(terms_of(v))[k][1],
+                   strict, None, False)  # fmt: skip
+    for i in range(len(problem.plant.channels)):
+        if s.objective and i == 0:
+            yield ("g <= g_max", lambda v: [[v.g0 - v.g_max]], False,
+                   ("center", "gain", "bounded"), False)  # fmt: skip
+        else:
+            yield (f"bound {i}",
+                   lambda v, i=i: [[getattr(v, f"g{i}") - getattr(v, f"gfix{i}")]],
+                   False, None, False)  # fmt: skip
+    for ell in range(problem.lyap.count):
+        yield (f"W{ell} <= w_max I",
+               lambda v, e=ell: [[getattr(v, f"W{e}") - v.w_max * np.eye(n)]],
+               False, ("center", "stabilize", "gain", "bounded"), True)  # fmt: skip
+        yield (f"W{ell} >= t I",
+               lambda v, e=ell: [[v.t[0, 0] * np.eye(n) - getattr(v, f"W{e}")]],
+               False, ("center", "stabilize"), True)  # fmt: skip
+    for k in range(s.nZ):
+        # The stabilization LMIs are homogeneous in (W, Z): W <= I together
+        # with ||Z|| <= 1 fixes the scale and balances decay against gain;
+        # larger z_max admit the smaller decays of badly scaled problems.
+        yield (f"||Z{k}||^2 <= z_max",
+               lambda v, k=k: [[-v.z_max * np.eye(n)],
+                               [getattr(v, f"Z{k}"), -np.eye(m)]],
+               False, ("stabilize",), True)  # fmt: skip
+    if s.nZ:
+        # The gain of Z_k is K_k = -Z_k X_k^-1: X_k its vertex's W, or the
+        # slack G of the extended LMIs.
+        # The back-off ("gain") bounds the prescaled gain, a gain bound
+        # ("bounded") the model's.
+        lyap = problem.lyap
+        scales = scales or {"T": np.eye(n), "Su": np.eye(m)}
+        unit = {"T": np.eye(n), "Su": np.eye(m)}
+        for k in range(s.nZ):
+            X = "G" if s.slack else f"W{lyap.index[k if s.scheduled else 0]}"
+            for stage, units, label in (("gain", unit, " (prescaled)"),
+                                        ("bounded", scales, "")):  # fmt: skip
+                yield (f"||K{k}||^2 <= kappa{label}",
+                       lambda v, k=k, X=X, units=units: gain_tangent_blocks(
+                           getattr(v, X), getattr(v, f"Z{k}"), v.gain_Ginv,
+                           v.gain_Ginv_K, v.kappa[0, 0], units["T"], units["Su"]),
+                       False, (stage,), True)  # fmt: skip
+        # Only with a gain bound (another stage): a cap far above every
+        # gain would cost the solvers digits.
+        yield ("kappa <= kappa_max",
+               lambda v: [[v.kappa - v.kappa_max * np.eye(1)]],
+               False, ("bounded",), True)  # fmt: skip
 
 
-# -- stages ----------------------------------------------------------
+def gain_tangent_blocks(X, Z, Ginv, Ginv_K, kappa, T, Su):
+    """``||K||^2 <= kappa kappa0`` for ``K = -Z X^-1``, linearised at ``X0``.
+
+    With ``K = Su Z X^-1 T^-1`` in prescaled units, the bound is
+    ``(Su Z)'(Su Z) <= kappa kappa0 (T X)'(T X)``, whose right side is
+    bounded below by its tangent at ``G0 = T X0``, ``G0' T X + (T X)' G0 -
+    G0' G0`` (as ``(T X - G0)'(T X - G0) >= 0``); a Schur complement and
+    the congruence with ``G0^-1`` give the block returned, sufficient
+    everywhere and exact at ``X0``. ``Ginv`` and ``Ginv_K`` are ``G0^-1``
+    and ``G0^-1 / sqrt(kappa0)`` (parameters), `T` and `Su` the state and
+    input scalings as matrices (constants: a parameter on each side of a
+    variable is not DPP).
+    """
+    n, m = X.shape[0], Z.shape[0]
+    M = T @ X @ Ginv
+    return [[-(M + M.T - np.eye(n))], [Su @ Z @ Ginv_K, -kappa * np.eye(m)]]
 
 
-def _shifted(blocks, shift):
-    """`blocks` plus ``shift I`` on the diagonal (``2 X`` stands for ``X + X'``)."""
-    out = [list(row) for row in blocks]
-    for i, row in enumerate(out):
-        size = row[i].shape[0]
-        row[i] = row[i] + shift * np.eye(size)
-    return out
+@dataclass
+class Compiled:
+    """A cached problem: the LMIs and the constants its gain stage reads."""
+
+    lmi: LMIProblem
+    scales: dict
+
+
+def build(problem: Problem, s: Structure) -> Compiled:
+    """The LMI problem of a structure, every number a parameter.
+
+    Parameters get their values from `load`, before every use.
+    """
+    declarations = _declarations(problem, s)
+    lmi = LMIProblem(margin=problem.margin)
+    declarations.into(lmi)
+    scales = {"T": np.eye(s.n), "Su": np.eye(s.m)}
+    zero = declarations.zeros()
+    for name, blocks, strict, stages, norm in _inequalities(problem, s, zero, scales):
+        lmi.add(name, blocks, strict=strict, stages=stages, normalization=norm)
+    return Compiled(lmi, scales)
+
+
+def load(compiled: Compiled, problem: Problem, s: Structure, frame, margin) -> dict:
+    """Set every parameter of a (possibly reused) problem for one rung.
+
+    All of them, stage bounds included, so that nothing of a previous call
+    can leak into this one. Returns the prescaled vertex data (the
+    extended LMIs' products are set again for each of their scalars,
+    `set_eps`).
+    """
+    lmi = compiled.lmi
+    scales = {"T": frame.scaling.matrix, "Su": np.diag(frame.scaling.Su)}
+    if any(not np.array_equal(compiled.scales[k], v) for k, v in scales.items()):
+        compiled.scales.update(scales)
+        lmi.invalidate("bounded")
+    data = frame.scaled(problem.plant)
+    for j in range(s.N):
+        lmi.set_parameter(names.data("A", j), data["A"][j])
+        if s.m:
+            lmi.set_parameter(names.data("B2", j), data["B2"][j])
+        for i in range(len(problem.plant.channels)):
+            for key in ("Bw", "Cz", "Dzw") + (("Dzu",) if s.m else ()):
+                lmi.set_parameter(names.data(key, j, i), data[key, i][j])
+    for q, (spec, i) in enumerate(zip(problem.specs, problem.channels)):
+        dims = spec_dims(problem, q, s)
+        for name, value in spec.prescale(frame, dims).items():
+            lmi.set_parameter(names.local(q, name), value)
+        if i is None:
+            continue
+        lmi.set_parameter(f"rho{i}", frame.rho(i))
+        fixed = 0.0
+        if spec.bound is not None and not (s.objective and i == 0):
+            fixed = spec.to_scaled(spec.bound, frame, i) * (1 - BOUND_SLACK)
+        lmi.set_parameter(f"gfix{i}", fixed)
+    lmi.margin = margin
+    lmi.set_parameter("g_max", 1.0)
+    lmi.set_parameter("w_max", 1.0)
+    lmi.set_parameter("z_max", 1.0)
+    if s.nZ:
+        lmi.set_parameter("gain_Ginv", np.eye(s.n))
+        lmi.set_parameter("gain_Ginv_K", np.eye(s.n))
+        lmi.set_parameter("kappa_max", 1.0)
+    return data
+
+
+def set_eps(lmi: LMIProblem, problem: Problem, s: Structure, data, eps) -> None:
+    """The scalar of the extended LMIs and its products with the data."""
+    lmi.set_parameter("eps", eps)
+    for j in range(s.N):
+        lmi.set_parameter(names.data("eA", j), eps * data["A"][j])
+        lmi.set_parameter(names.data("eB2", j), eps * data["B2"][j])
+        for i in range(len(problem.plant.channels)):
+            lmi.set_parameter(names.data("eCz", j, i), eps * data["Cz", i][j])
+            lmi.set_parameter(names.data("eDzu", j, i), eps * data["Dzu", i][j])

@@ -26,7 +26,7 @@ from ..lmi import LMICheck
 from .frozen import FrozenLoop, verification_points
 from .parametric import lyapunov_structure, step_terms
 from .results import ORIGINAL_UNITS_TOL, Certificate
-from .specs import Hinf, Stability
+from .spec import lyapunov_residual
 
 # A positive definite P needs lambda_min / lambda_max above rounding.
 _PD_TOL = 4 * np.finfo(float).eps
@@ -111,7 +111,7 @@ def recheck(design, performance=()) -> Recheck:
                 sys, lyap, Wd, delta, p, rate, P, W, continuous, design.primal
             )
             loop = FrozenLoop(A, B2, K, Acl, eig, P, P_moved, W, W_moved)
-            value = Stability().residual(loop, continuous) + _ROUNDING * len(P)
+            value = lyapunov_residual(loop, continuous) + _ROUNDING * len(P)
             worst["lyap"] = max(worst["lyap"], (value, where), key=_first)
             for i, (spec, (iw, iz), bound) in enumerate(performance):
                 channel = replace(
@@ -143,7 +143,7 @@ def recheck(design, performance=()) -> Recheck:
     others = []
     for i, (spec, _, bound) in enumerate(performance):
         value, where = spec_worst[i]
-        name = "bounded-real" if isinstance(spec, Hinf) else "H2 (Gramian)"
+        name = spec.inequality
         checks.append(
             LMICheck(f"{spec} <= {bound:.6g}", value, ORIGINAL_UNITS_TOL, True)
         )

@@ -9,7 +9,7 @@ point is verified in the model's own units.
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.linalg import (
@@ -212,25 +212,103 @@ def riccati_scaling(original, base: Scaling, continuous: bool = True) -> Scaling
     )
 
 
-def prescalings(original):
-    """Prescalings tried in turn: balanced, Riccati, time scaling alone, none.
+@dataclass(frozen=True)
+class Frame:
+    """The prescaling of one rung: a base `Scaling` and each channel's.
 
-    The last keeps the model's units: a time scaling by the fastest mode
-    leaves a mode 1e15 times slower no margin the solvers can see.
+    Channel ``i`` is scaled by the powers of two ``w = sw_i w~`` and
+    ``z = sz_i z~``; the first channel's are the base's. With one
+    ``W = kappa T W~ T'`` for every channel (``kappa`` the base's
+    `~Scaling.w_factor`), the prescaled LMIs are congruent to the model's
+    when the identity block of channel ``i``'s ``w`` is weighted by
+    `rho` (congruence by ``diag(T^-1 / sqrt(a kappa), sw_i sqrt(kappa /
+    a), ...)``); all factors are powers of two, so the congruence is exact
+    in floating point.
     """
-    balanced = Scaling.of(original)
-    yield "balanced", balanced
-    shaped = riccati_scaling(original, balanced)
-    if shaped is not None:
-        yield "Riccati", shaped
-    plain = Scaling.of(original, balance=False)
-    if not np.array_equal(plain.T, balanced.T):
-        yield "unbalanced", plain
-    A, _, B2, _, _, _ = original[0]
-    none = Scaling(np.ones(A.shape[0]), np.ones(B2.shape[1]), 1.0, 1.0, 1.0)
-    if not (
-        np.array_equal(none.T, plain.T)
-        and np.array_equal(none.Su, plain.Su)
+
+    name: str
+    scaling: Scaling
+    channels: tuple[tuple[float, float], ...] = ()
+
+    @property
+    def a(self) -> float:
+        """The time scaling ``t~ = a t`` (1 in discrete time)."""
+        return self.scaling.a
+
+    @property
+    def kappa(self) -> float:
+        """``W = kappa T W~ T'``."""
+        return self.scaling.w_factor
+
+    def rho(self, i: int) -> float:
+        """Weight of channel `i`'s identity block (a power of two)."""
+        return self.channels[i][0] ** 2 * self.kappa / self.a
+
+    def sz(self, i: int) -> float:
+        return self.channels[i][1]
+
+    def with_sz(self, i: int, sz: float) -> Frame:
+        """This frame with channel `i`'s ``z`` scaled by `sz` instead."""
+        channels = list(self.channels)
+        channels[i] = (channels[i][0], sz)
+        return replace(self, channels=tuple(channels))
+
+    def scaled(self, plant) -> dict:
+        """The prescaled vertex data of a `~.channels.Partition`.
+
+        ``"A"``, ``"B2"`` (stacks over the vertices) and, per channel
+        ``i``, ``("Bw", i)``, ``("Cz", i)``, ``("Dzw", i)``, ``("Dzu", i)``.
+        """
+        sc = self.scaling
+        T = sc.matrix
+        Ti = np.diag(1.0 / sc.T) if sc.T.ndim == 1 else np.linalg.inv(T)
+        a, Su = sc.a, sc.Su
+        out = {"A": Ti @ plant.A @ T / a, "B2": Ti @ plant.B2 * Su / a}
+        for i, c in enumerate(plant.channels):
+            sw, sz = self.channels[i]
+            out["Bw", i] = Ti @ c.Bw * sw / a
+            out["Cz", i] = c.Cz @ T / sz
+            out["Dzw", i] = c.Dzw * sw / sz
+            out["Dzu", i] = c.Dzu * Su / sz
+        return out
+
+
+def frames(plant, continuous: bool) -> list:
+    """The prescalings tried in turn: balanced, Riccati, unbalanced, none.
+
+    The first channel shapes them (none: the control inputs alone);
+    "unbalanced" (the time and input scalings alone) only where it differs
+    from the others. The last keeps the model's units: a time scaling by
+    the fastest mode leaves a mode 1e15 times slower no margin the solvers
+    can see.
+    """
+    first = plant.six(0 if plant.channels else None)
+    balanced = Scaling.of(first, time_scaling=continuous)
+    out = [("balanced", balanced)]
+    if plant.m:
+        shaped = riccati_scaling(first, balanced, continuous)
+        if shaped is not None:
+            out.append(("Riccati", shaped))
+    plain = Scaling.of(first, balance=False, time_scaling=continuous)
+    none = Scaling(np.ones(plant.n), np.ones(plant.m), 1.0, 1.0, 1.0)
+    if not np.array_equal(plain.T, balanced.T) and not (
+        np.array_equal(none.Su, plain.Su)
         and (none.sw, none.sz, none.a) == (plain.sw, plain.sz, plain.a)
     ):
-        yield "none", none
+        out.append(("unbalanced", plain))
+    # Always last, even where another is the same: a refusal says what
+    # holds in the model's own units.
+    out.append(("none", none))
+    return [_frame(name, sc, plant, name == "none") for name, sc in out]
+
+
+def _frame(name, sc, plant, unit) -> Frame:
+    channels = []
+    for i in range(len(plant.channels)):
+        if unit:
+            channels.append((1.0, 1.0))
+        elif i == 0:
+            channels.append((sc.sw, sc.sz))
+        else:
+            channels.append(channel_scales(plant.six(i), sc.T, sc.Su, sc.a))
+    return Frame(name, sc, tuple(channels))

@@ -28,9 +28,9 @@ more conservative than necessary (Khargonekar and Rotea 1991; Scherer,
 Gahinet and Chilali 1997).
 
 With a common gain and a parameter-dependent ``W`` the blocks are the
-extended ones (see `_extended`): ``A_cl W`` becomes ``A_cl G`` with a
-constant slack ``G`` and ``K = -Z G^-1``, which keeps them affine in the
-parameter. Discrete time: ``[[W - G - G', *], [A_cl G, -W+]] < 0``
+extended ones (`~ctrl_lpv.synthesis.spec.extended`): ``A_cl W`` becomes
+``A_cl G`` with a constant slack ``G`` and ``K = -Z G^-1``, which keeps
+them affine in the parameter. Discrete time: ``[[W - G - G', *], [A_cl G, -W+]] < 0``
 (de Oliveira, Bernussou and Geromel 1999; Daafouz and Bernussou 2001),
 and likewise in the H-infinity and H2 blocks.
 
@@ -49,10 +49,26 @@ import numpy as np
 
 from .._checks import per_input, positive_levels, real_number, signal_selection
 from ..lmi import normalized_max_eig
+from .spec import Spec, extended, unit
+
+# The decays of a `Peak` spec tried: prescaled time units in continuous
+# time, where the data are of order one; the contraction of V per sample in
+# discrete time, up to 0.999 because with |w| <= 1 the bound tends to the
+# exact one as lambda tends to 1 (for x+ = w it is 1 / sqrt(lambda)).
+LAMBDAS = {
+    True: tuple(10.0 ** np.arange(-3.0, 2.01, 0.5)),
+    False: (0.02, 0.05, 0.1, 0.2, 0.35, 0.5, 0.7, 0.9, 0.97, 0.99, 0.999),
+}
 
 
 @dataclass(frozen=True)
-class _Performance:
+class _Performance(Spec):
+    """A bound on a channel ``w -> z`` (the common part of the three)."""
+
+    channel = True
+    # What the residual checks, for messages ("the ... inequality").
+    inequality = ""
+
     w: tuple | None = None
     z: tuple | None = None
     bound: float | None = None
@@ -71,8 +87,32 @@ class _Performance:
         bound = "" if self.bound is None else f", bound={self.bound:g}"
         return f"{type(self).__name__}(w={w}, z={z}{bound})"
 
-    def check_data(self, channels, continuous) -> None:
-        """Refuse data the spec cannot bound (a `ValueError`)."""
+    def variables(self, declare) -> None:
+        """None beyond the channel's bound (the engine's)."""
+
+    def prescale(self, frame, dims) -> dict:
+        """No constants beyond the channel's data (the engine's)."""
+        return {}
+
+    def coefficient_lmis(self, t, continuous):
+        """None independent of the rate."""
+        return []
+
+    # Squared bounds scale like ``W`` (times ``sz^2``), and the
+    # H-infinity one also like time (see `Hinf`).
+    _per_time = False
+
+    def _factor(self, frame, i) -> float:
+        factor = frame.kappa * frame.sz(i) ** 2
+        return factor / frame.a if self._per_time else factor
+
+    def to_model(self, g: float, frame, i: int) -> float:
+        """``sqrt(g~ kappa sz^2)`` (``/ a`` for H-infinity)."""
+        return float(np.sqrt(g * self._factor(frame, i)))
+
+    def to_scaled(self, bound: float, frame, i: int) -> float:
+        """The inverse of `to_model`."""
+        return bound**2 / self._factor(frame, i)
 
 
 @dataclass(frozen=True)
@@ -96,17 +136,21 @@ class Hinf(_Performance):
     Hinf(w=('d',), z=('e', 'u'), bound=2.0)
     """
 
+    inequality = "bounded-real"
+    paper_case = True
+    _per_time = True
+
     def lmis(self, t, continuous):
         """The LMI blocks at one coefficient (see the module docstring)."""
-        Bw, Dzw = t.data(self, "Bw"), t.data(self, "Dzw")
-        g = t.const(t.g(self)[0, 0] * np.eye(t.nz(self)))
-        eye_w = t.rho(self) * t.identity(t.nw(self))
+        Bw, Dzw = t.data("Bw"), t.data("Dzw")
+        g = t.const(t.g()[0, 0] * np.eye(t.nz()))
+        eye_w = t.rho() * t.identity(t.nw())
         if t.slack:
-            AX, CX, X = t.AG(), t.CG(self), 2 * t.G() - t.W()
+            AX, CX, X = t.AG(), t.CG(), 2 * t.G() - t.W()
         else:
-            AX, CX, X = t.AW(), t.CW(self), t.W()
+            AX, CX, X = t.AW(), t.CW(), t.W()
         if continuous and t.slack:
-            blocks = [*_extended(t), [Bw.T, 0, -eye_w], [CX, t.eps() * CX, Dzw, -g]]
+            blocks = [*extended(t), [Bw.T, 0, -eye_w], [CX, t.eps_CG(), Dzw, -g]]
         elif continuous:
             blocks = [[2 * AX - t.W_moved()], [Bw.T, -eye_w], [CX, Dzw, -g]]
         else:
@@ -165,6 +209,12 @@ class H2(_Performance):
     norm is infinite otherwise); a `ValueError` says so.
     """
 
+    inequality = "H2 (Gramian)"
+
+    def variables(self, declare) -> None:
+        """``Y``, the bound on ``C_cl W C_cl'``."""
+        declare.variable("Y", (declare.nz, declare.nz), symmetric=True)
+
     def check_data(self, channels, continuous) -> None:
         if not continuous:
             return
@@ -181,22 +231,27 @@ class H2(_Performance):
 
     def lmis(self, t, continuous):
         """The LMI blocks at one coefficient (see the module docstring)."""
-        rho = t.rho(self)
-        Bw, Dzw, Y = t.data(self, "Bw"), t.data(self, "Dzw"), t.const(t.Y(self))
-        eye_w = rho * t.identity(t.nw(self))
+        Bw, Dzw, Y = t.data("Bw"), t.data("Dzw"), t.const(t.var("Y"))
+        eye_w = t.rho() * t.identity(t.nw())
         if t.slack:
             # W(delta) only through its inverse's lower bound G + G' - W.
-            AX, CX, X = t.AG(), t.CG(self), 2 * t.G() - t.W()
+            AX, CX, X = t.AG(), t.CG(), 2 * t.G() - t.W()
         else:
-            AX, CX, X = t.AW(), t.CW(self), t.W()
+            AX, CX, X = t.AW(), t.CW(), t.W()
         if continuous:
-            gramian = _extended(t) + [[Bw.T, 0, -eye_w]] if t.slack else [
+            gramian = extended(t) + [[Bw.T, 0, -eye_w]] if t.slack else [
                 [2 * AX - t.W_moved()], [Bw.T, -eye_w]]  # fmt: skip
             trace = [[-Y], [CX.T, -X]]
         else:
             gramian = [[-t.W_moved()], [AX.T, -X], [Bw.T, 0, -eye_w]]
             trace = [[-Y], [CX.T, -X], [Dzw.T, 0, -eye_w]]
         return [("H2 Gramian", gramian), ("H2 trace", trace)]
+
+    def problem_lmis(self, t):
+        """``trace Y < h`` (``h`` the channel's squared bound)."""
+        Y = t.var("Y")
+        trace = sum(Y[k : k + 1, k : k + 1] for k in range(t.nz()))
+        return [("trace Y < h", [[trace - t.g()]], True)]
 
     def residual(self, loop, continuous) -> float:
         """Largest normalised eigenvalue of the Gramian inequalities.
@@ -262,11 +317,40 @@ class Peak(_Performance):
     Lyapunov matrix or scheduled gains.
     """
 
+    inequality = "peak (invariance)"
+    unique = True
+
     w_max: tuple = (1.0,)
 
     def __post_init__(self):
         super().__post_init__()
         object.__setattr__(self, "w_max", positive_levels(self.w_max, "w_max"))
+
+    def validate(self, context) -> None:
+        if not (context.constant or context.scheduled):
+            raise ValueError(
+                "constraints: Peak with a common gain and lyapunov='affine' is not "
+                "implemented (the extended LMIs have no invariance form here); use "
+                "gains='scheduled' or a constant Lyapunov matrix"
+            )
+
+    def variables(self, declare) -> None:
+        """The multipliers ``mu`` and the parameters ``lam`` (the decay, which
+        the engine searches) and ``weights`` (``rho a / w_max^2``)."""
+        declare.variable("mu", (declare.nw, 1))
+        declare.parameter("lam", (), nonneg=True)
+        declare.parameter("weights", (declare.nw,), nonneg=True)
+
+    def prescale(self, frame, dims) -> dict:
+        """The ``(w, w)`` block's weights ``rho a / w_max^2``: congruent to
+        the model's as `Hinf`'s identity block (weight ``rho``), with ``mu =
+        a mu~`` for the prescaled variable ``mu~``."""
+        rho = frame.rho(dims.i)
+        return {"weights": self.weights(dims.nw) * rho * frame.a}
+
+    def decays(self, continuous):
+        """The decay grid (see `LAMBDAS`)."""
+        return LAMBDAS[continuous]
 
     def __str__(self) -> str:
         return super().__str__()[:-1] + f", w_max={list(self.w_max)})"
@@ -283,40 +367,44 @@ class Peak(_Performance):
         """``1 / w_max_i^2``, one per input of `w`."""
         return 1.0 / per_input(self.w_max, nw, "w_max", "inputs w") ** 2
 
-    def prescale(self, scaling, n: int, m: int) -> dict:
-        """The time scaling: ``mu~ = mu / a`` and ``lambda~ = lambda / a``."""
-        return {"a": scaling.a}
-
     def disturbance(self, t):
-        """The ``(w, w)`` block ``-diag(mu / w_max^2)`` in prescaled units.
-
-        Congruent to the model's as `Hinf`'s identity block (weight
-        ``rho``), with ``mu = a mu~`` for the prescaled variable ``mu~``.
-        """
-        weights = self.weights(t.nw(self)) * t.rho(self) * t.prescaled(self)["a"]
-        mu = t.v.mu
-        D = sum(weights[i] * mu[i, 0] * unit(len(weights), i)
-                for i in range(len(weights)))  # fmt: skip
-        return -t.const(D)
+        """``(lambda, Bw, -diag(mu / w_max^2))`` in prescaled units."""
+        weights, mu = t.var("weights"), t.var("mu")
+        nw = t.nw()
+        D = sum(weights[i] * mu[i, 0] * unit(nw, i) for i in range(nw))
+        return t.var("lam"), t.data("Bw"), -t.const(D)
 
     def lmis(self, t, continuous):
         """The invariance inequality at one coefficient and rate."""
-        Bw, lam = t.data(self, "Bw"), t.v.lam
+        lam, Bw, D = self.disturbance(t)
         AX, W = t.AW(), t.W()
         if continuous:
-            blocks = [[2 * AX - t.W_moved() + lam * W], [Bw.T, self.disturbance(t)]]
+            blocks = [[2 * AX - t.W_moved() + lam * W], [Bw.T, D]]
         else:
-            blocks = [
-                [-t.W_moved()],
-                [AX.T, -(1 - lam) * W],
-                [Bw.T, 0, self.disturbance(t)],
-            ]
+            blocks = [[-t.W_moved()], [AX.T, -(1 - lam) * W], [Bw.T, 0, D]]
         return [("peak invariance", blocks)]
 
     def coefficient_lmis(self, t, continuous):
         """The peak of ``z`` on ``E``: ``[[g I, *], [C_cl W', W]] >= 0``."""
-        g = t.const(t.g(self)[0, 0] * np.eye(t.nz(self)))
-        return [("peak output", [[-g], [t.CW(self).T, -t.W()]])]
+        g = t.const(t.g()[0, 0] * np.eye(t.nz()))
+        return [("peak output", [[-g], [t.CW().T, -t.W()]])]
+
+    def problem_lmis(self, t):
+        """``sum(mu) <= lambda`` (non-strict)."""
+        ones = np.ones((1, t.nw()))
+        return [("sum(mu) <= lambda",
+                 [[ones @ t.var("mu") - t.var("lam") * np.eye(1)]], False)]  # fmt: skip
+
+    def loop_fields(self, here) -> dict:
+        """The disturbance input ``Bd``, the decay ``lam`` and ``mu_w = mu /
+        w_max^2`` in the model's units (``mu = a mu~``, ``lambda = a
+        lambda~``), which a `Saturation` sector also reads."""
+        nw = here.nw
+        return {
+            "Bd": here.mix("Bw"),
+            "lam": float(here.var("lam")) * here.frame.a,
+            "mu_w": here.frame.a * np.ravel(here.var("mu")) * self.weights(nw),
+        }
 
     def residual(self, loop, continuous) -> float:
         """Largest excess of the invariance and peak inequalities.
@@ -354,55 +442,3 @@ def _pair_names(channel, row, col) -> tuple[str, str]:
         repr(w[col]) if w else f"number {col}",
         repr(z[row]) if z else f"number {row}",
     )
-
-
-def unit(m, i):
-    """The ``m x m`` matrix with a one at ``(i, i)`` (builds diagonal
-    multipliers from scalar variables, which cvxpy's ``diag`` would not keep
-    DPP)."""
-    E = np.zeros((m, m))
-    E[i, i] = 1.0
-    return E
-
-
-PERFORMANCE = (Hinf, H2, Peak)
-
-
-class Stability:
-    """Lyapunov stability alone: the objective ``None`` of `synthesize`.
-
-    Continuous time ``sym(A W + B2 Z) - dW/dt < 0``; discrete time
-    ``[[-W, *], [A W + B2 Z, -W+]] < 0``.
-    """
-
-    def lmis(self, t, continuous):
-        """The LMI blocks at one coefficient."""
-        if t.slack:
-            if continuous:
-                return [("Lyapunov", _extended(t))]
-            return [("Lyapunov", [[t.W() - 2 * t.G()], [t.AG(), -t.W_moved()]])]
-        if continuous:
-            return [("Lyapunov", [[2 * t.AW() - t.W_moved()]])]
-        return [("Lyapunov", [[-t.W()], [t.AW(), -t.W_moved()]])]
-
-    def residual(self, loop, continuous) -> float:
-        """Largest normalised eigenvalue of the primal Lyapunov inequality."""
-        A, P, P_moved = loop.Acl, loop.P, loop.P_moved
-        if continuous:
-            M = A.T @ P + P @ A + P_moved
-        else:
-            M = A.T @ P_moved @ A - P
-        return normalized_max_eig(M[None])
-
-
-def _extended(t):
-    """The first two block rows of the continuous-time extended LMIs.
-
-    ``[[sym(A_cl G) - dW/dt, *], [W - G + eps (A_cl G)', -eps sym(G)]]``:
-    with the slack ``G`` and a fixed ``eps > 0`` this is the projection of
-    the dual inequality (Pipeleers, Demeulenaere, Swevers and Vandenberghe
-    2009; Apkarian, Tuan and Bernussou 2001), which lets a common gain
-    ``K = -Z G^-1`` go with a parameter-dependent ``W``.
-    """
-    AG, eps = t.AG(), t.eps()
-    return [[2 * AG - t.W_moved()], [t.W() - t.G() + eps * AG.T, -2 * eps * t.G()]]

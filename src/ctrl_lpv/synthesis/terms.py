@@ -1,18 +1,60 @@
 """The parameter-dependent products of the LMIs at one relaxation coefficient.
 
 A `Terms` object evaluates, for one `~ctrl_lpv.synthesis.parametric.Coefficient`
-and one vertex of the rate box, the homogenised sums the spec classes write
-their blocks with: ``A(delta) W(delta) + B2(delta) Z(delta)`` (degree two),
-``W(delta)`` and the data of a channel (degree one), constants (degree zero).
-It works on cvxpy variables when the problem is built and on float arrays
-when `ctrl_lpv.lmi.LMIProblem` checks a point, from the same code.
+and one vertex of the rate box, the homogenised sums the specs write their
+blocks with: ``A(delta) W(delta) + B2(delta) Z(delta)`` (degree two),
+``W(delta)`` and the data of a channel (degree one), constants (degree
+zero). It reads everything from a namespace ``v`` of named variables and
+parameters (the prescaled vertex data are parameters, see `names`), so the
+same code builds the problem (cvxpy objects) and checks a point (float64
+arrays, `ctrl_lpv.lmi.LMIProblem.check`). A spec sees a view bound to
+itself (`Terms.bind`): its channel's data, its own variables.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .parametric import Coefficient, LyapunovStructure, step_terms
+from .parametric import Coefficient, step_terms
+
+
+class names:
+    """Names of the engine's variables and parameters in the namespace.
+
+    Vertex data ``A_j``, ``B2_j``; channel ``i``: ``Bw{i}_j``, ``Cz{i}_j``,
+    ``Dzw{i}_j``, ``Dzu{i}_j`` and the weight ``rho{i}``; for the extended
+    LMIs the products with their scalar, ``eA_j``, ``eB2_j``, ``eCz{i}_j``
+    and ``eDzu{i}_j``; a spec's own names are prefixed by its position.
+    """
+
+    @staticmethod
+    def data(key, j, i=None) -> str:
+        return f"{key}_{j}" if i is None else f"{key}{i}_{j}"
+
+    @staticmethod
+    def local(q, name) -> str:
+        return f"s{q}_{name}"
+
+
+class Shape:
+    """What the blocks need to know of the problem's structure.
+
+    Attributes: ``n``, ``m``, ``lyap`` (the
+    `~ctrl_lpv.synthesis.parametric.LyapunovStructure`, rates prescaled),
+    ``scheduled``, ``continuous``, ``slack`` (the extended LMIs), ``nZ``
+    (number of gain variables) and ``channel_sizes`` (``(nw, nz)`` per
+    channel).
+    """
+
+    def __init__(self, n, m, lyap, scheduled, continuous, slack, nZ, channel_sizes):
+        self.n = n
+        self.m = m
+        self.lyap = lyap
+        self.scheduled = scheduled
+        self.continuous = continuous
+        self.slack = slack
+        self.nZ = nZ
+        self.channel_sizes = channel_sizes
 
 
 class Terms:
@@ -21,50 +63,32 @@ class Terms:
     Parameters
     ----------
     v : namespace
-        Variables and parameters (``W0``, ``W1``, ..., ``Z0``, ..., and the
-        spec variables ``g<i>``, ``Y<i>``).
+        Variables and parameters by name (`names`).
     coefficient : `Coefficient`
     rate : ndarray
-        Vertex of the rate box.
-    lyapunov : `LyapunovStructure`
-    data : list of dict
-        Prescaled vertex data: ``"A"``, ``"B2"`` and, per spec index,
-        ``(i, key)`` for ``"Bw"``, ``"Cz"``, ``"Dzw"``, ``"Dzu"``.
-    specs : dict
-        Spec -> index.
-    rho : dict
-        Spec index -> weight of the identity block of the spec's ``w`` in
-        the prescaled LMIs (a power of two; see `ctrl_lpv.synthesis.general`).
-    scheduled : bool
-        One ``Z`` per vertex.
-    continuous : bool
-    prescaled : dict, optional
-        ``id(spec)`` -> a constraint's constants in prescaled units (its
-        ``prescale``).
+        Vertex of the rate box (prescaled units).
+    shape : `Shape`
+    specs : sequence of (spec, channel index or None)
+        Every spec of the problem with its channel (views of the others
+        are what `disturbances` reads).
     """
 
-    def __init__(self, v, coefficient: Coefficient, rate, lyapunov: LyapunovStructure,
-                 data, specs, rho, scheduled: bool, continuous: bool,
-                 prescaled=None):  # fmt: skip
+    def __init__(self, v, coefficient: Coefficient, rate, shape: Shape, specs=()):
         self.v = v
         self.c = coefficient
         self.rate = rate
-        self.lyap = lyapunov
-        self.d = data
-        self.specs = specs
-        self.weights = rho
-        self.scheduled = scheduled
-        self.continuous = continuous
-        self.scaled = prescaled or {}
-        self.n = data[0]["A"].shape[0]
-        self.m = data[0]["B2"].shape[1]
+        self.shape = shape
+        self.specs = tuple(specs)
+        self.n, self.m = shape.n, shape.m
+        self.q = self.i = None
 
-    def _W(self, index):
-        return getattr(self.v, f"W{index}")
+    def bind(self, q: int) -> Terms:
+        """The view of spec number `q` (its channel, its own names)."""
+        view = Terms(self.v, self.c, self.rate, self.shape, self.specs)
+        view.q, view.i = q, self.specs[q][1]
+        return view
 
-    def _Z(self, k):
-        return getattr(self.v, f"Z{k if self.scheduled else 0}")
-
+    # -- degree zero -------------------------------------------------------
     def identity(self, size):
         """``I`` (degree zero)."""
         return self.c.const * np.eye(size)
@@ -73,26 +97,51 @@ class Terms:
         """A parameter-independent variable such as ``g I`` or ``Y``."""
         return self.c.const * expression
 
+    def decay(self):
+        """The stage variable ``t`` (the decay the stabilization stage
+        maximises)."""
+        return self._get("t")[0, 0]
+
+    # -- the Lyapunov matrix and the gains ---------------------------------
+    def _get(self, name):
+        return getattr(self.v, name)
+
+    def _W(self, index):
+        return self._get(f"W{index}")
+
+    def _Z(self, k):
+        return self._get(f"Z{k if self.shape.scheduled else 0}")
+
     def W(self):
         """``W(delta)``."""
-        return sum(self._W(self.lyap.index[j]) for j in self.c.linear)
+        return sum(self._W(self.shape.lyap.index[j]) for j in self.c.linear)
 
     def W_moved(self):
         """``dW/dt`` (continuous) or ``W(p + dp)`` (discrete) at the rate."""
         out = 0
         for j in self.c.linear:
-            for index, factor in step_terms(self.lyap, j, self.rate, self.continuous):
+            for index, factor in step_terms(
+                self.shape.lyap, j, self.rate, self.shape.continuous
+            ):
                 out = out + factor * self._W(index)
         if isinstance(out, int):
             return np.zeros((self.n, self.n))
         return out
 
-    def _product(self, left, right):
+    def _vertex(self, key, j):
+        if key in ("B2", "Dzu", "eB2", "eDzu") and not self.m:
+            return None  # no control input (an analysis)
+        i = self.i if key in ("Cz", "Dzu", "Bw", "Dzw", "eCz", "eDzu") else None
+        return self._get(names.data(key, j, i))
+
+    def _product(self, left, right, slack=False):
         out = 0
         for j, k in self.c.bilinear:
-            term = self.d[j][left] @ self._W(self.lyap.index[k])
-            if self.m:
-                term = term + self.d[j][right] @ self._Z(k)
+            X = self._get("G") if slack else self._W(self.shape.lyap.index[k])
+            term = self._vertex(left, j) @ X
+            B = self._vertex(right, j)
+            if B is not None:
+                term = term + B @ self._Z(k)
             out = out + term
         return out
 
@@ -100,75 +149,89 @@ class Terms:
         """``A(delta) W(delta) + B2(delta) Z(delta)``, i.e. ``A_cl W``."""
         return self._product("A", "B2")
 
-    @property
-    def slack(self) -> bool:
-        """Whether the LMIs are the extended ones, with the slack ``G``."""
-        return hasattr(self.v, "G")
-
-    def G(self):
-        """The slack matrix (parameter-independent)."""
-        return self.c.const * self.v.G
-
-    def eps(self):
-        """The scalar of the continuous-time extended LMIs."""
-        return self.v.eps
-
-    def _slack_product(self, left, right):
-        out = 0
-        for j, k in self.c.bilinear:
-            out = out + self.d[j][left] @ self.v.G + self.d[j][right] @ self._Z(k)
-        return out
-
-    def AG(self):
-        """``A(delta) G + B2(delta) Z``, i.e. ``A_cl G`` (common gain)."""
-        return self._slack_product("A", "B2")
-
-    def CG(self, spec):
-        """``Cz(delta) G + Dzu(delta) Z``, i.e. ``C_cl G``."""
-        i = self.specs[spec]
-        return self._slack_product((i, "Cz"), (i, "Dzu"))
-
-    def CW(self, spec):
+    def CW(self):
         """``Cz(delta) W(delta) + Dzu(delta) Z(delta)``, i.e. ``C_cl W``."""
-        i = self.specs[spec]
-        return self._product((i, "Cz"), (i, "Dzu"))
+        return self._product("Cz", "Dzu")
+
+    def Z(self):
+        """The gain variable ``Z(delta)``: one per vertex when scheduled
+        (degree one), else constant (degree zero)."""
+        if self.shape.scheduled:
+            return sum(self._get(f"Z{j}") for j in self.c.linear)
+        return self.c.const * self._get("Z0")
 
     def B2(self):
         """``B2(delta)`` (degree one)."""
-        return sum(self.d[j]["B2"] for j in self.c.linear)
+        return sum(self._vertex("B2", j) for j in self.c.linear)
 
-    def linear(self, name):
-        """A gain-like variable (``Z``, ``Zg``): one per vertex when scheduled
-        (degree one), else constant (degree zero)."""
-        if self.scheduled:
-            return sum(getattr(self.v, f"{name}{j}") for j in self.c.linear)
-        return self.c.const * getattr(self.v, f"{name}0")
+    # -- the extended LMIs -------------------------------------------------
+    @property
+    def slack(self) -> bool:
+        """Whether the LMIs are the extended ones, with the slack ``G``."""
+        return self.shape.slack
 
-    def prescaled(self, spec):
-        """A spec's constants in prescaled units."""
-        return self.scaled[id(spec)]
+    def G(self):
+        """The slack matrix (parameter-independent)."""
+        return self.c.const * self._get("G")
 
-    def data(self, spec, key):
-        """A channel's datum (``"Bw"``, ``"Dzw"``) as a degree-one sum."""
-        i = self.specs[spec]
-        return sum(self.d[j][(i, key)] for j in self.c.linear)
+    def eps(self):
+        """The scalar of the continuous-time extended LMIs."""
+        return self._get("eps")
 
-    def nw(self, spec):
-        """Number of exogenous inputs of a spec."""
-        return self.d[0][(self.specs[spec], "Bw")].shape[1]
+    def AG(self):
+        """``A(delta) G + B2(delta) Z``, i.e. ``A_cl G`` (common gain)."""
+        return self._product("A", "B2", slack=True)
 
-    def nz(self, spec):
-        """Number of performance outputs of a spec."""
-        return self.d[0][(self.specs[spec], "Cz")].shape[0]
+    def eps_AG(self):
+        """``eps A_cl G`` (the products with ``eps`` are parameters)."""
+        return self._product("eA", "eB2", slack=True)
 
-    def rho(self, spec):
-        """Weight of the identity block of a spec's exogenous input."""
-        return self.weights[self.specs[spec]]
+    def CG(self):
+        """``Cz(delta) G + Dzu(delta) Z``, i.e. ``C_cl G``."""
+        return self._product("Cz", "Dzu", slack=True)
 
-    def g(self, spec):
-        """The spec's squared bound variable."""
-        return getattr(self.v, f"g{self.specs[spec]}")
+    def eps_CG(self):
+        """``eps C_cl G``."""
+        return self._product("eCz", "eDzu", slack=True)
 
-    def Y(self, spec):
-        """The H2 spec's trace variable."""
-        return getattr(self.v, f"Y{self.specs[spec]}")
+    # -- the bound spec's channel and its own names -------------------------
+    def data(self, key):
+        """The channel's datum (``"Bw"``, ``"Dzw"``) as a degree-one sum."""
+        return sum(self._vertex(key, j) for j in self.c.linear)
+
+    def nw(self) -> int:
+        """Number of exogenous inputs of the channel."""
+        return self.shape.channel_sizes[self.i][0]
+
+    def nz(self) -> int:
+        """Number of performance outputs of the channel."""
+        return self.shape.channel_sizes[self.i][1]
+
+    def rho(self):
+        """Weight of the identity block of the channel's ``w``."""
+        return self._get(f"rho{self.i}")
+
+    def g(self):
+        """The channel's squared-bound variable."""
+        return self._get(f"g{self.i}")
+
+    def var(self, name):
+        """The spec's own variable or parameter `name`."""
+        return self._get(names.local(self.q, name))
+
+    def local_linear(self, name):
+        """A spec's gain-like variable ``name{k}`` (as `Z`)."""
+        if self.shape.scheduled:
+            return sum(self.var(f"{name}{j}") for j in self.c.linear)
+        return self.c.const * self.var(f"{name}0")
+
+    def disturbances(self) -> list:
+        """The peak-bounded disturbances of the other specs (see
+        `~ctrl_lpv.synthesis.spec.Spec.disturbance`)."""
+        out = []
+        for q, (spec, _) in enumerate(self.specs):
+            if q != self.q:
+                found = spec.disturbance(self.bind(q))
+                if found is not None:
+                    out.append(found)
+        return out

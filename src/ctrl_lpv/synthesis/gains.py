@@ -1,0 +1,122 @@
+"""The gain steps of a rung: the smallest gain, the convex-concave steps.
+
+A mixin of `~ctrl_lpv.synthesis.stages.Rung` (its problem, frame, LMIs,
+`solve` and `accept`). The gain ``K = -Z X^-1`` is bounded through the
+tangent linearisation of ``(T X)'(T X)`` (sufficient everywhere, exact at
+the linearisation point; `~ctrl_lpv.synthesis.problem.gain_tangent_blocks`):
+at a point of the margin's order for the back-off's one solve ("gain",
+prescaled units), at the previous point for a convex-concave step
+("bounded", the model's units, which a `GainBound` imposes).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+# Convex-concave steps under a gain bound, and the relative decrease of
+# the squared gain below which they stop.
+GAIN_ITERATIONS = 4
+GAIN_RTOL = 0.05
+# W <= w_max I far above a point's W, where W is free (scaled units).
+W_SPAN = 1e6
+W_FREE = 1e6
+
+
+class GainSteps:
+    """The gain steps (see the module docstring)."""
+
+    def _smallest_gain(self, proof=False):
+        """One solve of the smallest gain under the stage's bounds.
+
+        The squared prescaled gain norm is bounded by its tangent
+        linearisation at ``W0 = 2 margin I`` (`_tangent`): sufficient
+        everywhere, exact at ``W0``, its domain ``W >= margin I`` (what the
+        strict ``W > 0`` asks anyway). Far above ``W0`` it bounds the gain
+        on the Lyapunov ellipsoid, which a larger ``W`` relaxes: the
+        minimisation keeps ``W`` large and well conditioned and the gain
+        small, with ``W`` free (``W <= w_max I`` far above). Returns the
+        verified point, or None.
+        """
+        if not self.structure.nZ:
+            return None
+        self.lmi.set_parameter("w_max", W_FREE)
+        self._tangent(2 * self.margin * np.eye(self.structure.n), None, "gain")
+        sol = self.solve("gain", _kappa, proof=proof)
+        return self.accept(sol, "back-off (smallest gain)")
+
+    def _tangent(self, W0, kappa0, stage) -> None:
+        """Linearise the gain bound at the scaled ``W0`` (see
+        `~ctrl_lpv.synthesis.problem.gain_tangent_blocks`).
+
+        The "bounded" stage bounds the gain in the model's units, the
+        "gain" stage in the prescaled ones, where the tangent's domain is
+        the plain ``W >= W0 / 2``. `kappa0`, which makes ``kappa`` of order
+        one, is the squared gain at the previous point where there is one;
+        else that of a unit prescaled gain over ``2 lambda_max(W0)``: far
+        above ``W0`` the linearised bound grows like ``2 W0 W`` where the
+        true one grows like ``W^2``, and W is of order one in prescaled
+        units.
+        """
+        sc = self.frame.scaling
+        bounded = stage == "bounded"
+        Ginv = np.linalg.inv(sc.matrix @ W0 if bounded else W0)
+        if kappa0 is None:
+            unit = np.max(sc.Su) * np.linalg.norm(np.linalg.inv(sc.matrix), 2)
+            unit = unit if bounded else 1.0
+            kappa0 = float(unit) ** 2 / (2 * float(np.linalg.eigvalsh(W0)[-1]))
+        self.lmi.set_parameter("gain_Ginv", Ginv)
+        self.lmi.set_parameter("gain_Ginv_K", Ginv / np.sqrt(kappa0))
+        if bounded:
+            # Never above the previous point's gain, and a gain bound.
+            limit = self.problem.gain_limit
+            ratio = 1.0 if limit is None else min(limit / np.sqrt(kappa0), 1.0)
+            self.lmi.set_parameter("kappa_max", ratio**2)
+        return kappa0
+
+    def _gain_bound(self, best, gamma_opt, refine=False):
+        """Convex-concave steps of the gain norm from a certified point.
+
+        Each linearises ``||K_k||^2 <= kappa`` (model units) at the
+        previous point (exact there, sufficient everywhere) and re-solves:
+        one step to `refine` a back-off point, and under a gain bound until
+        the squared gain improves by less than `GAIN_RTOL` (a design whose
+        gain stays above the bound is not returned).
+        """
+        limit = self.problem.gain_limit
+        steps = GAIN_ITERATIONS if limit is not None else int(refine)
+        if not self.structure.nZ:
+            steps = 0
+        for _ in range(steps):
+            kappa0 = max(float(np.linalg.norm(K, 2)) ** 2 for K in best.gains)
+            if kappa0 == 0.0:
+                break
+            W0 = _W(best)
+            # No bound on W here (W <= w_max I far above the point's).
+            self.lmi.set_parameter("w_max", W_SPAN * float(np.linalg.eigvalsh(W0)[-1]))
+            self._tangent(W0, kappa0, "bounded")
+            candidate = self.accept(self.solve("bounded", _kappa), "gain stage")
+            if candidate is None:
+                break
+            best = candidate
+            if float(candidate.solution.kappa[0, 0]) > 1 - GAIN_RTOL:
+                break
+        if limit is None:
+            return best, gamma_opt
+        worst = max(np.linalg.norm(K, 2) for K in best.gains)
+        if worst > limit:
+            self.notes.append(
+                f"final point: gain norm {worst:.4g} above the bound (gain_bound "
+                f"{limit:g})"
+            )
+            return None
+        final = self.accept(best.solution, "final point", final=True, frame=best.frame)
+        return None if final is None else (final, gamma_opt)
+
+
+def _W(point):
+    """A point's constant ``W`` (prescaled units)."""
+    return point.solution.W0
+
+
+def _kappa(v):
+    return v.kappa[0, 0]
