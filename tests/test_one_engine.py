@@ -57,11 +57,11 @@ def polytope(seed, n, N, m=1, spread=0.05):
 
 
 def corpus():
-    sizes = [(2, 2), (2, 8), (3, 4), (4, 5), (5, 3), (6, 6)]
+    sizes = [(2, 2), (2, 8), (3, 4), (4, 5), (5, 3), (6, 2)]
     out = []
     for seed, (n, N) in itertools.product((0, 1), sizes):
         for scheduled, hinf in itertools.product((False, True), repeat=2):
-            if scheduled and n * N > 30:
+            if scheduled and n * N > 16:
                 continue
             key = seed + n + N + 2 * scheduled + hinf
             kw = {"u": ["u0"]}
@@ -71,7 +71,7 @@ def corpus():
                 kw["regions"] = [lpv.halfplane(0.1)]
             if key % 4 == 1:
                 kw["gain_bound"] = 50.0
-            for backoff in (None, 0.2) if hinf else (0.2,):
+            for backoff in (None, 0.2) if hinf and seed == 0 else (0.2,):
                 if hinf:
                     kw = kw | {"backoff": backoff}
                 out.append(pytest.param(
@@ -144,7 +144,7 @@ def compare(old, new, kw):
         assert new.gamma <= max(old.gamma, new.gamma_opt) * (1 + 1e-4)
 
 
-@pytest.mark.slow  # about 30 CPU minutes: both engines on every problem
+@pytest.mark.slow  # about 15 CPU minutes: both engines on every problem
 @pytest.mark.parametrize(("system", "scheduled", "hinf", "kw"), corpus())
 def test_old_and_new_paths_agree(system, scheduled, hinf, kw):
     sys = polytope(*system)

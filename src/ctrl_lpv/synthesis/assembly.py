@@ -231,6 +231,7 @@ def build(s: Structure) -> Compiled:
                 v.W,
                 getattr(v, f"Z{k}"),
                 v.gain_Ginv,
+                np.eye(n),
                 v.gain_Ginv_K,
                 v.kappa[0, 0],
                 scales["T"],

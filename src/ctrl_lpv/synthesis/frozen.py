@@ -16,7 +16,6 @@ import numpy as np
 
 from .parametric import step_terms
 from .results import Certificate
-from .spec import lyapunov_residual
 from .terms import names
 
 _VERIFY_SAMPLES = 64
@@ -113,23 +112,35 @@ class Here:
         return items[0]
 
 
-def _moved(problem, lyap, frame, Ws, delta, p, rate):
-    """``dW/dt`` (continuous) or ``W`` at the next sample, model units."""
-    sc = frame.scaling
+def _moved(problem, lyap, Ws, delta, p, rate):
+    """``dW/dt`` (continuous) or ``W`` at the next sample, prescaled units
+    (`rate` prescaled, ``p`` the model's parameter)."""
     N = len(delta)
     if problem.continuous:
         dW = np.zeros_like(Ws[0])
         for j in range(N):
             for w, f in step_terms(lyap, j, rate, True):
                 dW = dW + delta[j] * f * Ws[w]
-        return sc.unscale_W(dW)
+        return dW
     nxt = delta
     if p is not None and not lyap.constant:
         domain = problem.plant.system.domain
         nxt = domain._weights(np.clip(p + rate, domain.lower, domain.upper))
-    return sc.unscale_W(
-        np.tensordot(nxt, np.stack([Ws[lyap.index[j]] for j in range(N)]), axes=1)
-    )
+    return np.tensordot(nxt, np.stack([Ws[lyap.index[j]] for j in range(N)]), axes=1)
+
+
+def _dual_lyapunov(Acl, W, W_moved, continuous) -> float:
+    """``lambda_max(A W + W A' - dW/dt)`` (``A W A' - W+``) over ``||W||``.
+
+    In the prescaled units, where ``W`` is the solver's: the margin of the
+    LMIs shows here, where the primal form with an ill-conditioned ``P``
+    (`lyapunov_residual`) may round it away.
+    """
+    if continuous:
+        M = Acl @ W + W @ Acl.T - W_moved
+    else:
+        M = Acl @ W @ Acl.T - W_moved
+    return float(np.linalg.eigvalsh(0.5 * (M + M.T))[-1] / np.linalg.norm(W, 2))
 
 
 def verify_frozen(problem, shape, frame, values, gains, bounds, margin, checks,
@@ -162,6 +173,7 @@ def verify_frozen(problem, shape, frame, values, gains, bounds, margin, checks,
         points (`~ctrl_lpv.synthesis.spec.Spec.reported`).
     """
     sc, lyap = frame.scaling, problem.lyap
+    Ti = np.linalg.inv(sc.matrix)
     plant = problem.plant
     worst_eig = worst_lyap = worst_spec = -np.inf
     Ws = [values[f"W{e}"] for e in range(lyap.count)]
@@ -193,8 +205,10 @@ def verify_frozen(problem, shape, frame, values, gains, bounds, margin, checks,
             fields |= spec.loop_fields(here)
         P = sc.unscale_P(np.linalg.inv(W_here))
         W = sc.unscale_W(W_here)
+        Acl_scaled = Ti @ Acl @ sc.matrix / sc.a
         for rate in shape.lyap.rates:
-            W_moved = _moved(problem, shape.lyap, frame, Ws, delta, p, rate)
+            W_moved_scaled = _moved(problem, shape.lyap, Ws, delta, p, rate)
+            W_moved = sc.unscale_W(W_moved_scaled)
             if problem.continuous:
                 # d(W^-1)/dt = -W^-1 (dW/dt) W^-1.
                 P_moved = -P @ W_moved @ P
@@ -213,7 +227,8 @@ def verify_frozen(problem, shape, frame, values, gains, bounds, margin, checks,
                         Dzw=mix(c.Dzw), bound=bounds[i],
                     )  # fmt: skip
                 worst_spec = max(worst_spec, spec.residual(channel, problem.continuous))
-            worst_lyap = max(worst_lyap, lyapunov_residual(loop, problem.continuous))
+            worst_lyap = max(worst_lyap, _dual_lyapunov(
+                Acl_scaled, W_here, W_moved_scaled, problem.continuous))  # fmt: skip
         for q, spec in enumerate(problem.specs):
             value = spec.reported(P)
             if value is not None:

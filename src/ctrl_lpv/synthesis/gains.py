@@ -48,30 +48,27 @@ class GainSteps:
         """Linearise the gain bound at the scaled ``W0`` (see
         `~ctrl_lpv.synthesis.problem.gain_tangent_blocks`).
 
-        The "bounded" stage bounds the gain in the model's units, the
-        "gain" stage in the prescaled ones, where the tangent's domain is
-        the plain ``W >= W0 / 2``. `kappa0`, which makes ``kappa`` of order
-        one, is the squared gain at the previous point where there is one;
-        else that of a unit prescaled gain over ``2 lambda_max(W0)``: far
-        above ``W0`` the linearised bound grows like ``2 W0 W`` where the
-        true one grows like ``W^2``, and W is of order one in prescaled
-        units.
+        The "bounded" stage bounds the gain in the model's units, at the
+        previous point, whose squared gain is `kappa0` (``kappa`` is
+        relative to it); the "gain" stage the prescaled gain, at ``W0 = w0
+        I`` (`kappa0` None), where the tangent's domain is ``W >= w0 / 2``.
         """
-        sc = self.frame.scaling
-        bounded = stage == "bounded"
-        Ginv = np.linalg.inv(sc.matrix @ W0 if bounded else W0)
+        n = W0.shape[0]
         if kappa0 is None:
-            unit = np.max(sc.Su) * np.linalg.norm(np.linalg.inv(sc.matrix), 2)
-            unit = unit if bounded else 1.0
-            kappa0 = float(unit) ** 2 / (2 * float(np.linalg.eigvalsh(W0)[-1]))
-        self.lmi.set_parameter("gain_Ginv", Ginv)
-        self.lmi.set_parameter("gain_Ginv_K", Ginv / np.sqrt(kappa0))
-        if bounded:
+            w0 = float(np.linalg.eigvalsh(W0)[-1])
+            H, C, HK = np.eye(n), w0 * np.eye(n), np.eye(n)
+        else:
+            sc = self.frame.scaling
+            matrix = sc.matrix if stage == "bounded" else np.eye(n)
+            H, C = np.linalg.inv(matrix @ W0), np.eye(n)
+            HK = H / np.sqrt(kappa0)
+        for name, value in (("gain_H", H), ("gain_C", C), ("gain_HK", HK)):
+            self.lmi.set_parameter(name, value)
+        if stage == "bounded":
             # Never above the previous point's gain, and a gain bound.
             limit = self.problem.gain_limit
             ratio = 1.0 if limit is None else min(limit / np.sqrt(kappa0), 1.0)
             self.lmi.set_parameter("kappa_max", ratio**2)
-        return kappa0
 
     def _gain_bound(self, best, gamma_opt, refine=False):
         """Convex-concave steps of the gain norm from a certified point.

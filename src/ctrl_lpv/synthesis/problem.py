@@ -258,8 +258,8 @@ def _declarations(problem: Problem, s: Structure) -> _Declarations:
     d.parameter("w_max", (), nonneg=True)
     d.parameter("z_max", (), nonneg=True)
     if s.nZ:
-        d.parameter("gain_Ginv", (n, n))
-        d.parameter("gain_Ginv_K", (n, n))
+        for name in ("gain_H", "gain_C", "gain_HK"):
+            d.parameter(name, (n, n))
         d.parameter("kappa_max", (), nonneg=True)
     return d
 
@@ -373,8 +373,8 @@ def _inequalities(problem: Problem, s: Structure, zero, scales=None):
                                         ("bounded", scales, "")):  # fmt: skip
                 yield (f"||K{k}||^2 <= kappa{label}",
                        lambda v, k=k, X=X, units=units: gain_tangent_blocks(
-                           getattr(v, X), getattr(v, f"Z{k}"), v.gain_Ginv,
-                           v.gain_Ginv_K, v.kappa[0, 0], units["T"], units["Su"]),
+                           getattr(v, X), getattr(v, f"Z{k}"), v.gain_H, v.gain_C,
+                           v.gain_HK, v.kappa[0, 0], units["T"], units["Su"]),
                        False, (stage,), True)  # fmt: skip
         # Only with a gain bound (another stage): a cap far above every
         # gain would cost the solvers digits.
@@ -383,22 +383,26 @@ def _inequalities(problem: Problem, s: Structure, zero, scales=None):
                False, ("bounded",), True)  # fmt: skip
 
 
-def gain_tangent_blocks(X, Z, Ginv, Ginv_K, kappa, T, Su):
+def gain_tangent_blocks(X, Z, H, C, HK, kappa, T, Su):
     """``||K||^2 <= kappa kappa0`` for ``K = -Z X^-1``, linearised at ``X0``.
 
     With ``K = Su Z X^-1 T^-1`` in prescaled units, the bound is
     ``(Su Z)'(Su Z) <= kappa kappa0 (T X)'(T X)``, whose right side is
     bounded below by its tangent at ``G0 = T X0``, ``G0' T X + (T X)' G0 -
-    G0' G0`` (as ``(T X - G0)'(T X - G0) >= 0``); a Schur complement and
-    the congruence with ``G0^-1`` give the block returned, sufficient
-    everywhere and exact at ``X0``. ``Ginv`` and ``Ginv_K`` are ``G0^-1``
-    and ``G0^-1 / sqrt(kappa0)`` (parameters), `T` and `Su` the state and
+    G0' G0`` (as ``(T X - G0)'(T X - G0) >= 0``): sufficient everywhere
+    and exact at ``X0``. By a Schur complement and a congruence the block
+    returned, ``[[-(T X H + (T X H)' - C), *], [Su Z HK, -kappa I]] <= 0``,
+    is that bound for ``H = G0^-1``, ``C = I`` and ``HK = G0^-1 /
+    sqrt(kappa0)`` (well scaled where ``X0`` is the point's own ``X``),
+    or, at ``X0 = w0 I`` with ``T = I``, for ``H = I``, ``C = w0 I``, ``HK
+    = I`` and ``kappa0 = 1 / w0`` (well scaled where ``w0`` is far below
+    ``X``). ``H``, ``C``, ``HK`` are parameters, `T` and `Su` the state and
     input scalings as matrices (constants: a parameter on each side of a
     variable is not DPP).
     """
-    n, m = X.shape[0], Z.shape[0]
-    M = T @ X @ Ginv
-    return [[-(M + M.T - np.eye(n))], [Su @ Z @ Ginv_K, -kappa * np.eye(m)]]
+    m = Z.shape[0]
+    M = T @ X @ H
+    return [[-(M + M.T - C)], [Su @ Z @ HK, -kappa * np.eye(m)]]
 
 
 @dataclass
@@ -461,8 +465,8 @@ def load(compiled: Compiled, problem: Problem, s: Structure, frame, margin) -> d
     lmi.set_parameter("w_max", 1.0)
     lmi.set_parameter("z_max", 1.0)
     if s.nZ:
-        lmi.set_parameter("gain_Ginv", np.eye(s.n))
-        lmi.set_parameter("gain_Ginv_K", np.eye(s.n))
+        for name in ("gain_H", "gain_C", "gain_HK"):
+            lmi.set_parameter(name, np.eye(s.n))
         lmi.set_parameter("kappa_max", 1.0)
     return data
 

@@ -320,7 +320,10 @@ class Rung(GainSteps):
             return None
         points = [(raw, self.frame)]
         raw_design = self.accept(raw, "raw optimum")
-        if raw_design is None or self.margin > MARGIN_FRACTION * g_opt:
+        # Not certified at the nominal margin (a larger one costs the bound
+        # what it costs the LMIs), or a margin that shifts the bound.
+        failed = raw_design is None or raw.nominal is not None
+        if failed or self.margin > MARGIN_FRACTION * g_opt:
             # Posed again with the bound of order one, where that changes
             # the scaling (W and Z do not depend on z's).
             frame = self.frame
