@@ -1,14 +1,15 @@
 """One engine (issue 20): the paper's functions through the general engine.
 
-The gate of the paper engine's deletion: on a fuzz corpus of random
-stabilizable polytopes (several seeds, n = 2..6, N = 2..8, common and
-scheduled gains, with and without an H-infinity objective, with a pole
-region and a gain bound) and the two-mass model of the paper, the old
-path (`ctrl_lpv.synthesis.ladder.run_ladder`) and the new one (the public
-functions) give the same verdicts, the same optimum (``gamma_opt``, an
-estimate from above, within 1e-4; the new one may only be lower) and a
-certified gamma within the back-off; every new design is checked against
-its plant (closed-loop eigenvalues, python-control's H-infinity norms).
+The paper engine is gone; these tests hold the general engine to what the
+old-versus-new comparison gated on a fuzz corpus (random stabilizable
+polytopes, several seeds, n = 2..6, N = 2..8, common and scheduled gains,
+with and without an H-infinity objective, with a pole region and a gain
+bound, and the two-mass model), now against independent facts: the
+closed-loop eigenvalues and python-control's H-infinity norms of the
+frozen loops, each vertex's H-infinity Riccati optimum (a lower bound of
+every polytopic bound, and the optimum itself for one vertex), the
+regions' eigenvalue statements and the gain bound. The whole corpus runs
+with ``-m slow``; a few of its problems by default.
 """
 
 import itertools
@@ -18,7 +19,8 @@ import numpy as np
 import pytest
 
 import ctrl_lpv as lpv
-from ctrl_lpv import twomass
+from _independent import hinf_riccati
+from ctrl_lpv import synthesis_cache, twomass
 
 FUNCTIONS = {
     (False, False): lpv.quadratic_stabilization,
@@ -34,36 +36,38 @@ METHODS = {
 }
 
 
-def polytope(seed, n, N, m=1, spread=0.05):
+def polytope(seed, n, N, spread=0.05):
     """Random vertices around one random (A0, B0): stabilizable, most of
-    them unstable; z = [c x; 0.1 u]."""
-    rng = np.random.default_rng([seed, n, N, m])
+    them unstable; w enters by B1, z = [c x; 0.1 u] (so that each vertex
+    has an H-infinity Riccati optimum)."""
+    rng = np.random.default_rng([seed, n, N, 1])
     A0 = rng.standard_normal((n, n))
-    B0 = rng.standard_normal((n, m))
+    B0 = rng.standard_normal((n, 1))
     Bw = rng.standard_normal((n, 1))
-    C = np.vstack([rng.standard_normal((1, n)), np.zeros((m, n))])
-    D = np.hstack(
-        [np.zeros((1 + m, 1)), np.vstack([np.zeros((1, m)), 0.1 * np.eye(m)])]
-    )
+    C = np.vstack([rng.standard_normal((1, n)), np.zeros((1, n))])
+    D = np.array([[0.0, 0.0], [0.0, 0.1]])
     vertices = []
     for _ in range(N):
         A = A0 + spread * rng.standard_normal((n, n))
-        B2 = B0 + 0.1 * spread * rng.standard_normal((n, m))
+        B2 = B0 + 0.1 * spread * rng.standard_normal((n, 1))
         vertices.append(ct.ss(A, np.hstack([Bw, B2]), C, D))
     return lpv.PolytopicStateSpace(
-        vertices, inputs=["w"] + [f"u{i}" for i in range(m)],
-        outputs=["e"] + [f"v{i}" for i in range(m)], name=f"p{seed}_{n}_{N}",
-    )  # fmt: skip
+        vertices, inputs=["w", "u0"], outputs=["e", "v0"], name=f"p{seed}_{n}_{N}"
+    )
 
 
-def corpus():
-    sizes = [(2, 2), (2, 8), (3, 4), (4, 5), (5, 3), (6, 2)]
+def corpus(fast=False):
+    sizes = [(2, 1), (2, 2), (2, 8), (3, 4), (4, 5), (5, 3), (6, 2)]
     out = []
     for seed, (n, N) in itertools.product((0, 1), sizes):
+        if (seed, n, N) == (0, 6, 2):
+            continue  # no certified design, in the old engine as in this one
         for scheduled, hinf in itertools.product((False, True), repeat=2):
             if scheduled and n * N > 16:
                 continue
             key = seed + n + N + 2 * scheduled + hinf
+            if fast and key % 5:
+                continue
             kw = {"u": ["u0"]}
             if hinf:
                 kw.update(w=["w"], z=["e", "v0"])
@@ -71,33 +75,21 @@ def corpus():
                 kw["regions"] = [lpv.halfplane(0.1)]
             if key % 4 == 1:
                 kw["gain_bound"] = 50.0
-            for backoff in (None, 0.2) if hinf and seed == 0 else (0.2,):
+            for backoff in (None, 0.2) if hinf else (0.2,):
                 if hinf:
                     kw = kw | {"backoff": backoff}
-                out.append(pytest.param(
-                    (seed, n, N), scheduled, hinf, kw,
-                    id=f"{seed}-{n}-{N}-{METHODS[scheduled, hinf]}-"
-                       f"{'-'.join(k for k in ('regions', 'gain_bound') if k in kw)}"
-                       f"-{backoff}",
-                ))  # fmt: skip
+                tags = "-".join(k for k in ("regions", "gain_bound") if k in kw)
+                name = f"{seed}-{n}-{N}-{METHODS[scheduled, hinf]}-{tags}-{backoff}"
+                out.append(pytest.param((seed, n, N), scheduled, hinf, kw, id=name))
     return out
 
 
-def old_path(sys, scheduled, hinf, kw):
-    from ctrl_lpv.synthesis.ladder import run_ladder
-
-    return run_ladder(
-        sys, kw.get("w"), kw["u"], kw.get("z"), METHODS[scheduled, hinf], scheduled,
-        kw.get("gamma"), kw.get("regions", ()), kw.get("backoff", 0.2),
-        kw.get("gain_bound"), 1e-6, None, None, hinf=hinf,
-    )  # fmt: skip
-
-
-def outcome(call):
-    try:
-        return call(), None
-    except lpv.SynthesisError as exc:
-        return None, exc
+def vertex_optima(sys):
+    """Each vertex's H-infinity Riccati optimum (state feedback)."""
+    out = []
+    for A, B, C, D in sys.vertex_data():
+        out.append(hinf_riccati(A, B[:, :1], B[:, 1:], C, D[:, 1:])[0])
+    return np.array(out)
 
 
 def check_against_the_plant(sys, design, kw):
@@ -105,6 +97,7 @@ def check_against_the_plant(sys, design, kw):
     and the centre, the regions' eigenvalue statements, the gain bound."""
     iu = [sys.physical_inputs.index(u) for u in kw["u"]]
     N = sys.nvertices
+    norms = []
     for delta in [*np.eye(N), np.full(N, 1.0 / N)]:
         A, B, C, D = (sum(d * M for d, M in zip(delta, Ms))
                       for Ms in zip(*sys.vertex_data()))  # fmt: skip
@@ -118,53 +111,82 @@ def check_against_the_plant(sys, design, kw):
             iz = [sys.output_labels.index(z) for z in kw["z"]]
             closed = ct.ss(A - B[:, iu] @ K, B[:, iw], C[iz] - D[np.ix_(iz, iu)] @ K,
                            D[np.ix_(iz, iw)])  # fmt: skip
-            assert ct.linfnorm(closed)[0] <= design.gamma * (1 + 1e-9)
+            norms.append(ct.linfnorm(closed)[0])
+    if norms:
+        assert max(norms) <= design.gamma * (1 + 1e-9)
     if "gain_bound" in kw:
         assert max(np.linalg.norm(K, 2) for K in design.gains) <= kw["gain_bound"]
 
 
-def compare(old, new, kw):
-    assert new.method == old.method
-    assert new.certificate.verified
-    if old.gamma is None:
-        assert new.gamma is None
-        return
-    # Both estimate the same infimum from above: the new one never above
-    # the old one by more than the solvers' tolerance.
-    assert new.gamma_opt <= old.gamma_opt * (1 + 1e-4)
-    assert new.gamma_opt >= old.gamma_opt * (1 - 2e-3)
+def check_bounds(sys, design, kw):
+    """``gamma_opt`` never below any vertex's optimum, the optimum itself
+    for a single vertex; ``gamma`` within the back-off."""
+    optima = vertex_optima(sys)
+    assert design.gamma_opt >= optima.max() * (1 - 1e-6)
+    if sys.nvertices == 1 and not kw.get("regions"):
+        assert design.gamma_opt == pytest.approx(optima[0], rel=1e-4)
     backoff = kw.get("backoff", 0.2)
-    if backoff:
-        assert new.gamma <= (1 + backoff) * new.gamma_opt * (1 + 1e-5)
-    elif "gain_bound" in kw:
-        # A gain bound the raw optimum breaks costs the default back-off.
-        assert new.gamma <= 1.2 * new.gamma_opt * (1 + 1e-5)
+    if backoff or "gain_bound" in kw:
+        # (A gain bound the raw optimum breaks costs the default back-off.)
+        assert design.gamma <= (1 + (backoff or 0.2)) * design.gamma_opt * (1 + 1e-5)
     else:
-        # The raw optimum, within the solvers' tolerance (a margin retry).
-        assert new.gamma <= max(old.gamma, new.gamma_opt) * (1 + 1e-4)
+        # The raw optimum, within a margin retry.
+        assert design.gamma <= design.gamma_opt * (1 + 1e-4)
 
 
-@pytest.mark.slow  # about 15 CPU minutes: both engines on every problem
-@pytest.mark.parametrize(("system", "scheduled", "hinf", "kw"), corpus())
-def test_old_and_new_paths_agree(system, scheduled, hinf, kw):
+def run(system, scheduled, hinf, kw):
     sys = polytope(*system)
-    old, old_error = outcome(lambda: old_path(sys, scheduled, hinf, kw))
-    new, new_error = outcome(lambda: FUNCTIONS[scheduled, hinf](sys, **kw))
-    assert (old is None) == (new is None), (old_error, new_error)
-    if new is not None:
-        compare(old, new, kw)
-        check_against_the_plant(sys, new, kw)
+    try:
+        design = FUNCTIONS[scheduled, hinf](sys, **kw)
+    except lpv.InfeasibleError:
+        # Only with the proof: a verified dual certificate, or a vertex
+        # that is not stabilizable (never, by construction).
+        raise
+    except lpv.CertificationError as exc:
+        # A gain bound the certificate could not reach, said so.
+        assert "gain_bound" in kw and "gain_bound" in str(exc), str(exc)
+        return
+    assert design.method == METHODS[scheduled, hinf]
+    assert design.certificate.verified
+    assert sorted(design.timing) == ["build", "compile", "solve", "verify"]
+    check_against_the_plant(sys, design, kw)
+    if hinf:
+        check_bounds(sys, design, kw)
+
+
+@pytest.mark.parametrize(("system", "scheduled", "hinf", "kw"), corpus(fast=True))
+def test_corpus_designs_hold_against_the_facts(system, scheduled, hinf, kw):
+    run(system, scheduled, hinf, kw)
+
+
+@pytest.mark.slow  # about 5 minutes: the whole corpus
+@pytest.mark.parametrize(("system", "scheduled", "hinf", "kw"), corpus())
+def test_whole_corpus_holds_against_the_facts(system, scheduled, hinf, kw):
+    run(system, scheduled, hinf, kw)
 
 
 @pytest.mark.parametrize("scheduled", [False, True])
-def test_two_mass_model_agrees(scheduled):
+def test_two_mass_model(scheduled):
     model = twomass.lpv_model(
         p_bounds=(-0.95, 0.0), formulation="tracking", integral=True
     )
     kw = {"w": ["Td"], "u": ["Tm"], "z": list(model.output_labels)}
-    old = old_path(model, scheduled, True, kw)
-    new = FUNCTIONS[scheduled, True](model, **kw)
-    compare(old, new, kw)
-    check_against_the_plant(model, new, kw)
-    if not scheduled:  # Lemma 2 on the two-mass model: gamma* as published (docs)
-        assert new.gamma_opt == pytest.approx(0.017015, rel=1e-4)
+    design = FUNCTIONS[scheduled, True](model, **kw)
+    assert design.certificate.verified
+    check_against_the_plant(model, design, kw)
+    assert design.gamma <= 1.2 * design.gamma_opt * (1 + 1e-5)
+    # gamma* of the tutorial and the errata (docs/twomass.rst), Lemma 2 and
+    # Theorem 2 alike (the optimal common gain schedules nothing).
+    assert design.gamma_opt == pytest.approx(0.017015, rel=1e-4)
+
+
+def test_second_identical_call_reuses_the_compiled_problem():
+    sys = polytope(0, 3, 4)
+    kw = {"w": ["w"], "u": ["u0"], "z": ["e", "v0"]}
+    synthesis_cache.clear()
+    first = lpv.gain_scheduled_hinf(sys, **kw)
+    again = lpv.gain_scheduled_hinf(sys, **kw)
+    assert first.timing["compile"] > 0 and again.timing["compile"] == 0.0
+    for a, b in zip(first.gains, again.gains):
+        np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-6 * np.abs(b).max())
+    synthesis_cache.clear()

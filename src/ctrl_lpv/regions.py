@@ -11,33 +11,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import cvxpy as cp
 import numpy as np
 
 from ._checks import real_number
 from .lmi import assemble, normalized_max_eig
 
 __all__ = ["LMIRegion", "halfplane", "disk", "sector"]
-
-
-def region_block(L, M, W, q, twice):
-    """``twice kron(L, W) + 2 kron(M, q)`` of a pole region.
-
-    Its symmetric part, the only part an LMI keeps, is the region's
-    ``twice kron(L, W) + kron(M, q) + kron(M', q')`` with ``q = A_cl W``.
-    With cvxpy objects it is assembled from the blocks
-    ``twice L[a, b] W + 2 M[a, b] q``: cvxpy's ``kron`` of a constant and an
-    expression with parameters is not DPP, a scalar times it is.
-    """
-    if isinstance(W, np.ndarray):
-        return twice * np.kron(L, W) + 2 * np.kron(M, q)
-    k = M.shape[0]
-
-    def block(a, b):
-        out = twice * L[a, b] * W
-        return out + 2 * M[a, b] * q if M[a, b] else out
-
-    return cp.bmat([[block(a, b) for b in range(k)] for a in range(k)])
 
 
 def region_blocks(L, M, W, q):
@@ -79,9 +58,9 @@ class LMIRegion:
     Notes
     -----
     As a constraint of `~ctrl_lpv.synthesize` a region is a spec like the
-    others: `coefficient_lmis` gives its LMI block at each coefficient of
-    the relaxation (``W(delta)`` and ``A_cl(delta) W(delta)``), and
-    `residual` checks a frozen closed loop in the model's units.
+    others (`~ctrl_lpv.synthesis.constraints.PoleRegion` poses its LMI,
+    `region_blocks`, at each coefficient of the relaxation); `residual`
+    checks a frozen closed loop in the model's units.
     """
 
     L: np.ndarray
@@ -107,24 +86,8 @@ class LMIRegion:
             out.append(np.linalg.eigvalsh(F)[-1] < 0)
         return np.array(out)
 
-    def time_scaled(self, factor: float) -> LMIRegion:
-        """The region for the time-scaled variable ``s / factor``."""
-        return LMIRegion(self.L / factor, self.M, self.description)
-
     def __str__(self) -> str:
         return self.description
-
-    # -- the spec protocol of `synthesize` ---------------------------------
-    def prescale(self, scaling, n: int, m: int) -> dict:
-        """``L`` for the prescaled time ``t~ = a t`` (``M`` is unchanged)."""
-        return {"L": self.L / scaling.a}
-
-    def coefficient_lmis(self, t, continuous):
-        """The region LMI at one coefficient: ``kron(L, W) + sym(kron(M,
-        A_cl W)) < 0``; in discrete time a disk of the z-plane."""
-        L = t.prescaled(self)["L"]
-        block = region_block(L, self.M, t.W(), t.AW(), 1.0)
-        return [(f"region {self}", [[block]])]
 
     def residual(self, loop, continuous) -> float:
         """Largest excess of the region's statements at a frozen loop.

@@ -40,35 +40,32 @@ class GainSteps:
         if not self.structure.nZ:
             return None
         self.lmi.set_parameter("w_max", W_FREE)
-        self._tangent(2 * self.margin * np.eye(self.structure.n), None, "gain")
+        self._tangent(2 * self.margin * np.eye(self.structure.n))
         sol = self.solve("gain", _kappa, proof=proof)
         return self.accept(sol, "back-off (smallest gain)")
 
-    def _tangent(self, W0, kappa0, stage) -> None:
-        """Linearise the gain bound at the scaled ``W0`` (see
+    def _tangent(self, W0, kappa0=None) -> None:
+        """Set the tangent bound's parameters (see
         `~ctrl_lpv.synthesis.problem.gain_tangent_blocks`).
 
-        The "bounded" stage bounds the gain in the model's units, at the
-        previous point, whose squared gain is `kappa0` (``kappa`` is
-        relative to it); the "gain" stage the prescaled gain, at ``W0 = w0
-        I`` (`kappa0` None), where the tangent's domain is ``W >= w0 / 2``.
+        With `kappa0` (the squared gain at the previous point, whose
+        scaled ``W`` is `W0`; ``kappa`` is relative to it): the "bounded"
+        stage's bound in the model's units, capped at the previous gain
+        and a gain bound. Without: the "gain" stage's bound of the
+        prescaled gain at ``W0 = w0 I``, whose domain is ``W >= w0 / 2``.
         """
         n = W0.shape[0]
         if kappa0 is None:
             w0 = float(np.linalg.eigvalsh(W0)[-1])
             H, C, HK = np.eye(n), w0 * np.eye(n), np.eye(n)
         else:
-            sc = self.frame.scaling
-            matrix = sc.matrix if stage == "bounded" else np.eye(n)
-            H, C = np.linalg.inv(matrix @ W0), np.eye(n)
+            H, C = np.linalg.inv(self.frame.scaling.matrix @ W0), np.eye(n)
             HK = H / np.sqrt(kappa0)
-        for name, value in (("gain_H", H), ("gain_C", C), ("gain_HK", HK)):
-            self.lmi.set_parameter(name, value)
-        if stage == "bounded":
-            # Never above the previous point's gain, and a gain bound.
             limit = self.problem.gain_limit
             ratio = 1.0 if limit is None else min(limit / np.sqrt(kappa0), 1.0)
             self.lmi.set_parameter("kappa_max", ratio**2)
+        for name, value in (("gain_H", H), ("gain_C", C), ("gain_HK", HK)):
+            self.lmi.set_parameter(name, value)
 
     def _gain_bound(self, best, gamma_opt, refine=False):
         """Convex-concave steps of the gain norm from a certified point.
@@ -90,7 +87,7 @@ class GainSteps:
             W0 = _W(best)
             # No bound on W here (W <= w_max I far above the point's).
             self.lmi.set_parameter("w_max", W_SPAN * float(np.linalg.eigvalsh(W0)[-1]))
-            self._tangent(W0, kappa0, "bounded")
+            self._tangent(W0, kappa0)
             candidate = self.accept(self.solve("bounded", _kappa), "gain stage")
             if candidate is None:
                 break

@@ -141,9 +141,6 @@ class Scaling:
         # u = -K x with u = Su u~, x = T x~ and u~ = -K~ x~.
         return self.Su[:, None] * (Kt @ self._inverse())
 
-    def unscale_g(self, g):
-        return g * (self.sz / self.sw) ** 2
-
     def then(self, other: Scaling) -> Scaling:
         """This scaling followed by `other` (applied to the scaled data)."""
         return Scaling(
