@@ -28,7 +28,9 @@ File format ``"ctrl_lpv.design/1"``, a JSON object:
     ``P`` and the claimed bounds with their specs, signal names (see
     `design_document`).
 ``certificate``
-    The certificate as it was when saved: informative only, never read.
+    The certificate as it was when saved (``summary`` and
+    `ctrl_lpv.certificate.Certificate.to_dict`: ``statement``,
+    ``verified``, ``checks``): informative only, never read.
 ``library``
     The ``ctrl_lpv`` version that wrote the file.
 
@@ -408,8 +410,8 @@ def save(design, path) -> Path:
         "plant": plant_document(design.system),
         "design": DESIGN_TYPES[kind][1](design),
         "certificate": {
-            "verified": bool(design.certificate.verified),
-            "summary": str(design.certificate),
+            "summary": design.certificate.summary,
+            **design.certificate.to_dict(),
         },  # fmt: skip
     }
     return write_json(path, document)

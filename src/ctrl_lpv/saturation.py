@@ -306,7 +306,7 @@ class SaturatedDesign:
             for j, K in enumerate(self.gains):
                 label = f"K[{j}]" if self.scheduled else "K"
                 lines.append(f"  {label} = {np.array2string(K, prefix='  K = ')}")
-        lines.append(f"  certificate: {self.certificate}")
+        lines.append(f"  certificate: {self.certificate.summary}")
         return "\n".join(lines)
 
 
@@ -1047,7 +1047,8 @@ def _finish(prob, s, sol, lam_t, nK, K_fixed, beta_opt, sigma):
     )
     if not certificate.verified:
         raise CertificationError(
-            f"saturation: the returned point failed its float64 checks ({certificate})",
+            f"saturation: the returned point failed its float64 checks "
+            f"({certificate.summary})",
             sol.attempts,
         )
     labels = prob["sys"].physical_inputs

@@ -14,8 +14,16 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ..certificate import Check, rounding_bound
 from .parametric import step_terms
-from .results import Certificate
+from .results import (
+    CLOSED_LOOP,
+    DESIGN_STATEMENT,
+    EIGENVALUES,
+    LYAPUNOV,
+    DesignCertificate,
+    residual_check,
+)
 from .specs import Stability
 
 _VERIFY_SAMPLES = 64
@@ -108,11 +116,17 @@ class FrozenLoop:
 def verify_frozen(job, sol, gains, values, Ws, Zs):
     """Frozen closed loops in the model's units at vertices and samples.
 
-    Returns the `Certificate` and, with a `Saturation` spec, the largest
-    ``x0' P x0`` over its points (None without one).
+    Returns the `DesignCertificate` and, with a `Saturation` spec, the
+    largest ``x0' P x0`` over its points (None without one).
     """
     sc, lyap = job.scaling, job.lyap
-    worst_eig = worst_lyap = worst_spec = -np.inf
+    # Worst (value, where) of each cross-check, by name.
+    worst = {}
+
+    def record(what, value, where, rounding=0.0):
+        if what not in worst or value - rounding > worst[what][0] - worst[what][2]:
+            worst[what] = (float(value), where, rounding)
+
     saturation = job.saturation
     if saturation is not None:
         Zgs, T_sector = saturation.unscale(sol, sc, len(Zs))
@@ -127,9 +141,8 @@ def verify_frozen(job, sol, gains, values, Ws, Zs):
             "mu_w": sc.a * np.asarray(sol.mu, float).ravel() * peak.weights(nw),
         }
     npoints = 0
-    performance = job.specs or [Stability()]
-    bounds = values or (None,)
     for delta, p in _points(job):
+        where = _where(job.sys, delta, p)
 
         def mix(items, delta=delta):
             return np.tensordot(delta, np.stack(items), axes=1)
@@ -147,8 +160,11 @@ def verify_frozen(job, sol, gains, values, Ws, Zs):
             K = gains[0]
         Acl = A - B2 @ K
         eig = np.linalg.eigvals(Acl)
-        worst_eig = max(worst_eig, (eig.real.max() if job.continuous
-                                    else np.abs(eig).max() - 1))  # fmt: skip
+        # ROUNDING n eps ||Acl|| marks the level below which the sign of a
+        # (non-normal) matrix's eigenvalue means nothing.
+        record(EIGENVALUES, eig.real.max() if job.continuous
+               else np.abs(eig).max() - 1, where,
+               rounding_bound(len(Acl), np.linalg.norm(Acl, 2)))  # fmt: skip
         sector = {}
         if peak is not None:
             Bd = mix([v[(ip, "Bw")] for v in job.original])
@@ -167,7 +183,7 @@ def verify_frozen(job, sol, gains, values, Ws, Zs):
                 P_moved = _sym_inv(W_moved) if not lyap.constant else P
             npoints += 1
             loop = FrozenLoop(A, B2, K, Acl, eig, P, P_moved, W, W_moved, **sector)
-            for i, (spec, bound) in enumerate(zip(performance, bounds)):
+            for i, (spec, bound) in enumerate(zip(job.specs, values)):
                 channel = loop
                 if not isinstance(spec, Stability):
                     Bw, Cz, Dzu, Dzw = (
@@ -177,21 +193,31 @@ def verify_frozen(job, sol, gains, values, Ws, Zs):
                     channel = replace(
                         loop, Bw=Bw, Cz=Cz - Dzu @ K, Dzw=Dzw, bound=bound
                     )
-                worst_spec = max(worst_spec, spec.residual(channel, job.continuous))
-            worst_lyap = max(worst_lyap, Stability().residual(loop, job.continuous))
+                record(str(spec), spec.residual(channel, job.continuous), where)
+            record(LYAPUNOV, Stability().residual(loop, job.continuous), where)
             for spec in job.constraints:
-                worst_spec = max(worst_spec, spec.residual(loop, job.continuous))
+                record(str(spec), spec.residual(loop, job.continuous), where)
         if saturation is not None and saturation.points:
             level = max(level or 0.0, saturation.level(P))
-    certificate = Certificate(
-        lmi_checks=sol.checks,
-        margin=job.lmi.margin,
-        max_closed_loop_real=float(worst_eig),
-        max_lyapunov_eig=float(worst_lyap),
-        npoints=npoints,
-        max_original_eig=float(worst_spec),
-    )
+    eig_value, eig_where, eig_rounding = worst.pop(EIGENVALUES)
+    units = "real part" if job.continuous else "modulus - 1"
+    checks = (
+        *(Check.from_lmi_check(c) for c in sol.checks),
+        Check(EIGENVALUES, eig_value, 0.0, True, eig_rounding, True, units,
+              eig_where, CLOSED_LOOP),
+        *(residual_check(what, value, where, cross_check=True)
+          for what, (value, where, _) in worst.items()),
+    )  # fmt: skip
+    certificate = DesignCertificate(checks, DESIGN_STATEMENT, job.lmi.margin, npoints)
     return certificate, level
+
+
+def _where(sys, delta, p) -> str:
+    """The label of a verification point: its parameter values (box) or
+    convex coordinates."""
+    if p is not None:
+        return ", ".join(f"{n} = {v:.6g}" for n, v in zip(sys.domain.names, p))
+    return "delta = [" + ", ".join(f"{d:.4g}" for d in delta) + "]"
 
 
 def _sym_inv(W):

@@ -552,7 +552,7 @@ class _Job:
         certificate, level = verify_frozen(self, sol, gains, values, Ws, Zs)
         if not certificate.verified:
             self.notes.append(
-                f"{label}: closed-loop verification failed ({certificate})"
+                f"{label}: closed-loop verification failed ({certificate.summary})"
             )
             return None
         budget.reached(

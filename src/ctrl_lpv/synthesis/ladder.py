@@ -303,7 +303,7 @@ class _Job:
         self.verifying += time.perf_counter() - started
         if not certificate.verified:
             self.notes.append(
-                f"{label}: closed-loop verification failed ({certificate})"
+                f"{label}: closed-loop verification failed ({certificate.summary})"
             )
             return None
         budget.reached(
