@@ -6,20 +6,24 @@ evaluated on float64 values: at the returned point (the certificate), and
 at the unit points of the variables, which give the affine map ``x ->
 F(x)`` that the conic backends pose (`columns`).
 
-`columns` reads the map in one evaluation per variable: a variable's unit
-points are stacked along a leading axis (`Batch`, whose ``.T`` and
-indexing act on the trailing axes), which numpy broadcasts through the
-products and sums of a block function. A block function written for one
-point may still not broadcast (a concatenation along a fixed axis, say):
-the batched map is therefore checked against a direct evaluation at a
-random point, and read one unit point at a time when it does not agree.
+`columns` reads the map in one evaluation: the unit points of the
+variables are stacked along a leading axis (`Batch`, whose ``.T``,
+indexing and a few numpy functions act on the trailing axes), which numpy
+broadcasts through the products and sums of a block function. A block
+function written for one point may still not broadcast (an operation on
+fixed axes, say): the batched map is therefore checked against a direct
+evaluation at a random point, and read one unit point at a time when it
+does not agree (logged at DEBUG on ``ctrl_lpv.lmi``).
 """
 
 from __future__ import annotations
 
+import logging
 from types import SimpleNamespace
 
 import numpy as np
+
+logger = logging.getLogger("ctrl_lpv.lmi")
 
 __all__ = ["Recording", "assemble", "columns", "normalized_max_eig", "unit_points"]
 
@@ -50,16 +54,15 @@ def assemble(blocks):
         Row ``i`` holds blocks ``(i, 0), ..., (i, i)``; entries above the
         diagonal may be omitted or ``None`` (symmetric completion). A scalar
         ``0`` is a zero block of the size implied by the diagonal blocks.
-        Blocks may carry leading (stack) axes, broadcast together.
+        Blocks may carry a leading stack axis (`Batch`).
 
     Returns
     -------
     ndarray
     """
     sizes = _sizes(blocks)
-    lead = np.broadcast_shapes(
-        *(np.shape(b)[:-2] for row in blocks for b in row if np.ndim(b) > 2)
-    )
+    stacks = [np.shape(b)[0] for row in blocks for b in row if isinstance(b, Batch)]
+    lead = (max(stacks),) if stacks else ()
 
     def block(i, j):
         item = blocks[i][j] if j <= i else blocks[j][i]
@@ -68,18 +71,19 @@ def assemble(blocks):
         item = np.asarray(item, float)
         if j > i:
             item = np.swapaxes(item, -1, -2)
-        return np.broadcast_to(item, lead + (sizes[i], sizes[j]))
+        if lead and item.ndim == 2:
+            item = np.broadcast_to(item, lead + item.shape)
+        return item
 
     if len(blocks) == 1:
         full = block(0, 0)
+    elif not lead:
+        full = np.block([[block(i, j) for j in range(len(blocks))]
+                         for i in range(len(blocks))])  # fmt: skip
     else:
-        full = np.concatenate(
-            [
-                np.concatenate([block(i, j) for j in range(len(blocks))], axis=-1)
-                for i in range(len(blocks))
-            ],
-            axis=-2,
-        )
+        rows = [np.concatenate([block(i, j) for j in range(len(blocks))], axis=-1)
+                for i in range(len(blocks))]  # fmt: skip
+        full = np.concatenate(rows, axis=-2)
     return 0.5 * (full + np.swapaxes(full, -1, -2))
 
 
@@ -116,10 +120,12 @@ def unit_points(shape, symmetric: bool) -> np.ndarray:
 class Batch(np.ndarray):
     """Values of one variable stacked along a leading axis.
 
-    Transposition and indexing act on the trailing axes (the value), so a
-    block function written for one value evaluates the whole stack; an
-    indexed scalar keeps two trailing axes of size 1, so that it scales the
-    matrices it multiplies.
+    Transposition, indexing and the numpy functions of `_BATCHED` act on
+    the trailing axes (the value), so a block function written for one
+    value evaluates the whole stack; an indexed scalar keeps two trailing
+    axes of size 1, so that it scales the matrices it multiplies. Other
+    numpy functions raise ``TypeError`` (and the map is read one unit
+    point at a time).
     """
 
     @property
@@ -137,6 +143,71 @@ class Batch(np.ndarray):
         if out.ndim == 1:
             out = out[:, None, None]
         return out.view(Batch)
+
+    def __array_function__(self, func, types, args, kwargs):
+        if func in _QUERIES:  # of the array as it is, stack axis included
+            return func(*(np.asarray(a) for a in args), **kwargs)
+        batched = _BATCHED.get(func)
+        if batched is None:
+            raise TypeError(f"{func.__name__} is not batched")
+        return batched(*args, **kwargs)
+
+
+def _lead(arrays):
+    """The stack size of the Batch arrays among `arrays`."""
+    return next(a.shape[0] for a in arrays if isinstance(a, Batch))
+
+
+def _stacked(arrays, ndim=2):
+    """Every array with the leading stack axis (constants broadcast)."""
+    k = _lead(arrays)
+    out = []
+    for a in arrays:
+        if isinstance(a, Batch):
+            out.append(np.asarray(a))
+        else:
+            a = np.asarray(a, float)
+            out.append(np.broadcast_to(a, (k,) + a.shape))
+    return out
+
+
+def _concatenate(arrays, axis=0):
+    if axis is None or not -2 <= axis < 2:
+        raise TypeError("concatenate: only axes of a matrix are batched")
+    if any(np.ndim(a) != 2 + isinstance(a, Batch) for a in arrays):
+        raise TypeError("concatenate: only matrices are batched")
+    axis = axis + 1 if axis >= 0 else axis
+    return np.concatenate(_stacked(arrays), axis=axis).view(Batch)
+
+
+def _kron(a, b):
+    a, b = _stacked([a, b])
+    k = a.shape[0]
+    out = np.einsum("kij,kab->kiajb", a, b)
+    return out.reshape(k, a.shape[1] * b.shape[1], a.shape[2] * b.shape[2]).view(Batch)
+
+
+def _diag(v, k=0):
+    if k != 0 or np.ndim(v) != 3:
+        raise TypeError("diag: only the diagonal of matrices is batched")
+    return np.diagonal(np.asarray(v), axis1=1, axis2=2).view(Batch)
+
+
+def _trace(a):
+    if np.ndim(a) != 3:
+        raise TypeError("trace: only matrices are batched")
+    return np.trace(np.asarray(a), axis1=1, axis2=2)[:, None, None].view(Batch)
+
+
+_QUERIES = frozenset({np.shape, np.ndim, np.size})
+_BATCHED = {
+    np.concatenate: _concatenate,
+    np.hstack: lambda arrays: _concatenate(arrays, axis=1),
+    np.vstack: lambda arrays: _concatenate(arrays, axis=0),
+    np.kron: _kron,
+    np.diag: _diag,
+    np.trace: _trace,
+}
 
 
 def _direct(evaluate, read, units, x):
@@ -188,6 +259,9 @@ def columns(evaluate, F0, read, units, rng=None) -> tuple:
         scale = np.abs(F0).sum() + np.abs(data * x[cols]).sum() + 1.0
         if np.abs(actual - expected).max() <= _BATCH_TOLERANCE * scale:
             return pieces
+        logger.debug("batched map of an LMI rejected at a random point")
+    elif rng is not None:
+        logger.debug("an LMI does not evaluate batched: read point by point")
     return _one_by_one(evaluate, F0, read, units)
 
 
@@ -212,18 +286,31 @@ def _collect(blocks_of):
 
 
 def _batched(evaluate, F0, read, units):
-    found = []
+    """All columns in one evaluation: the stack holds every unit point of
+    every variable read, each variable zero outside its own slots."""
+    spans = [(name, span) for name, span in _spans(units).items()
+             if name in read and span[1] > span[0]]  # fmt: skip
+    total = sum(stop - start for _, (start, stop) in spans)
+    if not total:
+        return _collect([])
+    values, slot = {}, 0
+    for name, _ in spans:
+        points = units[name]
+        stack = np.zeros((total,) + points.shape[1:])
+        stack[slot : slot + len(points)] = points
+        values[name] = stack.view(Batch)
+        slot += len(points)
     try:
-        for name, (start, stop) in _spans(units).items():
-            if name not in read or stop == start:
-                continue
-            stack = evaluate({name: units[name].view(Batch)})
-            if np.shape(stack) != (stop - start,) + F0.shape:
-                return None
-            dense = (np.asarray(stack) - F0).reshape(stop - start, -1).T
-            found.append((start, dense))
+        stack = evaluate(values)
     except (ValueError, TypeError, IndexError):
         return None
+    if np.shape(stack) != (total,) + F0.shape:
+        return None
+    dense = (np.asarray(stack) - F0).reshape(total, -1).T
+    found, slot = [], 0
+    for _, (start, stop) in spans:
+        found.append((start, dense[:, slot : slot + stop - start]))
+        slot += stop - start
     return _collect(found)
 
 

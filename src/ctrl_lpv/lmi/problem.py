@@ -133,6 +133,8 @@ class LMIProblem:
         self._conic: dict = {}
         # The exact map of the stage (one unit point at a time), for `farkas`.
         self._exact: dict = {}
+        # The variables and parameters each block function reads.
+        self._reads: dict[str, frozenset] = {}
         # Seconds spent reading maps and assembling conic data (the part of
         # a solve that a re-solve with the same data skips).
         self._reading = 0.0
@@ -249,6 +251,7 @@ class LMIProblem:
         self._forget()
 
     def _forget(self) -> None:
+        self._reads.clear()
         self._columns.clear()
         self._conic.clear()
         self._exact.clear()
@@ -284,11 +287,13 @@ class LMIProblem:
     def _pieces(self, active, exact: bool = False):
         """Per inequality, ``(F(0), columns of M)`` (`ctrl_lpv.lmi.blocks`).
 
-        The columns of an inequality are kept (for its last few sets of
-        parameter values) and reused for the same values and ``F(0)``. `exact` reads
-        them one unit point at a time (for dual certificates, whose
-        rounding bounds assume exact columns); otherwise in one batched
-        evaluation per variable, checked at a random point.
+        An inequality's map is kept for its last few sets of values of the
+        parameters it reads (which it was first seen to read), and reused
+        for the same values; a block function that reads other constants
+        that change needs `invalidate`. `exact` reads the maps one unit
+        point at a time (for dual certificates, whose rounding bounds
+        assume exact columns); otherwise in one batched evaluation per
+        variable, checked at a random point.
         """
         units = self._units()
         numeric = self._numeric()
@@ -297,30 +302,33 @@ class LMIProblem:
         rng = None if exact else np.random.default_rng(20261202)
         pieces = []
         for name, blocks, _, _ in active:
+            kept = cache.setdefault(name, {})
+            read = self._reads.get(name)
+            key = None if read is None else _key(read, numeric)
+            if key in kept:
+                kept[key] = kept.pop(key)  # the most recent last
+                pieces.append(kept[key])
+                continue
             budget.check(f"reading the LMI {name}")
+            read = set()
+            F0 = _blocks.assemble(blocks(_blocks.Recording(base, read)))
+            if "__dict__" in read:  # the namespace was read as a whole
+                read = set(base)
+            self._reads[name] = read = frozenset(read & set(base))
 
             def evaluate(values, blocks=blocks):
                 namespace = SimpleNamespace(**{**base, **values})
                 return _blocks.assemble(blocks(namespace))
 
-            read: set = set()
-            F0 = _blocks.assemble(blocks(_blocks.Recording(base, read)))
-            if "__dict__" in read:  # the namespace was read as a whole
-                read = set(base)
-            read &= set(base)
-            key = tuple((p, numeric[p].tobytes()) for p in sorted(read & set(numeric)))
-            kept = cache.setdefault(name, {})
-            cached = kept.pop(key, None)
-            if cached is not None and np.array_equal(cached[0], F0):
-                part = cached[1]
-            else:
-                start = time.perf_counter()
-                part = _blocks.columns(evaluate, F0, read, units, rng)
-                self._reading += time.perf_counter() - start
-            kept[key] = (F0, part)  # the most recent last
+            start = time.perf_counter()
+            kept[_key(read, numeric)] = piece = (
+                F0,
+                _blocks.columns(evaluate, F0, read, units, rng),
+            )
+            self._reading += time.perf_counter() - start
             if len(kept) > _KEPT_MAPS:
                 del kept[next(iter(kept))]
-            pieces.append((F0, part))
+            pieces.append(piece)
         return pieces
 
     def _conic_data(self, stage: str, upper: bool):
@@ -690,6 +698,11 @@ class LMIProblem:
         amap = _farkas.stacked(pieces, self._nfree())
         self._exact[key] = (parts, amap)
         return amap
+
+
+def _key(read, numeric) -> tuple:
+    """The values of the parameters among `read`, as a dictionary key."""
+    return tuple((p, numeric[p].tobytes()) for p in sorted(read) if p in numeric)
 
 
 def id_equal(a, b) -> bool:
