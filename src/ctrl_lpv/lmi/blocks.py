@@ -11,9 +11,10 @@ variables are stacked along a leading axis (`Batch`, whose ``.T``,
 indexing and a few numpy functions act on the trailing axes), which numpy
 broadcasts through the products and sums of a block function. A block
 function written for one point may still not broadcast (an operation on
-fixed axes, say): the batched map is therefore checked against a direct
-evaluation at a random point, and read one unit point at a time when it
-does not agree (logged at DEBUG on ``ctrl_lpv.lmi``).
+fixed axes, say): the batched map of a block function is therefore checked
+against a direct evaluation at a random point, the first time it is read,
+and read one unit point at a time when it does not agree (logged at DEBUG
+on ``ctrl_lpv.lmi``).
 """
 
 from __future__ import annotations
@@ -77,9 +78,6 @@ def assemble(blocks):
 
     if len(blocks) == 1:
         full = block(0, 0)
-    elif not lead:
-        full = np.block([[block(i, j) for j in range(len(blocks))]
-                         for i in range(len(blocks))])  # fmt: skip
     else:
         rows = [np.concatenate([block(i, j) for j in range(len(blocks))], axis=-1)
                 for i in range(len(blocks))]  # fmt: skip
@@ -132,7 +130,7 @@ class Batch(np.ndarray):
     def T(self):  # noqa: N802 (numpy's name)
         if self.ndim <= 2:
             return self
-        return np.swapaxes(self, -1, -2)
+        return np.asarray(self).swapaxes(-1, -2).view(Batch)
 
     def __getitem__(self, index):
         if not isinstance(index, tuple):
@@ -215,12 +213,14 @@ def _direct(evaluate, read, units, x):
     for name, points in units.items():
         if name in read and len(points):
             k = len(points)
-            values[name] = np.tensordot(x[offset : offset + k], points, axes=1)
+            values[name] = (x[offset : offset + k] @ points.reshape(k, -1)).reshape(
+                points.shape[1:]
+            )
         offset += len(points)
     return evaluate(values)
 
 
-def columns(evaluate, F0, read, units, rng=None) -> tuple:
+def columns(evaluate, F0, read, units, check=True) -> tuple:
     """The columns of one inequality ``F(x) = F0 + sum_k x_k M_k``.
 
     Parameters
@@ -235,19 +235,25 @@ def columns(evaluate, F0, read, units, rng=None) -> tuple:
     units : dict of str to ndarray
         Per variable, in column order, its stacked unit points
         (`unit_points`).
-    rng : numpy.random.Generator, optional
-        For the point that checks a batched evaluation; ``None`` reads the
-        map one unit point at a time, without batching.
+    check : bool or None, optional
+        Read in one batched evaluation and check it at a random point
+        (True), without the check (False: a block function whose batched
+        map passed the check before), or one unit point at a time (None).
 
     Returns
     -------
-    tuple
+    entries : tuple
         ``(rows, cols, data)`` of the nonzero entries of ``M`` (rows: the
         entries of ``vec F`` in C order), column indices counted over all
         variables of `units` in their order.
+    batched : bool
+        Whether the batched evaluation was used.
     """
-    pieces = _batched(evaluate, F0, read, units) if rng is not None else None
+    pieces = None if check is None else _batched(evaluate, F0, read, units)
+    if pieces is not None and not check:
+        return pieces, True
     if pieces is not None:
+        rng = np.random.default_rng(20261202)
         x = np.zeros(sum(len(p) for p in units.values()))
         for name, (start, stop) in _spans(units).items():
             if name in read:
@@ -258,11 +264,11 @@ def columns(evaluate, F0, read, units, rng=None) -> tuple:
         actual = _direct(evaluate, read, units, x).ravel()
         scale = np.abs(F0).sum() + np.abs(data * x[cols]).sum() + 1.0
         if np.abs(actual - expected).max() <= _BATCH_TOLERANCE * scale:
-            return pieces
+            return pieces, True
         logger.debug("batched map of an LMI rejected at a random point")
-    elif rng is not None:
+    elif check is not None:
         logger.debug("an LMI does not evaluate batched: read point by point")
-    return _one_by_one(evaluate, F0, read, units)
+    return _one_by_one(evaluate, F0, read, units), False
 
 
 def _spans(units):

@@ -133,8 +133,10 @@ class LMIProblem:
         self._conic: dict = {}
         # The exact map of the stage (one unit point at a time), for `farkas`.
         self._exact: dict = {}
-        # The variables and parameters each block function reads.
+        # The variables and parameters each block function reads, and the
+        # block functions whose batched map passed its check.
         self._reads: dict[str, frozenset] = {}
+        self._batched: set = set()
         # Seconds spent reading maps and assembling conic data (the part of
         # a solve that a re-solve with the same data skips).
         self._reading = 0.0
@@ -299,7 +301,6 @@ class LMIProblem:
         numeric = self._numeric()
         base = self._base()
         cache = self._exact if exact else self._columns
-        rng = None if exact else np.random.default_rng(20261202)
         pieces = []
         for name, blocks, _, _ in active:
             kept = cache.setdefault(name, {})
@@ -321,10 +322,18 @@ class LMIProblem:
                 return _blocks.assemble(blocks(namespace))
 
             start = time.perf_counter()
-            kept[_key(read, numeric)] = piece = (
-                F0,
-                _blocks.columns(evaluate, F0, read, units, rng),
+            # A block function (code and shapes) whose batched map passed
+            # its check once is trusted with other data.
+            kind = (
+                getattr(blocks, "__code__", blocks),
+                F0.shape,
+                *sorted((r, base[r].shape) for r in read),
             )
+            check = None if exact else kind not in self._batched
+            part, batched = _blocks.columns(evaluate, F0, read, units, check)
+            if batched:
+                self._batched.add(kind)
+            kept[_key(read, numeric)] = piece = (F0, part)
             self._reading += time.perf_counter() - start
             if len(kept) > _KEPT_MAPS:
                 del kept[next(iter(kept))]
