@@ -104,6 +104,15 @@ class FastLinearICSystem(_FastMixin, LinearICSystem):
     """
 
 
+def system_plan(sys) -> EvaluationPlan | None:
+    """The evaluation plan of `sys`: the one it keeps, or a new one.
+
+    A system from `interconnect` builds its plan once and keeps it; any
+    other system gets a plan of its own (None for an algebraic loop).
+    """
+    return sys._plan() if isinstance(sys, _FastMixin) else plan(sys)
+
+
 _FAST_CLASS = {
     InterconnectedSystem: FastInterconnectedSystem,
     LinearICSystem: FastLinearICSystem,
