@@ -2,7 +2,7 @@
 
 `simulate` returns the same `control.TimeResponseData` as
 `control.input_output_response`.  Its ``"fast"`` engine generates one
-right-hand side for the whole block diagram (`ctrl_lpv.interconnection.plan`)
+right-hand side for the whole block diagram (`ctrl_lpv.evaluation_plan.plan`)
 and integrates it directly: no fixed-point iteration over the subsystems,
 no per-call input interpolation through numpy, and outputs computed
 vectorized over the time points afterwards.  LSODA runs through
