@@ -349,7 +349,7 @@ def read_plant(reader: DocumentReader, section: dict, key: str = "plant"):
 
 def same_plant(a, b, rtol: float = 1e-9) -> str | None:
     """None if `a` and `b` are the same polytopic plant, else what differs."""
-    from .systems import _same_dt
+    from .systems.timebase import same_dt as _same_dt
 
     if type(a.domain) is not type(b.domain) or a.domain != b.domain:
         return f"the parameter domains differ ({a.domain!r}, {b.domain!r})"
