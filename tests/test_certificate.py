@@ -184,7 +184,8 @@ def test_composition():
     b = Certificate((Check("gamma", 2.0, 1.0),), "a bound")
     both = a + b
     assert isinstance(both, Certificate) and len(both) == 4
-    assert list(both) == list(a) + list(b) and both.statement == "an invariant ellipsoid\na bound"
+    assert list(both) == list(a) + list(b)
+    assert both.statement == "an invariant ellipsoid\na bound"
     assert a.verified and bool(a) and not b and not both
     assert both.failed == tuple(b) and both.worst == b[0]
     named = Certificate.combine(a.regrouped("region"), b, statement="the servo")
@@ -247,8 +248,8 @@ def test_general_engine_certificate(mass_spring):
     design = lpv.synthesize(mass_spring, "u", objective=lpv.H2(w="w", z=["x", "uw"]))
     cert = design.certificate
     assert isinstance(cert, Certificate) and cert.verified
-    closed = cert.group("closed loop")
-    assert {c.what for c in closed} >= {"closed-loop eigenvalues", "Lyapunov inequality"}
+    names = {c.what for c in cert.group("closed loop")}
+    assert names >= {"closed-loop eigenvalues", "Lyapunov inequality"}
     worst = max(
         np.linalg.eigvals(A - B[:, [1]] @ design.gains[0]).real.max()
         for A, B, *_ in mass_spring.vertex_data()
