@@ -49,7 +49,6 @@ import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-import cvxpy as cp
 import numpy as np
 import scipy.linalg as sla
 from control import StateSpace
@@ -64,6 +63,7 @@ from ._checks import (
 from .budget import DEFAULT_TIME_LIMIT, time_budget
 from .exceptions import CertificationError, InfeasibleError, SynthesisError
 from .lmi import LMIProblem, SolveAttempt, default_solvers, solver_chain
+from .lmi.blocks import diagonal, quadratic_rows, total
 
 __all__ = [
     "Ellipsoid",
@@ -302,20 +302,6 @@ def _positive_check(name: str, P: np.ndarray) -> EllipsoidCheck:
     lam = np.linalg.eigvalsh(0.5 * (P + P.T))
     err = (3 * P.shape[0] + 10) * np.finfo(float).eps
     return EllipsoidCheck(name, -float(lam[0] / lam[-1]), -err)
-
-
-def _xp_diag(v):
-    """``diag`` of a vector for cvxpy expressions and numpy arrays."""
-    if isinstance(v, cp.Expression):
-        return cp.diag(v)
-    return np.diag(np.asarray(v, float).reshape(-1))
-
-
-def _xp_sum(v):
-    """Sum of a vector as a 1 x 1 matrix (cvxpy or numpy)."""
-    if isinstance(v, cp.Expression):
-        return cp.reshape(cp.sum(v), (1, 1), order="F")
-    return np.array([[float(np.sum(v))]])
 
 
 def _hurwitz_or_raise(As, what: str = "vertex") -> None:
@@ -657,12 +643,12 @@ def ultimate_bound(
             f"decay vertex {j}",
             lambda v, A=A, E=E: [
                 [2 * (A @ v.W) + v.lam * v.W],
-                [E.T, -_xp_diag(v.mu)],
+                [E.T, -diagonal(v.mu)],
             ],
         )
     lmi.add(
         "sum(mu) <= lambda",
-        lambda v: [[_xp_sum(v.mu) - v.lam * np.eye(1)]],
+        lambda v: [[total(v.mu) - v.lam * np.eye(1)]],
         strict=False,
     )
     if np.any(keep):
@@ -671,7 +657,10 @@ def ultimate_bound(
         lmi.add(
             "output size <= t",
             lambda v: [
-                [_xp_diag(scale) @ _quad_rows(Ck, v.W) - v.t[0, 0] * np.eye(len(scale))]
+                [
+                    diagonal(scale) @ quadratic_rows(Ck, v.W)
+                    - v.t[0, 0] * np.eye(len(scale))
+                ]
             ],
             strict=False,
         )
@@ -681,7 +670,7 @@ def ultimate_bound(
     else:
 
         def objective(v):
-            return cp.trace(v.W)
+            return np.trace(v.W)
 
     chain = solver_chain(solvers) or default_solvers()
 
@@ -762,10 +751,3 @@ def ultimate_bound(
         search=tuple(search),
         attempts=tuple(sol.attempts),
     )
-
-
-def _quad_rows(C, W):
-    """``diag(C W C')`` as a column-stacked diagonal matrix (cvxpy or numpy)."""
-    if isinstance(W, cp.Expression):
-        return cp.diag(cp.hstack([C[i] @ W @ C[i] for i in range(C.shape[0])]))
-    return np.diag(np.einsum("ij,jk,ik->i", C, W, C))

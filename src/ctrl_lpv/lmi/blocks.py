@@ -26,7 +26,16 @@ import numpy as np
 
 logger = logging.getLogger("ctrl_lpv.lmi")
 
-__all__ = ["Recording", "assemble", "columns", "normalized_max_eig", "unit_points"]
+__all__ = [
+    "Recording",
+    "assemble",
+    "columns",
+    "diagonal",
+    "normalized_max_eig",
+    "quadratic_rows",
+    "total",
+    "unit_points",
+]
 
 # A batched map must reproduce a direct evaluation at a random point to
 # this relative accuracy (rounding of a few products and sums).
@@ -62,7 +71,7 @@ def assemble(blocks):
     ndarray
     """
     sizes = _sizes(blocks)
-    stacks = [np.shape(b)[0] for row in blocks for b in row if isinstance(b, Batch)]
+    stacks = [np.shape(b)[0] for row in blocks for b in row if np.ndim(b) > 2]
     lead = (max(stacks),) if stacks else ()
 
     def block(i, j):
@@ -83,6 +92,35 @@ def assemble(blocks):
                 for i in range(len(blocks))]  # fmt: skip
         full = np.concatenate(rows, axis=-2)
     return 0.5 * (full + np.swapaxes(full, -1, -2))
+
+
+def _like(v, out):
+    """`out` as a `Batch` when `v` is one."""
+    return out.view(Batch) if isinstance(v, Batch) else out
+
+
+def diagonal(v):
+    """``diag(v)`` of a vector (a column is read as a vector), stack-aware."""
+    d = np.asarray(v, float)
+    if not isinstance(v, Batch):
+        d = d.reshape(-1)
+    elif d.ndim == 3:  # a stack of columns
+        d = d[:, :, 0]
+    return _like(v, d[..., :, None] * np.eye(d.shape[-1]))
+
+
+def total(v):
+    """The sum of a vector's entries as a 1 x 1 matrix, stack-aware."""
+    d = np.asarray(v, float)
+    if isinstance(v, Batch):
+        return _like(v, d.reshape(d.shape[0], -1).sum(axis=1)[:, None, None])
+    return np.array([[d.sum()]])
+
+
+def quadratic_rows(C, W):
+    """``diag(C W C')`` as a diagonal matrix, stack-aware in ``W``."""
+    rows = np.einsum("ij,...jk,ik->...i", C, np.asarray(W, float), C)
+    return _like(W, rows[..., :, None] * np.eye(C.shape[0]))
 
 
 def normalized_max_eig(M) -> float:
