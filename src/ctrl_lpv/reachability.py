@@ -49,7 +49,6 @@ import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-import cvxpy as cp
 import numpy as np
 import scipy.linalg as sla
 from control import StateSpace
@@ -65,6 +64,7 @@ from .budget import DEFAULT_TIME_LIMIT, time_budget
 from .certificate import Certificate, Check, negative_definite
 from .exceptions import CertificationError, InfeasibleError, SynthesisError
 from .lmi import LMIProblem, SolveAttempt, default_solvers, solver_chain
+from .lmi.blocks import diagonal, quadratic_rows, total
 
 __all__ = [
     "Ellipsoid",
@@ -264,20 +264,6 @@ def _strict_check(name: str, M: np.ndarray, M_abs: np.ndarray) -> Check:
 def _positive_check(name: str, P: np.ndarray) -> Check:
     """``P > 0`` (``-P < 0``, see `_strict_check`)."""
     return negative_definite(-P, what=name)
-
-
-def _xp_diag(v):
-    """``diag`` of a vector for cvxpy expressions and numpy arrays."""
-    if isinstance(v, cp.Expression):
-        return cp.diag(v)
-    return np.diag(np.asarray(v, float).reshape(-1))
-
-
-def _xp_sum(v):
-    """Sum of a vector as a 1 x 1 matrix (cvxpy or numpy)."""
-    if isinstance(v, cp.Expression):
-        return cp.reshape(cp.sum(v), (1, 1), order="F")
-    return np.array([[float(np.sum(v))]])
 
 
 def _hurwitz_or_raise(As, what: str = "vertex") -> None:
@@ -619,12 +605,12 @@ def ultimate_bound(
             f"decay vertex {j}",
             lambda v, A=A, E=E: [
                 [2 * (A @ v.W) + v.lam * v.W],
-                [E.T, -_xp_diag(v.mu)],
+                [E.T, -diagonal(v.mu)],
             ],
         )
     lmi.add(
         "sum(mu) <= lambda",
-        lambda v: [[_xp_sum(v.mu) - v.lam * np.eye(1)]],
+        lambda v: [[total(v.mu) - v.lam * np.eye(1)]],
         strict=False,
     )
     if np.any(keep):
@@ -633,7 +619,10 @@ def ultimate_bound(
         lmi.add(
             "output size <= t",
             lambda v: [
-                [_xp_diag(scale) @ _quad_rows(Ck, v.W) - v.t[0, 0] * np.eye(len(scale))]
+                [
+                    diagonal(scale) @ quadratic_rows(Ck, v.W)
+                    - v.t[0, 0] * np.eye(len(scale))
+                ]
             ],
             strict=False,
         )
@@ -643,7 +632,7 @@ def ultimate_bound(
     else:
 
         def objective(v):
-            return cp.trace(v.W)
+            return np.trace(v.W)
 
     chain = solver_chain(solvers) or default_solvers()
 
@@ -724,10 +713,3 @@ def ultimate_bound(
         search=tuple(search),
         attempts=tuple(sol.attempts),
     )
-
-
-def _quad_rows(C, W):
-    """``diag(C W C')`` as a column-stacked diagonal matrix (cvxpy or numpy)."""
-    if isinstance(W, cp.Expression):
-        return cp.diag(cp.hstack([C[i] @ W @ C[i] for i in range(C.shape[0])]))
-    return np.diag(np.einsum("ij,jk,ik->i", C, W, C))

@@ -11,10 +11,11 @@ variables are stacked along a leading axis (`Batch`, whose ``.T``,
 indexing and a few numpy functions act on the trailing axes), which numpy
 broadcasts through the products and sums of a block function. A block
 function written for one point may still not broadcast (an operation on
-fixed axes, say): the batched map of a block function is therefore checked
-against a direct evaluation at a random point, the first time it is read,
-and read one unit point at a time when it does not agree (logged at DEBUG
-on ``ctrl_lpv.lmi``).
+fixed axes, say): every batched map is therefore checked against a direct
+evaluation at a random point, and read one unit point at a time when it
+does not agree (logged at DEBUG on ``ctrl_lpv.lmi``). The check is not
+skipped for a block function that passed it before: the same code with
+other data may take another branch.
 """
 
 from __future__ import annotations
@@ -26,7 +27,16 @@ import numpy as np
 
 logger = logging.getLogger("ctrl_lpv.lmi")
 
-__all__ = ["Recording", "assemble", "columns", "normalized_max_eig", "unit_points"]
+__all__ = [
+    "Recording",
+    "assemble",
+    "columns",
+    "diagonal",
+    "normalized_max_eig",
+    "quadratic_rows",
+    "total",
+    "unit_points",
+]
 
 # A batched map must reproduce a direct evaluation at a random point to
 # this relative accuracy (rounding of a few products and sums).
@@ -62,7 +72,7 @@ def assemble(blocks):
     ndarray
     """
     sizes = _sizes(blocks)
-    stacks = [np.shape(b)[0] for row in blocks for b in row if isinstance(b, Batch)]
+    stacks = [np.shape(b)[0] for row in blocks for b in row if np.ndim(b) > 2]
     lead = (max(stacks),) if stacks else ()
 
     def block(i, j):
@@ -83,6 +93,35 @@ def assemble(blocks):
                 for i in range(len(blocks))]  # fmt: skip
         full = np.concatenate(rows, axis=-2)
     return 0.5 * (full + np.swapaxes(full, -1, -2))
+
+
+def _like(v, out):
+    """`out` as a `Batch` when `v` is one."""
+    return out.view(Batch) if isinstance(v, Batch) else out
+
+
+def diagonal(v):
+    """``diag(v)`` of a vector (a column is read as a vector), stack-aware."""
+    d = np.asarray(v, float)
+    if not isinstance(v, Batch):
+        d = d.reshape(-1)
+    elif d.ndim == 3:  # a stack of columns
+        d = d[:, :, 0]
+    return _like(v, d[..., :, None] * np.eye(d.shape[-1]))
+
+
+def total(v):
+    """The sum of a vector's entries as a 1 x 1 matrix, stack-aware."""
+    d = np.asarray(v, float)
+    if isinstance(v, Batch):
+        return _like(v, d.reshape(d.shape[0], -1).sum(axis=1)[:, None, None])
+    return np.array([[d.sum()]])
+
+
+def quadratic_rows(C, W):
+    """``diag(C W C')`` as a diagonal matrix, stack-aware in ``W``."""
+    rows = np.einsum("ij,...jk,ik->...i", C, np.asarray(W, float), C)
+    return _like(W, rows[..., :, None] * np.eye(C.shape[0]))
 
 
 def normalized_max_eig(M) -> float:
@@ -131,6 +170,11 @@ class Batch(np.ndarray):
         if self.ndim <= 2:
             return self
         return np.asarray(self).swapaxes(-1, -2).view(Batch)
+
+    def trace(self, *args, **kwargs):
+        if args or kwargs or self.ndim != 3:
+            raise TypeError("trace: only the trace of matrices is batched")
+        return _trace(self)
 
     def __getitem__(self, index):
         if not isinstance(index, tuple):
@@ -220,7 +264,7 @@ def _direct(evaluate, read, units, x):
     return evaluate(values)
 
 
-def columns(evaluate, F0, read, units, check=True) -> tuple:
+def columns(evaluate, F0, read, units, batched=True) -> tuple:
     """The columns of one inequality ``F(x) = F0 + sum_k x_k M_k``.
 
     Parameters
@@ -235,23 +279,18 @@ def columns(evaluate, F0, read, units, check=True) -> tuple:
     units : dict of str to ndarray
         Per variable, in column order, its stacked unit points
         (`unit_points`).
-    check : bool or None, optional
-        Read in one batched evaluation and check it at a random point
-        (True), without the check (False: a block function whose batched
-        map passed the check before), or one unit point at a time (None).
+    batched : bool, optional
+        Read in one batched evaluation, checked at a random point (True),
+        or one unit point at a time.
 
     Returns
     -------
-    entries : tuple
+    tuple
         ``(rows, cols, data)`` of the nonzero entries of ``M`` (rows: the
         entries of ``vec F`` in C order), column indices counted over all
         variables of `units` in their order.
-    batched : bool
-        Whether the batched evaluation was used.
     """
-    pieces = None if check is None else _batched(evaluate, F0, read, units)
-    if pieces is not None and not check:
-        return pieces, True
+    pieces = _batched(evaluate, F0, read, units) if batched else None
     if pieces is not None:
         rng = np.random.default_rng(20261202)
         x = np.zeros(sum(len(p) for p in units.values()))
@@ -262,13 +301,15 @@ def columns(evaluate, F0, read, units, check=True) -> tuple:
         expected = F0.ravel().copy()
         np.add.at(expected, rows, data * x[cols])
         actual = _direct(evaluate, read, units, x).ravel()
-        scale = np.abs(F0).sum() + np.abs(data * x[cols]).sum() + 1.0
+        # Relative to the size of the terms: a map of small entries gets no
+        # absolute allowance.
+        scale = np.abs(F0).sum() + np.abs(data * x[cols]).sum()
         if np.abs(actual - expected).max() <= _BATCH_TOLERANCE * scale:
-            return pieces, True
+            return pieces
         logger.debug("batched map of an LMI rejected at a random point")
-    elif check is not None:
+    elif batched:
         logger.debug("an LMI does not evaluate batched: read point by point")
-    return _one_by_one(evaluate, F0, read, units), False
+    return _one_by_one(evaluate, F0, read, units)
 
 
 def _spans(units):

@@ -133,10 +133,8 @@ class LMIProblem:
         self._conic: dict = {}
         # The exact map of the stage (one unit point at a time), for `farkas`.
         self._exact: dict = {}
-        # The variables and parameters each block function reads, and the
-        # block functions whose batched map passed its check.
+        # The variables and parameters each block function reads.
         self._reads: dict[str, frozenset] = {}
-        self._batched: set = set()
         # Seconds spent reading maps and assembling conic data (the part of
         # a solve that a re-solve with the same data skips).
         self._reading = 0.0
@@ -322,17 +320,7 @@ class LMIProblem:
                 return _blocks.assemble(blocks(namespace))
 
             start = time.perf_counter()
-            # A block function (code and shapes) whose batched map passed
-            # its check once is trusted with other data.
-            kind = (
-                getattr(blocks, "__code__", blocks),
-                F0.shape,
-                *sorted((r, base[r].shape) for r in read),
-            )
-            check = None if exact else kind not in self._batched
-            part, batched = _blocks.columns(evaluate, F0, read, units, check)
-            if batched:
-                self._batched.add(kind)
+            part = _blocks.columns(evaluate, F0, read, units, not exact)
             kept[_key(read, numeric)] = piece = (F0, part)
             self._reading += time.perf_counter() - start
             if len(kept) > _KEPT_MAPS:
