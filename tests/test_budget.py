@@ -243,7 +243,7 @@ def test_margin_retries_get_the_time_left_then(plant, clock, monkeypatch):
 
     def missing(self, values, stage="default"):
         return tuple(
-            dataclasses.replace(c, max_eig=c.required + abs(c.required))
+            dataclasses.replace(c, value=c.bound + abs(c.bound))
             if c.strict else c
             for c in real_check(self, values, stage)
         )  # fmt: skip
@@ -270,6 +270,7 @@ def test_reading_a_stage_stops_at_the_deadline(plant, clock, monkeypatch):
         return real_columns(*args, **kwargs)
 
     monkeypatch.setattr(blocks, "columns", columns)
+
     def run(solver, c, data_of, margin, options):
         data_of(True)  # reads the stage first, as the real one does
         solved.append(solver)

@@ -150,6 +150,8 @@ class Check:
     def from_lmi_check(cls, check, *, units="scaled", group="LMI") -> Check:
         """A `ctrl_lpv.lmi.LMICheck` (an LMI as posed, at the returned
         point) as a check; its margin absorbs the rounding."""
+        if isinstance(check, Check):
+            return replace(check, units=units, group=group)
         return cls(check.name, check.max_eig, check.required, check.strict,
                    units=units, group=group)  # fmt: skip
 

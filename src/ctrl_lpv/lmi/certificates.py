@@ -6,6 +6,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..certificate import ROUNDING, Check
+
 __all__ = [
     "FarkasCertificate",
     "INFEASIBLE_RADIUS",
@@ -23,38 +25,14 @@ _SIDE_TOLERANCE = 1e-6
 # Rounding of a float64 check of ``lambda_max(F)`` (assembly and eigvalsh)
 # is bounded by this many ``size * eps * ||F||_2`` (generously: LAPACK's
 # backward error is a small multiple of it).
-_CHECK_ROUNDING = 100.0
 # What a verified dual certificate must show before `LMIProblem.solve`
 # calls the LMIs infeasible: no solution, even with margin 0, within this
 # radius (scaled units).
 INFEASIBLE_RADIUS = 1e8
 
 
-@dataclass(frozen=True)
-class LMICheck:
-    """Float64 check of one LMI at a point.
-
-    Attributes
-    ----------
-    name : str
-        LMI name.
-    max_eig : float
-        Largest eigenvalue of the symmetric block matrix ``F(v)``.
-    required : float
-        Bound that `max_eig` must not exceed to pass.
-    strict : bool
-        Whether the LMI is a strict inequality (part of the certificate).
-    """
-
-    name: str
-    max_eig: float
-    required: float
-    strict: bool
-
-    @property
-    def passed(self) -> bool:
-        """Whether ``max_eig <= required``."""
-        return bool(self.max_eig <= self.required)
+# A check of an LMI at a point is the library's one check type.
+LMICheck = Check
 
 
 @dataclass(frozen=True)
@@ -180,7 +158,7 @@ class FarkasCertificate:
             return 0.0
         if reach == 0:
             return np.inf
-        rounding = _CHECK_ROUNDING * self.size * np.finfo(float).eps * self.spread
+        rounding = ROUNDING * self.size * np.finfo(float).eps * self.spread
         return max(0.0, _CERTIFIED_FRACTION * margin / reach - rounding)
 
     def excludes(self, margin: float, bounds) -> bool:

@@ -28,12 +28,12 @@ from types import SimpleNamespace
 import numpy as np
 
 from .. import _farkas, budget
+from ..certificate import Check, negative_definite
 from ..exceptions import CertificationError, InfeasibleError
 from . import blocks as _blocks
 from .certificates import (
     _CERTIFIED_FRACTION,
     _SIDE_TOLERANCE,
-    LMICheck,
     LMISolution,
     _certificate,
     _stronger,
@@ -89,7 +89,7 @@ def _retry_factor(checks, margin) -> float | None:
     failed = [c for c in checks if not c.passed]
     if not failed or not all(c.strict for c in failed):
         return None
-    miss = max(c.max_eig for c in failed) + margin
+    miss = max(c.value + c.rounding for c in failed) + margin
     factor = 10.0 ** np.ceil(np.log10(max(10.0, 4 * miss / margin)))
     return min(float(factor), _MAX_RETRY_FACTOR)
 
@@ -433,10 +433,10 @@ class LMIProblem:
             checks = self.check(values, stage)
             failed = [c for c in checks if not c.passed]
             if failed:
-                worst = max(failed, key=lambda c: c.max_eig - c.required)
+                worst = min(failed, key=lambda c: c.slack)
                 message = (
-                    f"{worst.name}: max eigenvalue {worst.max_eig:.3g} above "
-                    f"{worst.required:.3g}"
+                    f"{worst.what}: max eigenvalue {worst.value:.3g} above "
+                    f"{worst.bound - worst.rounding:.3g}"
                 )
         certified = bool(checks) and all(c.passed for c in checks)
         if factor != 1.0:
@@ -454,20 +454,26 @@ class LMIProblem:
 
         Returns
         -------
-        tuple of `LMICheck`
+        tuple of `ctrl_lpv.certificate.Check`
         """
         v = SimpleNamespace(**{**self._numeric(), **values})
         checks = []
         for name, blocks, strict, _ in self._active(stage):
             F = _blocks.assemble(blocks(v))
-            max_eig = float(np.linalg.eigvalsh(F)[-1])
             if strict:
-                required = -_CERTIFIED_FRACTION * self.margin
+                # The margin of the certificate, less the rounding of the
+                # eigenvalue (`ctrl_lpv.certificate.negative_definite`).
+                margin = _CERTIFIED_FRACTION * self.margin
+                checks.append(negative_definite(
+                    F, margin=margin, what=name, units="scaled", group="LMI"
+                ))  # fmt: skip
             else:
                 # Non-strict side constraints (bounds, normalisations) are kept
                 # to the solver's accuracy; they do not enter the certificate.
                 required = _SIDE_TOLERANCE * max(1.0, float(np.abs(F).max()))
-            checks.append(LMICheck(name, max_eig, required, strict))
+                value = float(np.linalg.eigvalsh(F)[-1])
+                checks.append(Check(name, value, required, False,
+                                    units="scaled", group="LMI"))  # fmt: skip
         return tuple(checks)
 
     def solve(
