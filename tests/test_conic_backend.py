@@ -5,6 +5,7 @@ import cvxpy as cp
 import numpy as np
 import pytest
 
+import ctrl_lpv as lpv
 from ctrl_lpv.lmi import LMIProblem
 from ctrl_lpv.lmi.blocks import assemble, columns, unit_points
 from ctrl_lpv.lmi.conic import ConicData, conic_data
@@ -151,3 +152,85 @@ def test_unknown_solver_option_is_named():
         solver_chain([("CLARABEL", {"bogus": 1})])
     with pytest.raises(ValueError, match="'bogus'"):
         solver_chain([("SCS", {"bogus": 1})])
+
+
+# ----------------------------------------------------------------------
+# Found by benchmarks/compare_backends.py and the review (issue 20)
+# ----------------------------------------------------------------------
+def test_ultimate_bound_of_a_zero_output_row_is_zero():
+    # Objectives are now evaluated on float64 arrays only: the objective
+    # ``cp.trace(v.W)`` of reachability.ultimate_bound (every output row
+    # zero) raised TypeError; the old cvxpy layer returned the bound 0.
+    A1 = np.array([[-1.0, 2.0], [-2.0, -1.0]])
+    A2 = np.array([[-2.0, 1.0], [-1.0, -1.5]])
+    E = np.array([[1.0], [0.5]])
+    loop = lpv.pss([ct.ss(A1, E, np.eye(2), 0), ct.ss(A2, E, np.eye(2), 0)])
+    result = lpv.ultimate_bound(loop, output=np.zeros((1, 2)))
+    assert result.certificate.verified
+    np.testing.assert_array_equal(result.bounds, [0.0])
+
+
+def _dense(pieces, nfree):
+    out = []
+    for F0, (rows, cols, data) in pieces:
+        M = np.zeros((F0.size, nfree))
+        np.add.at(M, (rows, cols), data)
+        out.append(M)
+    return out
+
+
+def _trace_lmi(n, scale, rng):
+    """A Lyapunov map with ``scale * P.trace() I``: ``ndarray.trace`` is a
+    method, which `Batch` does not see (summed over the stack axis)."""
+    A = rng.normal(size=(n, n))
+    shapes = {"P": ((n, n), True)}
+    units = {"P": unit_points((n, n), True)}
+
+    def evaluate(values):
+        from types import SimpleNamespace
+
+        P = values.get("P", np.zeros((n, n)))
+        v = SimpleNamespace(P=P)
+        return assemble([[scale * (A.T @ v.P + v.P @ A + v.P.trace() * np.eye(n))]])
+
+    return evaluate, shapes, units
+
+
+@pytest.mark.parametrize("scale", [1.0, 1e-12])
+def test_batched_map_check_does_not_depend_on_the_data_scale(scale):
+    # The random-point check accepts a batched map when the miss is below
+    # 1e-10 * (sum |F0| + sum |M x| + 1): the absolute "+ 1" lets any map
+    # of a block function with small entries through (here the map of a
+    # wrongly broadcast trace, rejected at scale 1, accepted at 1e-12).
+    evaluate, shapes, units = _trace_lmi(4, scale, np.random.default_rng(7))
+    F0 = evaluate({})
+    fast = _map(evaluate, F0, set(shapes), units, True)
+    exact = _map(evaluate, F0, set(shapes), units, None)
+    np.testing.assert_allclose(fast, exact, rtol=1e-9, atol=0)
+
+
+def test_block_function_trusted_by_its_code_is_checked_with_other_data():
+    # `LMIProblem._pieces` skips the random-point check for a block function
+    # whose code and shapes passed it once; the same code (a lambda made in
+    # a loop or a factory) with other closure data may take another branch,
+    # here one that does not broadcast: its wrong map goes to the solver.
+    rng = np.random.default_rng(11)
+    n = 3
+    A = rng.normal(size=(n, n)) - 3 * np.eye(n)
+    lmi = LMIProblem()
+    lmi.variable("P", (n, n), symmetric=True)
+
+    def lyapunov(weight):
+        def blocks(v):
+            extra = weight * v.P.trace() * np.eye(n) if weight else 0.0
+            return [[A.T @ v.P + v.P @ A + extra]]
+
+        return blocks
+
+    lmi.add("plain", lyapunov(0.0))
+    lmi.add("with trace", lyapunov(0.5))
+    active = lmi._active("default")
+    fast = _dense(lmi._pieces(active), lmi._nfree())
+    exact = _dense(lmi._pieces(active, exact=True), lmi._nfree())
+    for a, b in zip(fast, exact):
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-14)
