@@ -28,8 +28,8 @@ only, so both see the same data:
 * ``twomass``: the two-mass designs, whose Lemma 2 optimum must agree
   (0.0170151 in both trees; the 0.017027 of the issue and of
   ``results/synthesis.json`` is the value before commit c18c4af, which
-  changed the general engine's prescaling ladder; both values pass the
-  independent check of ``tests/_independent.check_design``).
+  changed the general engine's prescaling ladder; the design at 0.0170151
+  passes the independent check of ``tests/_independent.check_design``).
 
 Usage::
 
