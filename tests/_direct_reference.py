@@ -35,6 +35,11 @@ problem:
   ``He(A W + B2 Z) + c t I <= 0`` per vertex/pair, ``t I <= W <= I``,
   ``||Z_k||^2 <= z_max``.
 
+Checked once against the library at 41492b1 (cvxpy's Clarabel data of its
+``optimal`` and ``stabilize`` stages, random polytopes, both gains): the
+same ``A``, ``b`` and ``q`` up to the order of the variables, except that
+cvxpy also stores explicit zeros of ``A``.
+
 Clarabel's PSD cone (its documentation, ``examples/python/example_sdp.py``,
 checked by `check_convention`): the upper triangle of the symmetric matrix
 stacked column by column, ``(0,0), (0,1), (1,1), (0,2), ...``, off-diagonal
@@ -219,31 +224,26 @@ def _lmi_groups(data, scheduled, nz):
         if not group:
             continue
         j, k = np.array(group).T
-        A, B1, B2, C, D1, D2 = (
-            stack[i][j] + (stack[i][k] if slots == 2 else 0)
-            if i in (0, 1, 3, 4)
-            else stack[i][j]
-            for i in range(6)
-        )
-        blocks = [[A] + ([stack[2][j], stack[2][k]] if slots == 2 else [B2])]
+        both = [j, k] if slots == 2 else [j]
+
+        def summed(i, both=both):  # the vertex's data, or the pair's sum
+            return sum(stack[i][x] for x in both)
+
+        blocks = [[summed(0)] + [stack[2][x] for x in both]]
         if nz:
-            blocks.append([C] + ([stack[5][j], stack[5][k]] if slots == 2 else [D2]))
+            blocks.append([summed(3)] + [stack[5][x] for x in both])
         G = np.concatenate([np.concatenate(row, axis=2) for row in blocks], axis=1)
         rows, local, src, fac = _pattern(n, m, nz, slots)
         vals = G.reshape(len(j), -1)[:, src] * fac
         # Global column of each local variable: W's are shared; slot s of
         # LMI (j, k) is Z_k (s = 0) or Z_j (s = 1).
-        zs = (
-            np.stack([k, j] if slots == 2 else [j], 1)
-            if scheduled
-            else np.zeros((len(j), 1), int)
-        )
+        zs = np.stack(both[::-1], 1) if scheduled else np.zeros((len(j), 1), int)
         colmap = np.tile(np.arange(nw_free + slots * nmZ), (len(j), 1))
         for s in range(slots):
             colmap[:, nw_free + s * nmZ : nw_free + (s + 1) * nmZ] = (
                 nw_free + zs[:, [s]] * nmZ + np.arange(nmZ)
             )
-        yield rows, colmap[:, local], vals, B1, D1, 2.0 if slots == 2 else 1.0
+        yield rows, colmap[:, local], vals, summed(1), summed(4), float(slots)
 
 
 class _Builder:
