@@ -1,10 +1,11 @@
 """One measured case of ``bench_synthesis.py``, run in a process of its own.
 
-``python synthesis_cases.py '<json spec>'`` prints one JSON line: the CPU
-and wall time of each measured call, the Clarabel solves it made (CPU time of
-each ``solve()`` call, Clarabel's ``solve_time``, iterations, status: every
-``clarabel.DefaultSolver`` is wrapped before anything else is imported), the
-library's result and the process's peak RSS. Kinds: ``direct``, ``library``
+``python synthesis_cases.py '<json spec>'`` prints, after each measured call,
+one JSON line of the results so far: the CPU and wall time of each call, the
+Clarabel solves it made (CPU time of each ``solve()`` call, Clarabel's
+``solve_time``, iterations, status: ``clarabel.DefaultSolver`` is wrapped
+before anything else is imported), the library's result and the process's
+peak RSS. Kinds: ``direct``, ``library``
 and ``backoff`` (random polytopes, a cold then a warm call), ``h2`` (an H2
 design, then an identical second call), ``twomass`` and ``twomass_direct``.
 """
@@ -135,13 +136,18 @@ def _frozen_norm_ratio(data, K, gamma, N, seed=0):
     return float(worst / gamma)
 
 
-def _library_hinf(lpv, sys_, backoff, cap):
-    return lpv.gain_scheduled_hinf(
-        sys_, w=[0], u=[1, 2], z=[0, 1, 2], backoff=backoff, time_limit=cap
-    )
+def _emit(result):
+    """Print the results so far (the driver keeps the last line, also of a
+    process it ends at the cap)."""
+    result["peak_rss_mb"] = _rss_mb()
+    print(json.dumps(result, default=float), flush=True)
 
 
-def _grid_case(lpv, dr, kind, n, N, cap, result):
+def _library_hinf(lpv, sys_, backoff):
+    return lpv.gain_scheduled_hinf(sys_, w=[0], u=[1, 2], z=[0, 1, 2], backoff=backoff)
+
+
+def _grid_case(lpv, dr, kind, n, N, result):
     """Parts g and b: a cold call, then a warm one (new data, same shapes)."""
     systems = [dr.random_vertices(n, N, seed=s) for s in (1, 2)]
     for label, vertices in zip(("cold", "warm"), systems):
@@ -153,18 +159,19 @@ def _grid_case(lpv, dr, kind, n, N, cap, result):
             rec["iterations"] = out.iterations
             rec["A_shape"], rec["A_nnz"] = list(out.conic.A.shape), out.conic.A.nnz
             result[label] = rec
+            _emit(result)
             # Not timed, after the peak of the solve: the gains' own check.
             rec["norm_over_gamma"] = _frozen_norm_ratio(data, out.K, out.gamma, N)
             continue
         backoff = None if kind == "library" else 0.2
-        call = partial(_library_hinf, lpv, lpv.pss(vertices), backoff, cap)
-        design, rec = _measured(call)
+        design, rec = _measured(partial(_library_hinf, lpv, lpv.pss(vertices), backoff))
         result[label] = _library_design(design, rec)
-        if rec["error"] or rec["wall"] > cap:
+        _emit(result)
+        if rec["error"]:
             break
 
 
-def _h2_case(lpv, cap, result):
+def _h2_case(lpv, result):
     """Part h: the H2 design, then an identical second call."""
     sys_ = h2_plant(lpv)
     call = partial(
@@ -175,16 +182,16 @@ def _h2_case(lpv, cap, result):
         gains="scheduled",
         lyapunov="affine",
         rate_bounds={name: 1.0 for name in sys_.domain.names},
-        time_limit=cap,
     )
     for label in ("first", "second"):
         out, rec = _measured(call)
         result[label] = _library_design(out, rec)
+        _emit(result)
         if rec["error"]:
             break
 
 
-def _two_mass_case(lpv, dr, kind, function, backoff, cap, result):
+def _two_mass_case(lpv, dr, kind, function, backoff, result):
     """Part t: one of the four functions on the two-mass model, twice."""
     model = lpv.twomass.lpv_model(
         p_bounds=(-0.95, 0), formulation="tracking", integral=True
@@ -199,9 +206,7 @@ def _two_mass_case(lpv, dr, kind, function, backoff, cap, result):
         call = partial(dr.hinf if hinf else dr.stabilization, data, scheduled)
     else:
         kw = {"w": "Td", "z": list(model.output_labels), "backoff": backoff}
-        call = partial(
-            getattr(lpv, name), model, u="Tm", time_limit=cap, **(kw if hinf else {})
-        )
+        call = partial(getattr(lpv, name), model, u="Tm", **(kw if hinf else {}))
     for label in ("cold", "warm"):
         out, rec = _measured(call)
         if kind == "twomass_direct":
@@ -209,24 +214,28 @@ def _two_mass_case(lpv, dr, kind, function, backoff, cap, result):
         else:
             _library_design(out, rec)
         result[label] = rec
+        _emit(result)
 
 
 def run_case(spec):
-    """One (case, side) in this process; prints one JSON line."""
+    """One (case, side) in this process; prints a JSON line after each call.
+
+    The library is called as a user would (its default time budget); the
+    driver ends a process that runs over its cap.
+    """
     _record_solves()
     lpv = _preload()
     import _direct_reference as dr
 
     result = {"baseline_rss_mb": _rss_mb()}
-    kind, cap = spec["kind"], spec["cap"]
+    kind = spec["kind"]
     if kind in ("library", "backoff", "direct"):
-        _grid_case(lpv, dr, kind, spec["n"], spec["N"], cap, result)
+        _grid_case(lpv, dr, kind, spec["n"], spec["N"], result)
     elif kind == "h2":
-        _h2_case(lpv, cap, result)
+        _h2_case(lpv, result)
     else:
-        _two_mass_case(lpv, dr, kind, spec["function"], spec["backoff"], cap, result)
-    result["peak_rss_mb"] = _rss_mb()
-    print(json.dumps(result, default=float))
+        _two_mass_case(lpv, dr, kind, spec["function"], spec["backoff"], result)
+    _emit(result)
 
 
 def h2_plant(lpv, n=4, k=4, seed=3):
