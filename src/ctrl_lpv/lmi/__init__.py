@@ -10,7 +10,8 @@ verified dual certificate (`FarkasCertificate`).
 Modules, in the order data flow through them: ``blocks`` (block matrices,
 affine maps), ``conic`` (conic data, direct solvers), ``cvxpy_backend``,
 ``solvers`` (chains, options, time limits), ``certificates`` (checks,
-dual certificates), ``problem`` (`LMIProblem`).
+dual certificates), ``reading`` (inequalities into conic data), ``dual``
+(dual certificates of a stage), ``problem`` (`LMIProblem`).
 """
 
 from .blocks import assemble, normalized_max_eig

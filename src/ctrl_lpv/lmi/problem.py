@@ -27,7 +27,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from .. import _farkas, budget
+from .. import budget
 from ..certificate import Check, negative_definite
 from ..exceptions import CertificationError, InfeasibleError
 from . import blocks as _blocks
@@ -35,10 +35,10 @@ from .certificates import (
     _CERTIFIED_FRACTION,
     _SIDE_TOLERANCE,
     LMISolution,
-    _certificate,
-    _stronger,
 )
-from .conic import PROVED_INFEASIBLE, SOLVED, conic_data
+from .conic import PROVED_INFEASIBLE, SOLVED
+from .dual import DualCertificates
+from .reading import ConicReading
 from .solvers import SolveAttempt, default_solvers, run, summary, with_time_limit
 
 __all__ = ["LMIProblem"]
@@ -51,10 +51,6 @@ BlockFunction = Callable[[SimpleNamespace], Sequence[Sequence[object]]]
 # strict LMIs only: at most this many, each margin at most this factor up.
 _MARGIN_RETRIES = 2
 _MAX_RETRY_FACTOR = 1e4
-# Maps of one inequality kept for as many sets of the parameter values it
-# reads: stages and prescalings that alternate (a bound set per stage) then
-# read each inequality once.
-_KEPT_MAPS = 4
 
 
 @dataclass(frozen=True)
@@ -94,7 +90,7 @@ def _retry_factor(checks, margin) -> float | None:
     return min(float(factor), _MAX_RETRY_FACTOR)
 
 
-class LMIProblem:
+class LMIProblem(ConicReading, DualCertificates):
     """LMI problem with named variables, parameters and stages.
 
     Parameters
@@ -269,111 +265,6 @@ class LMIProblem:
 
     def _numeric(self) -> dict[str, np.ndarray]:
         return {k: p.value for k, p in self._params.items()}
-
-    def _units(self) -> dict[str, np.ndarray]:
-        return {
-            name: _blocks.unit_points(var.shape, var.symmetric)
-            for name, var in self._vars.items()
-        }
-
-    def _nfree(self) -> int:
-        return sum(var.free for var in self._vars.values())
-
-    def _base(self) -> dict[str, np.ndarray]:
-        """The parameters' values and the variables at zero."""
-        zero = {k: np.zeros(v.shape) for k, v in self._vars.items()}
-        return {**self._numeric(), **zero}
-
-    def _pieces(self, active, exact: bool = False):
-        """Per inequality, ``(F(0), columns of M)`` (`ctrl_lpv.lmi.blocks`).
-
-        An inequality's map is kept for its last few sets of values of the
-        parameters it reads (which it was first seen to read), and reused
-        for the same values; a block function that reads other constants
-        that change needs `invalidate`. `exact` reads the maps one unit
-        point at a time (for dual certificates, whose rounding bounds
-        assume exact columns); otherwise in one batched evaluation per
-        variable, checked at a random point.
-        """
-        units = self._units()
-        numeric = self._numeric()
-        base = self._base()
-        cache = self._exact if exact else self._columns
-        pieces = []
-        for name, blocks, _, _ in active:
-            kept = cache.setdefault(name, {})
-            read = self._reads.get(name)
-            key = None if read is None else _key(read, numeric)
-            if key in kept:
-                kept[key] = kept.pop(key)  # the most recent last
-                pieces.append(kept[key])
-                continue
-            budget.check(f"reading the LMI {name}")
-            read = set()
-            F0 = _blocks.assemble(blocks(_blocks.Recording(base, read)))
-            if "__dict__" in read:  # the namespace was read as a whole
-                read = set(base)
-            self._reads[name] = read = frozenset(read & set(base))
-
-            def evaluate(values, blocks=blocks):
-                namespace = SimpleNamespace(**{**base, **values})
-                return _blocks.assemble(blocks(namespace))
-
-            start = time.perf_counter()
-            part = _blocks.columns(evaluate, F0, read, units, not exact)
-            kept[_key(read, numeric)] = piece = (F0, part)
-            self._reading += time.perf_counter() - start
-            if len(kept) > _KEPT_MAPS:
-                del kept[next(iter(kept))]
-            pieces.append(piece)
-        return pieces
-
-    def _conic_data(self, stage: str, upper: bool):
-        """The stage's conic data (`ctrl_lpv.lmi.conic`) and whether it was
-        rebuilt (only when an inequality's map changed)."""
-        active = self._active(stage)
-        pieces = self._pieces(active)
-        parts = tuple(part for _, part in pieces)
-        last = self._conic.get((stage, upper))
-        if last and len(last[0]) == len(parts) and all(map(id_equal, last[0], parts)):
-            return last[1], False
-        strict = [is_strict for _, _, is_strict, _ in active]
-        start = time.perf_counter()
-        data = conic_data(pieces, strict, self._nfree(), upper)
-        self._reading += time.perf_counter() - start
-        self._conic[(stage, upper)] = (parts, data)
-        return data, True
-
-    def _objective_vector(self, objective) -> np.ndarray:
-        """``c`` of a linear objective ``objective(v) = c'x + c0``."""
-        c = np.zeros(self._nfree())
-        if objective is None:
-            return c
-
-        def value(values):
-            base = {
-                **self._numeric(),
-                **{k: np.zeros(v.shape) for k, v in self._vars.items()},
-                **values,
-            }
-            return float(np.asarray(objective(SimpleNamespace(**base))).reshape(()))
-
-        zero = value({})
-        offset = 0
-        for name, points in self._units().items():
-            for k, E in enumerate(points):
-                c[offset + k] = value({name: E}) - zero
-            offset += len(points)
-        return c
-
-    def _values(self, x) -> dict[str, np.ndarray]:
-        """The variables' values from the vector of free entries."""
-        values, offset = {}, 0
-        for name, points in self._units().items():
-            k = len(points)
-            values[name] = np.tensordot(x[offset : offset + k], points, axes=1)
-            offset += k
-        return values
 
     def compile(
         self,
@@ -613,101 +504,3 @@ class LMIProblem:
         raise CertificationError(
             f"no certified solution found [{described}]", attempts, farkas=proof
         )
-
-    def _best_farkas(self, dual_points, stage):
-        best = None
-        for duals in dual_points:
-            proof = self.farkas(duals, stage)
-            if proof is not None and (best is None or _stronger(proof, best)):
-                best = proof
-        return best
-
-    def farkas(self, duals, stage: str = "default"):
-        """Verify a dual certificate of infeasibility in float64.
-
-        Parameters
-        ----------
-        duals : sequence of ndarray
-            One symmetric matrix per active inequality of `stage`, in the
-            order they were added (e.g. cvxpy's dual values after an
-            infeasible solve). Each is projected on the PSD cone, then
-            polished by alternating projections (PSD cone, null space of the
-            adjoint map) and the certificate is evaluated as described in
-            `FarkasCertificate`; both signs are tried, with and without the
-            duals of the normalisations.
-        stage : str, optional
-            Stage name.
-
-        Returns
-        -------
-        `FarkasCertificate` or None
-            None if no variant gives a positive trace.
-        """
-        active = self._active(stage)
-        if len(duals) != len(active):
-            raise ValueError(
-                f"duals: expected {len(active)} matrices, got {len(duals)}"
-            )
-        full = self._affine_map(active)
-        normalizing = np.array([name in self._normalizations for name, *_ in active])
-        strict = np.array([is_strict for _, _, is_strict, _ in active])
-        groups = self._column_groups()
-        symmetric = full.stack(duals)
-        # Without the normalisations (their inequalities dropped, so their
-        # duals are exactly zero): a certificate that does not need them
-        # refutes the LMIs themselves (for homogeneous strict LMIs the
-        # normalisations are often what makes the solver's problem
-        # infeasible).
-        everything = np.arange(len(active))
-        variants = [(full, everything, symmetric)]
-        if normalizing.any() and not normalizing.all():
-            reduced = full.restrict(~normalizing)
-            kept = np.flatnonzero(~normalizing[full._owner])
-            variants.append((reduced, np.flatnonzero(~normalizing), symmetric[kept]))
-        best = None
-        for sign in (1.0, -1.0):  # conventions differ
-            for amap, members, y0 in variants:
-                y = amap.polish(sign * y0)
-                if y is None:
-                    continue
-                proof = _certificate(
-                    stage, amap, y, members, full.sizes, normalizing, strict, groups
-                )
-                if best is None or _stronger(proof, best):
-                    best = proof
-        return best
-
-    def _column_groups(self) -> list[tuple[str, slice]]:
-        """Each variable's columns in the affine map (`_affine_map`)."""
-        groups, start = [], 0
-        for name, var in self._vars.items():
-            groups.append((name, slice(start, start + var.free)))
-            start += var.free
-        return groups
-
-    def _affine_map(self, active) -> _farkas.AffineMap:
-        """``F_i(0)`` and the sparse map ``x -> vec(F_i(x) - F_i(0))``, exact.
-
-        Read off the block functions one free entry of the variables at a
-        time (`_pieces` with ``exact=True``); the stacked map, with its
-        factored Gram matrix, is kept while no inequality's map changes.
-        """
-        pieces = self._pieces(active, exact=True)
-        parts = tuple(part for _, part in pieces)
-        key = ("map", tuple(name for name, *_ in active))
-        last = self._exact.get(key)
-        if last and len(last[0]) == len(parts) and all(map(id_equal, last[0], parts)):
-            return last[1]
-        amap = _farkas.stacked(pieces, self._nfree())
-        self._exact[key] = (parts, amap)
-        return amap
-
-
-def _key(read, numeric) -> tuple:
-    """The values of the parameters among `read`, as a dictionary key."""
-    return tuple((p, numeric[p].tobytes()) for p in sorted(read) if p in numeric)
-
-
-def id_equal(a, b) -> bool:
-    """Whether `a` is `b` (the same cached columns)."""
-    return a is b
