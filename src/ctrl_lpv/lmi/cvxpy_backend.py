@@ -14,7 +14,7 @@ import warnings
 import numpy as np
 import scipy.sparse as sp
 
-from .conic import ConicData, ConicResult, _layout
+from .conic import SOLVED, ConicData, ConicResult, _layout
 
 __all__ = ["installed", "solve_cvxpy", "options_error"]
 
@@ -67,7 +67,7 @@ def solve_cvxpy(solver: str, c, data: ConicData, margin: float, options) -> Coni
         status = "solver_error"
     seconds = time.perf_counter() - start
     setup = float(problem.compilation_time or 0.0)
-    solved = status in ("optimal", "optimal_inaccurate")
+    solved = status in SOLVED
     duals = [constraint.dual_value for constraint in constraints]
     if any(dual is None for dual in duals):
         duals = None

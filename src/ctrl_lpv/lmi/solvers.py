@@ -96,6 +96,7 @@ def with_time_limit(solver, options, deadline):
 
 def run(solver: str, c, data_of, margin: float, options) -> ConicResult:
     """Solve with `solver`; ``data_of(upper)`` gives the conic data."""
+    solver = solver.upper()
     if solver in DIRECT:
         return solve_direct(solver, c, data_of(DIRECT[solver][1]), margin, options)
     return cvxpy_backend.solve_cvxpy(solver, c, data_of(True), margin, options)
