@@ -65,7 +65,8 @@ from scipy.integrate import odeint, solve_ivp
 import ctrl_lpv
 from ctrl_lpv import twomass
 from ctrl_lpv.interconnection import interconnect
-from ctrl_lpv.simulation import _integrate, simulate
+from ctrl_lpv.ode_integration import integrate
+from ctrl_lpv.simulation import simulate
 
 ALPHA, THETA_R, TD = 0.03, 0.5, 8.0
 RTOL, ATOL = 1e-6, 1e-9
@@ -521,7 +522,7 @@ def _fast_nfev(sys, T, method):
         return fused(t, x)
 
     options = dict(method=method, rtol=RTOL, atol=ATOL)
-    _integrate(counted_rhs, T, np.zeros(sys.nstates), options)  # as simulate
+    integrate(counted_rhs, T, np.zeros(sys.nstates), options)  # as simulate
     return calls[0]
 
 

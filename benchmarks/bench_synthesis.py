@@ -1,584 +1,504 @@
-"""Synthesis speed: the library against plain cvxpy, re-solves, scaling.
+"""Synthesis cost: the library against the direct conic build and Clarabel's solve.
 
-Three parts, every comparison measured side by side in one run (medians of
-``--repeat`` interleaved runs):
+Issue 20's "Must show", measured side by side in one run. The reference is
+``tests/_direct_reference.py``: the same conic problem as the library's
+minimum-gamma solve (Theorem 2 / Lemma 2; the stabilization stage for
+Theorem 1 / Lemma 1), assembled with numpy/scipy.sparse into Clarabel's
+``b - A x in K`` form and solved once (``chordal_decomposition_enable=False``,
+as the library runs Clarabel). Parts (``--parts``, default all):
 
-(a) The four synthesis functions on the two-mass model
-    (``lpv_model(p_bounds=(-0.95, 0), formulation="tracking",
-    integral=True)``, w = Td, u = Tm, z = all outputs), time split into
-    build / compile / solve / verify, against the same LMIs written as a
-    plain cvxpy script (no prescaling, no verification) with the same
-    solver, Clarabel ("plain": Clarabel's defaults, what a script would
-    use; "p.same": the library's Clarabel settings). "cold" is a first call
-    (nothing compiled in the process), "warm" a repeated call that reuses
-    the compiled problem. Like with like: ``backoff=None`` (one solve of the
-    minimum gamma) against the plain minimum, and the stabilizations (the
-    library's LMIs and objective in both); the default pipeline (back-off
-    0.2: minimum gamma, centering, one to four gain iterations, so three to
-    six solves) is listed against the same one-solve plain script.
-(b) Re-solves on the two-mass model: first call, then cached re-solves for
-    a gamma sweep, a back-off sweep, a performance-weight sweep and a plant
-    sweep (``p_bounds``), against the plain script per point.
-(c) Scaling on random well-conditioned polytopes (stabilizable by
-    construction, m = 2 inputs, one w, z = [C x; u]) for the four functions
-    (``--functions``; the H-infinity ones with ``backoff=None``, the
-    stabilizations with their one solve): N = 2..64 vertices, n = 4, 8, 12. Each
-    case runs in its own process with a time cap per measured call; cases
-    beyond a capped one are skipped. The plain script uses the library's
-    Clarabel settings here. Columns give the LMI count and size, the conic
-    problem size (rows of the PSD cones) and the entries of the dense
-    blocks of Clarabel's KKT system (one ``d(d+1)/2``-square Nesterov-Todd
-    scaling block per PSD cone of size ``d``), and the peak memory.
+g  Theorem 2 on random polytopes (m = 2 inputs, one w, z = [C x; u]) for
+   n = 4, 8, 12 and N = 16, 32 (64 with ``--full``): the library's
+   ``gain_scheduled_hinf(backoff=None)`` cold (first call in a new process)
+   and warm (a second call, new data, same shapes) against the direct
+   build+solve of the same data and against Clarabel's own solve of it.
+b  The default back-off (``backoff=0.2``) on the same polytopes, cold and
+   warm, against one direct build+solve.
+h  An H2 design with an affine Lyapunov matrix and scheduled gains
+   (``synthesize(objective=H2, gains="scheduled", lyapunov="affine")``),
+   n = 4, four parameters (N = 16 vertices), under a cap; then an identical
+   second call, against the solver time inside it.
+t  The four functions on the two-mass model (``lpv_model(p_bounds=(-0.95,
+   0), formulation="tracking", integral=True)``, N = 2), cold and an
+   identical warm call, against the direct build+solve.
+
+Method: ``OMP_NUM_THREADS=1`` and ``OPENBLAS_NUM_THREADS=1`` are set before
+numpy is imported; every (case, side) runs in its own process
+(``benchmarks/synthesis_cases.py``), so that a
+cold call is truly cold and the peak RSS (``ru_maxrss``) is that case's. Both
+sides import the same modules before measuring (ctrl_lpv's synthesis
+functions, cvxpy, control, clarabel), so their baselines are equal and the
+peak difference is what the path allocates. Each process wraps
+``clarabel.DefaultSolver`` to record every solve (CPU time of the call,
+Clarabel's ``solve_time``, iterations, status): the number of solver calls
+per library call and the solver's share. Times are CPU seconds
+(``time.process_time``) unless marked wall; repeats are interleaved (library,
+direct, library, ...) and the tables show medians. The direct side also
+checks its gains: the largest H-infinity norm (``control.linfnorm``) of the
+frozen closed loops at the vertices and random points, over its gamma.
 
 Usage::
 
-    python benchmarks/bench_synthesis.py [--quick] [--repeat N] [--json PATH]
-        [--cap SECONDS] [--parts abc]
+    python benchmarks/bench_synthesis.py [--quick] [--full] [--repeat R]
+        [--sizes 4x16,8x32] [--parts gbht] [--cap SECONDS] [--h2-cap SECONDS]
+        [--json PATH]
 """
 
 from __future__ import annotations
 
-import argparse
-import json
 import os
-import platform
-import resource
-import subprocess
-import sys
-import time
-import warnings
 
-import cvxpy as cp
-import numpy as np
+os.environ["OMP_NUM_THREADS"] = "1"  # before numpy: one BLAS thread
+os.environ["OPENBLAS_NUM_THREADS"] = "1"
 
-import ctrl_lpv as lpv
-from ctrl_lpv import synthesis_cache, twomass
+import argparse  # noqa: E402
+import json  # noqa: E402
+import platform  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
 
-FUNCTIONS = {
-    "Lemma 1": (lpv.quadratic_stabilization, False, False),
-    "Theorem 1": (lpv.gain_scheduled_stabilization, False, True),
-    "Lemma 2": (lpv.hinf_state_feedback, True, False),
-    "Theorem 2": (lpv.gain_scheduled_hinf, True, True),
+import numpy as np  # noqa: E402
+
+CASES = os.path.join(os.path.dirname(os.path.abspath(__file__)), "synthesis_cases.py")
+
+# Targets of issue 20 (ratios of CPU times; memory of peak RSS).
+TARGETS = {
+    "cold": 1.3,  # Theorem 2 backoff=None, cold / Clarabel's solve, N >= 16
+    "warm": 1.1,  # the same, warm
+    "backoff": 2.5,  # default back-off / one direct build+solve
+    "memory": 1.2,  # peak RSS, library / direct
+    "h2_repeat": 1.1,  # identical second H2 call / its solver time
 }
-EPS = 1e-6  # margin of the plain scripts' strict LMIs
 
 
-# ----------------------------------------------------------------------
-# The plain cvxpy scripts (what a user would write without the library)
-# ----------------------------------------------------------------------
-def channels(sys, w, u, z):
-    """Vertex data (A, B1, B2, C, D1, D2) for index lists w, u, z."""
-    return [
-        (A, B[:, w], B[:, u], C[z], D[np.ix_(z, w)], D[np.ix_(z, u)])
-        for A, B, C, D in sys.vertex_data()
-    ]
-
-
-def plain_hinf(vertices, scheduled, **options):
-    """Lemma 2 / Theorem 2 in plain cvxpy: minimise g = gamma^2."""
-    N = len(vertices)
-    n, m = vertices[0][2].shape
-    nw, nz = vertices[0][1].shape[1], vertices[0][3].shape[0]
-    W = cp.Variable((n, n), symmetric=True)
-    Z = [cp.Variable((m, n)) for _ in range(N if scheduled else 1)]
-    g = cp.Variable()
-    cons = [W >> EPS * np.eye(n)]
-    pairs = [(j, k) for j in range(N) for k in range(j, N if scheduled else j + 1)]
-    for j, k in pairs:
-        Aj, B1j, B2j, Cj, D1j, D2j = vertices[j]
-        Ak, B1k, B2k, Ck, D1k, D2k = vertices[k]
-        Zj, Zk = (Z[j], Z[k]) if scheduled else (Z[0], Z[0])
-        if j == k:
-            c, B1, D1 = 1.0, B1j, D1j
-            q, R = Aj @ W + B2j @ Zj, Cj @ W + D2j @ Zj
-        else:
-            c, B1, D1 = 2.0, B1j + B1k, D1j + D1k
-            q = (Aj + Ak) @ W + B2j @ Zk + B2k @ Zj
-            R = (Cj + Ck) @ W + D2j @ Zk + D2k @ Zj
-        M = cp.bmat(
-            [
-                [q + q.T, B1, R.T],
-                [B1.T, -c * np.eye(nw), D1.T],
-                [R, D1, -c * g * np.eye(nz)],
-            ]
-        )
-        cons.append(M << -EPS * np.eye(n + nw + nz))
-    problem = cp.Problem(cp.Minimize(g), cons)
-    problem.solve(solver="CLARABEL", **options)
-    gamma = float(np.sqrt(g.value)) if g.value is not None else None
-    return problem, gamma
-
-
-def plain_stabilization(vertices, scheduled, **options):
-    """Lemma 1 / Theorem 1 in plain cvxpy, the library's LMIs and objective.
-
-    Maximise t with t I <= W <= I, ||Z|| <= 1, the strict Lyapunov LMIs and
-    sym(A_cl W) <= -t I at every vertex (and pair).
-    """
-    N = len(vertices)
-    n, m = vertices[0][2].shape
-    W = cp.Variable((n, n), symmetric=True)
-    Z = [cp.Variable((m, n)) for _ in range(N if scheduled else 1)]
-    t = cp.Variable()
-    cons = [W >> EPS * np.eye(n), W << np.eye(n), W >> t * np.eye(n)]
-    cons += [cp.bmat([[-np.eye(n), Zk.T], [Zk, -np.eye(m)]]) << 0 for Zk in Z]
-    pairs = [(j, k) for j in range(N) for k in range(j, N if scheduled else j + 1)]
-    for j, k in pairs:
-        Aj, B2j, Ak, B2k = (
-            vertices[j][0],
-            vertices[j][2],
-            vertices[k][0],
-            vertices[k][2],
-        )
-        Zj, Zk = (Z[j], Z[k]) if scheduled else (Z[0], Z[0])
-        if j == k:
-            c, q = 1.0, Aj @ W + B2j @ Zj
-        else:
-            c, q = 2.0, (Aj + Ak) @ W + B2j @ Zk + B2k @ Zj
-        cons.append(q + q.T << -EPS * np.eye(n))
-        cons.append(q + q.T + c * t * np.eye(n) << 0)
-    problem = cp.Problem(cp.Maximize(t), cons)
-    problem.solve(solver="CLARABEL", **options)
-    return problem, None
-
-
-def run_plain(name, vertices, **options):
-    _, hinf, scheduled = FUNCTIONS[name]
-    start = time.perf_counter()
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", UserWarning)  # "may be inaccurate"
-            problem, gamma = (plain_hinf if hinf else plain_stabilization)(
-                vertices, scheduled, **options
-            )
-    except cp.error.SolverError:
-        # Timed all the same: the script's user paid for it.
-        return {"total": time.perf_counter() - start, "status": "solver_error"}
-    total = time.perf_counter() - start
-    stats = problem.solver_stats
-    return {
-        "total": total,
-        "compile": problem.compilation_time,
-        "solve": stats.solve_time if stats and stats.solve_time else np.nan,
-        "status": problem.status,
-        "gamma": gamma,
-    }
-
-
-# ----------------------------------------------------------------------
-# Measurement helpers
-# ----------------------------------------------------------------------
-def run_library(function, sys, cold, **kwargs):
-    if cold:
-        synthesis_cache.clear()
-    start = time.perf_counter()
-    design = function(sys, **kwargs)
-    total = time.perf_counter() - start
-    return {
-        "total": total,
-        **design.timing,
-        "attempts": len(design.attempts),
-        "fallbacks": sum(a.solver != "CLARABEL" for a in design.attempts),
-        "gamma": design.gamma,
-        "verified": design.certificate.verified,
-    }
-
-
-def median(rows, key):
-    values = [r[key] for r in rows if r.get(key) is not None]
-    return float(np.median(values)) if values else None
-
-
-def summary(rows, keys):
-    return {k: median(rows, k) for k in keys}
-
-
-def ms(x):
-    return "-" if x is None or not np.isfinite(x) else f"{1e3 * x:.1f}"
-
-
-def two_mass():
-    return twomass.lpv_model(p_bounds=(-0.95, 0), formulation="tracking", integral=True)
-
-
-def two_mass_kwargs(model, hinf):
-    if hinf:
-        return {"w": "Td", "u": "Tm", "z": list(model.output_labels)}
-    return {"u": "Tm"}
-
-
-# ----------------------------------------------------------------------
-# (a) the four functions on the two-mass model
-# ----------------------------------------------------------------------
-def part_a(repeat):
-    model = two_mass()
-    vertices = channels(model, [0], [1], list(range(model.noutputs)))
-    cases = [
-        ("Lemma 1", {}),
-        ("Theorem 1", {}),
-        ("Lemma 2", {"backoff": None}),
-        ("Theorem 2", {"backoff": None}),
-        ("Lemma 2", {}),
-        ("Theorem 2", {}),
-    ]
-    keys = ["total", "build", "compile", "solve", "verify", "attempts", "gamma"]
-    keys += ["fallbacks"]
-    out = []
-    for name, extra in cases:
-        function, hinf, _ = FUNCTIONS[name]
-        kwargs = {**two_mass_kwargs(model, hinf), **extra}
-        cold, warm, plain, plain_same = [], [], [], []
-        run_library(function, model, True, **kwargs)  # imports, first use
-        for _ in range(repeat):
-            cold.append(run_library(function, model, True, **kwargs))
-            warm.append(run_library(function, model, False, **kwargs))
-            plain.append(run_plain(name, vertices))
-            plain_same.append(
-                run_plain(name, vertices, chordal_decomposition_enable=False)
-            )
-        row = {
-            "function": name,
-            "pipeline": "backoff=None"
-            if extra.get("backoff", 0.2) is None
-            else ("default" if hinf else "default (max decay)"),
-            "cold": summary(cold, keys),
-            "warm": summary(warm, keys),
-            "plain": summary(plain, ["total", "compile", "solve", "gamma"]),
-            "plain_same_options": summary(plain_same, ["total", "gamma"]),
-            "plain_status": plain[-1]["status"],
-            "verified": all(r["verified"] for r in cold + warm),
-        }
-        row["ratio_cold"] = row["cold"]["total"] / row["plain"]["total"]
-        row["ratio_warm"] = row["warm"]["total"] / row["plain"]["total"]
-        out.append(row)
-        print_row_a(row)
-    return out
-
-
-def print_header_a():
-    print(
-        "\n(a) two-mass model (n = 5, N = 2), medians [ms]; ratio = library / plain\n"
-        f"{'function':10s} {'pipeline':19s} | {'cold':>7s} {'build':>6s} "
-        f"{'compile':>7s} {'solve':>6s} {'verify':>6s} | {'warm':>6s} | "
-        f"{'plain':>6s} {'p.comp':>6s} {'p.solve':>7s} {'p.same':>6s} | "
-        f"{'cold/pl':>7s} {'warm/pl':>7s} | gamma lib / plain"
-    )
-
-
-def print_row_a(r):
-    c, w, p = r["cold"], r["warm"], r["plain"]
-    gammas = ""
-    if c["gamma"] is not None and p["gamma"] is not None:
-        gammas = f"{c['gamma']:.5g} / {p['gamma']:.5g} ({r['plain_status']})"
-    if c["fallbacks"]:
-        gammas += f" [library used SCS {c['fallbacks']:g}x]"
-    print(
-        f"{r['function']:10s} {r['pipeline']:19s} | {ms(c['total']):>7s} "
-        f"{ms(c['build']):>6s} {ms(c['compile']):>7s} {ms(c['solve']):>6s} "
-        f"{ms(c['verify']):>6s} | {ms(w['total']):>6s} | {ms(p['total']):>6s} "
-        f"{ms(p['compile']):>6s} {ms(p['solve']):>7s} "
-        f"{ms(r['plain_same_options']['total']):>6s} | {r['ratio_cold']:7.2f} "
-        f"{r['ratio_warm']:7.2f} | {gammas}",
-        flush=True,
-    )
-
-
-# ----------------------------------------------------------------------
-# (b) re-solves
-# ----------------------------------------------------------------------
-def part_b(repeat, quick):
-    model = two_mass()
-    kw = two_mass_kwargs(model, True)
-    vertices = channels(model, [0], [1], list(range(model.noutputs)))
-    best = lpv.gain_scheduled_hinf(model, backoff=None, **kw)
-    factors = [1.05, 1.2, 2.0] if quick else [1.02, 1.05, 1.1, 1.2, 1.5, 2.0, 3.0]
-    backoffs = [0.1, 0.5] if quick else [0.05, 0.1, 0.2, 0.5, 1.0]
-    weights = [1e-3, 5e-3] if quick else [5e-4, 1e-3, 2e-3, 5e-3, 1e-2]
-    epsilons = [0.1, 0.02] if quick else [0.2, 0.1, 0.05, 0.02, 0.01]
-
-    def models_with(**kwargs):
-        return twomass.lpv_model(formulation="tracking", integral=True, **kwargs)
-
-    sweeps = [
-        ("gamma (fixed-gamma feasibility)", "Theorem 2",
-         [(model, {"gamma": f * best.gamma_opt, "backoff": None}) for f in factors]),
-        ("gamma (fixed gamma, default back-off)", "Theorem 2",
-         [(model, {"gamma": f * best.gamma_opt}) for f in factors]),
-        ("back-off (default pipeline)", "Theorem 2",
-         [(model, {"backoff": b}) for b in backoffs]),
-        ("torque weight (z rows), backoff=None", "Theorem 2",
-         [(models_with(p_bounds=(-0.95, 0), torque_weight=w), {"backoff": None})
-          for w in weights]),
-        ("plant p_bounds, backoff=None", "Theorem 2",
-         [(models_with(p_bounds=(-1 + e, 0)), {"backoff": None}) for e in epsilons]),
-        ("torque weight, Lemma 2, backoff=None", "Lemma 2",
-         [(models_with(p_bounds=(-0.95, 0), torque_weight=w), {"backoff": None})
-          for w in weights]),
-    ]  # fmt: skip
-    out = []
-    print(
-        "\n(b) re-solves on the two-mass model, medians [ms] "
-        "(first = cold call incl. compile; re-solve = later calls of the sweep)\n"
-        f"{'sweep':40s} {'fn':9s} {'pts':>3s} | {'first':>7s} {'compile':>7s} | "
-        f"{'re-solve':>8s} {'compile':>7s} {'solve':>6s} {'verify':>6s} | "
-        f"{'plain':>6s} | {'re/plain':>8s} | certified"
-    )
-    for label, name, points in sweeps:
-        function, _, _ = FUNCTIONS[name]
-        first, again, plain = [], [], []
-        for _ in range(repeat):
-            sys0, extra0 = points[0]
-            first.append(run_library(function, sys0, True, **kw, **extra0))
-            for sys_, extra in points[1:]:
-                again.append(run_library(function, sys_, False, **kw, **extra))
-        for sys_, _ in points:
-            plain.append(run_plain(name, channels(sys_, [0], [1], [0, 1, 2])))
-        row = {
-            "sweep": label,
-            "function": name,
-            "points": len(points),
-            "first": summary(first, ["total", "compile"]),
-            "resolve": summary(again, ["total", "compile", "solve", "verify"]),
-            "plain": summary(plain, ["total"]),
-            "plain_failed": sum(r["status"] == "solver_error" for r in plain),
-            "fallbacks": sum(r["fallbacks"] for r in first + again),
-            "certified": all(r["verified"] for r in first + again),
-        }
-        row["ratio"] = row["resolve"]["total"] / row["plain"]["total"]
-        out.append(row)
-        f, a = row["first"], row["resolve"]
-        print(
-            f"{label:40s} {name:9s} {len(points):3d} | {ms(f['total']):>7s} "
-            f"{ms(f['compile']):>7s} | {ms(a['total']):>8s} {ms(a['compile']):>7s} "
-            f"{ms(a['solve']):>6s} {ms(a['verify']):>6s} | "
-            f"{ms(row['plain']['total']):>6s} | {row['ratio']:8.2f} | "
-            f"{row['certified']}, {row['fallbacks']} SCS attempts; plain "
-            f"failed {row['plain_failed']}/{len(points)}",
-            flush=True,
-        )
-    del vertices
-    return out
-
-
-# ----------------------------------------------------------------------
-# (c) scaling on random polytopes, one process per case
-# ----------------------------------------------------------------------
 def random_polytope(n, N, m=2, seed=0):
-    """Quadratically stabilizable by construction (see tests)."""
-    rng = np.random.default_rng(seed)
-    K0 = rng.normal(size=(m, n))
-    Q, _ = np.linalg.qr(rng.normal(size=(n, n)))
-    T = Q @ np.diag(rng.uniform(0.5, 2.0, size=n))
-    Ti = np.linalg.inv(T)
-    vertices = []
-    for _ in range(N):
-        B = rng.normal(size=(n, m))
-        S = rng.normal(size=(n, n))
-        A = B @ K0 + (S - S.T) - rng.uniform(0.1, 1.0) * np.eye(n)
-        B1 = rng.normal(size=(n, 1))
-        C = rng.normal(size=(1, n))
-        Cz = np.vstack([C @ Ti, np.zeros((m, n))])
-        Dz = np.zeros((1 + m, 1 + m))
-        Dz[1:, 1:] = np.eye(m)
-        vertices.append((T @ A @ Ti, T @ np.hstack([B1, B]), Cz, Dz))
-    return lpv.pss(vertices)
+    """Part g's random polytope as a system (also used by ``bench_farkas.py``
+    and ``time_budget.py``): ``tests/_direct_reference.random_vertices``."""
+    import ctrl_lpv as lpv
+
+    sys.path.insert(0, os.path.join(os.path.dirname(CASES), "..", "tests"))
+    from _direct_reference import random_vertices
+
+    return lpv.pss(random_vertices(n, N, m, seed))
 
 
-def conic_size(name, n, N, m=2, nw=1, nz=3):
-    """LMI count and size, and the PSD cones Clarabel sees."""
-    _, hinf, scheduled = FUNCTIONS[name]
-    count = N * (N + 1) // 2 if scheduled else N
-    size = n + nw + nz if hinf else n
-    svec = size * (size + 1) // 2
-    wsvec = n * (n + 1) // 2
-    return {
-        "lmis": count,
-        "lmi_size": size,
-        "variables": wsvec + (N if scheduled else 1) * m * n + 1,
-        "cone_rows": count * svec + wsvec,
-        "nt_block_entries": count * svec**2 + wsvec**2,
-    }
-
-
-def run_case(spec):
-    """One scaling case in this process; prints one JSON line.
-
-    The library's warm re-solve (new data, same shapes) runs only when the
-    cold call stayed within the cap.
-    """
-    name, n, N, what = spec["function"], spec["n"], spec["N"], spec["what"]
-    function, hinf, scheduled = FUNCTIONS[name]
-    sys = random_polytope(n, N, seed=1)
-    u = [1, 2]
-    kw = {"w": [0], "z": [0, 1, 2], "backoff": None} if hinf else {}
-    result = {}
-    if what == "library":
-        result["cold"] = run_library(function, sys, True, u=u, **kw)
-        if result["cold"]["total"] <= spec["cap"]:
-            other = random_polytope(n, N, seed=2)  # same shapes, new data
-            result["warm"] = run_library(function, other, False, u=u, **kw)
-    else:
-        start = time.perf_counter()
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", UserWarning)
-            # Same Clarabel settings as the library: like with like.
-            problem, gamma = (plain_hinf if hinf else plain_stabilization)(
-                channels(sys, [0], u, [0, 1, 2]),
-                scheduled,
-                chordal_decomposition_enable=False,
-            )
-        total = time.perf_counter() - start
-        compiling = problem.compilation_time
-        data = problem.get_problem_data("CLARABEL")[0]
-        result["plain"] = {
-            "total": total,
-            "compile": compiling,
-            "solve": problem.solver_stats.solve_time,
-            "status": problem.status,
-            "iterations": problem.solver_stats.num_iters,
-            "gamma": gamma,
-            "A_shape": list(data["A"].shape),
-            "A_nnz": int(data["A"].nnz),
-        }
-    result["peak_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    print(json.dumps(result, default=float))
-
-
+# ----------------------------------------------------------------------
+# The driver
+# ----------------------------------------------------------------------
 def spawn(spec, cap):
-    """Run a case in a new process: cap per measured call, plus imports."""
-    spec = {**spec, "cap": cap}
-    cmd = [sys.executable, __file__, "--case", json.dumps(spec)]
-    calls = 2 if spec["what"] == "library" else 1
-    start = time.perf_counter()
+    """Run a case in a new process, ended after `cap` seconds per measured
+    call (two) plus imports: the results of the calls that finished, with
+    ``"skipped"`` saying why the others did not."""
+    cmd = [sys.executable, CASES, json.dumps(spec)]
+    process = subprocess.Popen(
+        cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
     try:
-        done = subprocess.run(
-            cmd, capture_output=True, text=True, timeout=calls * cap + 30
+        stdout, stderr = process.communicate(timeout=2 * cap + 60)
+        why = (
+            None
+            if process.returncode == 0
+            else "failed: " + (stderr.strip().splitlines() or ["?"])[-1][:120]
         )
     except subprocess.TimeoutExpired:
-        return {"skipped": f"over cap ({cap:g} s)"}
-    wall = time.perf_counter() - start
-    if done.returncode != 0:
-        tail = (done.stderr.strip().splitlines() or ["?"])[-1]
-        return {"skipped": f"failed: {tail[:80]}"}
-    result = json.loads(done.stdout.strip().splitlines()[-1])
-    result["process_wall"] = wall
-    measured = result["cold" if spec["what"] == "library" else "plain"]["total"]
-    if measured > cap:
-        result["skipped"] = f"over cap ({measured:.0f} s > {cap:g} s)"
-    return result
-
-
-def part_c(quick, cap, functions):
-    Ns = [2, 4, 8] if quick else [2, 4, 8, 16, 32, 64]
-    ns = [4, 8] if quick else [4, 8, 12]
-    print(
-        f"\n(c) random polytopes, backoff=None, m = 2, one w, z = [Cx; u]; cap "
-        f"{cap:g} s per call; times [s]; att = library attempts/SCS fallbacks, "
-        f"it = plain Clarabel iterations (same settings as the library)\n"
-        f"{'function':9s} {'n':>2s} {'N':>3s} {'LMIs':>5s} {'size':>4s} "
-        f"{'vars':>5s} {'rows':>7s} {'NT blocks':>9s} | {'cold':>7s} {'build':>6s} "
-        f"{'compile':>7s} {'solve':>7s} {'verify':>6s} {'att':>4s} {'warm':>7s} "
-        f"{'RSS MB':>6s} | {'plain':>7s} {'p.comp':>7s} {'p.solve':>7s} {'it':>4s} "
-        f"{'RSS MB':>6s} | {'cold/pl':>7s} {'warm/pl':>7s}"
-    )
-    out = []
-    for name in functions:
-        for n in ns:
-            over = {"library": False, "plain": False}
-            for N in Ns:
-                row = {"function": name, "n": n, "N": N, **conic_size(name, n, N)}
-                for what in ("library", "plain"):
-                    if over[what]:
-                        row[what] = {"skipped": "over cap at a smaller N"}
-                        continue
-                    row[what] = spawn(
-                        {"function": name, "n": n, "N": N, "what": what}, cap
-                    )
-                    over[what] = "skipped" in row[what]
-                out.append(row)
-                print_row_c(row)
+        process.kill()  # this process's own child
+        stdout, _ = process.communicate()  # what it printed before
+        why = f"over the cap ({cap:g} s per call)"
+    lines = stdout.strip().splitlines()
+    out = json.loads(lines[-1]) if lines else {}
+    if why:
+        out["skipped"] = why
     return out
 
 
-def print_row_c(r):
-    def s(x):
-        return "-" if x is None else f"{x:.2f}"
+def medians(runs):
+    """Median of every numeric entry (``"cold.cpu"``, ``"peak_rss_mb"``, ...)
+    over the runs that were not skipped; the errors and skips seen."""
+    flat: dict[str, list] = {}
+    notes = set()
+    for run in runs:
+        if "skipped" in run:
+            notes.add(run["skipped"])
+        for key, value in run.items():
+            items = value.items() if isinstance(value, dict) else [(None, value)]
+            for sub, x in items:
+                name = key if sub is None else f"{key}.{sub}"
+                if isinstance(x, (int, float)) and not isinstance(x, bool):
+                    flat.setdefault(name, []).append(x)
+                elif sub == "error" and x:
+                    notes.add(x)
+    out = {k: float(np.median(v)) for k, v in flat.items()}
+    out["notes"] = sorted(notes)
+    return out
 
-    lib, pl = r["library"], r["plain"]
-    head = (
-        f"{r['function']:9s} {r['n']:2d} {r['N']:3d} {r['lmis']:5d} "
-        f"{r['lmi_size']:4d} {r['variables']:5d} {r['cone_rows']:7d} "
-        f"{r['nt_block_entries']:9.2e} | "
+
+def ratio(a, b):
+    return None if a is None or b is None or b <= 0 else a / b
+
+
+def table(title, columns, rows):
+    """Print `rows` under `title`: columns ``(header, width, value, digits)``."""
+    print(f"\n{title}")
+    print(" ".join(f"{h:>{w}s}" for h, w, _, _ in columns))
+    for row in rows:
+        cells = []
+        for _, width, value, digits in columns:
+            x = value(row)
+            if isinstance(x, float):
+                x = f"{x:.{-digits}e}" if digits < 0 else f"{x:.{digits}f}"
+            cells.append(f"{'-' if x is None else x:>{width}}")
+        notes = [
+            n
+            for side in ("direct", "library", "backoff")
+            for n in row.get(side, {}).get("notes", [])
+        ]
+        print(" ".join(cells) + "".join(f"  [{n}]" for n in notes), flush=True)
+
+
+def grid(sizes, repeat, cap, parts):
+    """Parts g and b: every size, the sides interleaved in each repeat."""
+    kinds = ["direct"] + ["library"] * ("g" in parts) + ["backoff"] * ("b" in parts)
+    runs = {(n, N, k): [] for n, N in sizes for k in kinds}
+    for r in range(repeat):
+        for n, N in sizes:
+            for kind in kinds:
+                previous = runs[(n, N, kind)]
+                if previous and (
+                    "skipped" in previous[-1]
+                    or "cold" not in previous[-1]
+                    or previous[-1]["cold"]["error"]
+                ):
+                    continue  # over the cap or refused: not again
+                out = spawn({"kind": kind, "n": n, "N": N}, cap)
+                previous.append(out)
+                print(
+                    f"  [{r + 1}/{repeat}] n={n} N={N} {kind}: {brief(out)}", flush=True
+                )
+    rows = []
+    for n, N in sizes:
+        row = {"n": n, "N": N, **lmi_size(n, N)}
+        row.update({k: medians(runs[(n, N, k)]) for k in kinds})
+        row["runs"] = {k: runs[(n, N, k)] for k in kinds}
+        d = row["direct"]
+        for kind in kinds[1:]:
+            side = row[kind]
+            row[f"{kind}_ratios"] = {
+                "cold_over_direct": ratio(side.get("cold.cpu"), d.get("cold.cpu")),
+                "warm_over_direct": ratio(side.get("warm.cpu"), d.get("warm.cpu")),
+                "cold_over_solve": ratio(
+                    side.get("cold.cpu"), d.get("cold.solver_cpu")
+                ),
+                "warm_over_solve": ratio(
+                    side.get("warm.cpu"), d.get("warm.solver_cpu")
+                ),
+                "cold_over_solve_wall": ratio(
+                    side.get("cold.wall"), d.get("cold.solver_time")
+                ),
+                "memory": ratio(side.get("peak_rss_mb"), d.get("peak_rss_mb")),
+                "gamma_rel_diff": ratio(
+                    abs(side["cold.gamma_opt"] - d["cold.gamma"])
+                    if "cold.gamma_opt" in side and "cold.gamma" in d
+                    else None,
+                    d.get("cold.gamma"),
+                ),
+            }
+        rows.append(row)
+    return rows
+
+
+def brief(out):
+    parts = [
+        f"{when} {r['cpu']:.2f} s cpu, {r['solver_calls']} solves"
+        + (f" ({r['error']})" if r.get("error") else "")
+        for when, r in out.items()
+        if when in ("cold", "warm", "first", "second")
+    ]
+    parts.append(f"peak {out.get('peak_rss_mb', 0):.0f} MB")
+    return "; ".join(parts + ([out["skipped"]] if "skipped" in out else []))
+
+
+def lmi_size(n, N, m=2, nw=1, nz=3):
+    """LMI count, conic rows, and entries of Clarabel's dense Nesterov-Todd
+    blocks (one ``d(d+1)/2`` square per PSD cone of side d)."""
+    count, d = N * (N + 1) // 2, n + nw + nz
+    svec, wsvec = d * (d + 1) // 2, n * (n + 1) // 2
+    return {
+        "lmis": count,
+        "cone_rows": count * svec + wsvec,
+        "nt_entries": count * svec**2 + wsvec**2,
+    }
+
+
+def get(side, key):
+    return lambda row: row.get(side, {}).get(key)
+
+
+def rat(kind, key):
+    return lambda row: row.get(f"{kind}_ratios", {}).get(key)
+
+
+def print_grid(rows, kind):
+    head = [("n", 2, lambda r: r["n"], 0), ("N", 3, lambda r: r["N"], 0)]
+    if kind == "library":
+        title = (
+            "Theorem 2, backoff=None, random polytopes: CPU s, medians; direct = "
+            "build + one Clarabel solve of the same conic problem; calls = solver "
+            "calls per library call; |T|/g = the direct gains' largest frozen "
+            "H-infinity norm / its gamma"
+        )
+        columns = head + [
+            ("LMIs", 5, lambda r: r["lmis"], 0),
+            ("rows", 7, lambda r: r["cone_rows"], 0),
+            ("build", 6, lambda r: ratio(r["direct"].get("cold.build_cpu"), 1), 3),
+            ("solve", 6, get("direct", "cold.solver_cpu"), 2),
+            ("s.wall", 6, get("direct", "cold.solver_time"), 2),
+            ("it", 3, get("direct", "cold.iterations"), 0),
+            ("|T|/g", 5, get("direct", "cold.norm_over_gamma"), 3),
+            ("| cold", 7, get(kind, "cold.cpu"), 2),
+            ("calls", 5, get(kind, "cold.solver_calls"), 0),
+            ("slv", 6, get(kind, "cold.solver_cpu"), 2),
+            ("warm", 6, get(kind, "warm.cpu"), 2),
+            ("calls", 5, get(kind, "warm.solver_calls"), 0),
+            ("| c/dir", 7, rat(kind, "cold_over_direct"), 2),
+            ("c/slv", 6, rat(kind, "cold_over_solve"), 2),
+            ("w/dir", 6, rat(kind, "warm_over_direct"), 2),
+            ("w/slv", 6, rat(kind, "warm_over_solve"), 2),
+            ("| RSS", 6, get(kind, "peak_rss_mb"), 0),
+            ("direct", 6, get("direct", "peak_rss_mb"), 0),
+            ("ratio", 5, rat(kind, "memory"), 2),
+            ("| gamma diff", 12, rat(kind, "gamma_rel_diff"), -1),
+        ]
+    else:
+        title = "Default back-off (0.2) against one direct build+solve: CPU s, medians"
+        columns = head + [
+            ("| cold", 7, get(kind, "cold.cpu"), 2),
+            ("calls", 5, get(kind, "cold.solver_calls"), 0),
+            ("slv", 6, get(kind, "cold.solver_cpu"), 2),
+            ("warm", 6, get(kind, "warm.cpu"), 2),
+            ("calls", 5, get(kind, "warm.solver_calls"), 0),
+            ("slv", 6, get(kind, "warm.solver_cpu"), 2),
+            ("| direct", 8, get("direct", "cold.cpu"), 2),
+            ("| c/dir", 7, rat(kind, "cold_over_direct"), 2),
+            ("w/dir", 6, rat(kind, "warm_over_direct"), 2),
+            ("| RSS", 6, get(kind, "peak_rss_mb"), 0),
+            ("ratio", 5, rat(kind, "memory"), 2),
+            ("| gamma", 9, get(kind, "cold.gamma"), 5),
+        ]
+    table(title, columns, rows)
+
+
+def h2_part(cap):
+    out = spawn({"kind": "h2"}, cap)
+    print(
+        f"\nH2, lyapunov='affine', gains='scheduled', n = 4, N = 16 (4 parameters,"
+        f" rate bounds 1), cap {cap:g} s per call; then an identical call: "
+        + brief(out)
     )
-    if "cold" not in lib:
-        left = f"{lib['skipped']:>58s}"
-    else:
-        c, warm = lib["cold"], lib.get("warm", {}).get("total")
-        left = (
-            f"{s(c['total']):>7s} {s(c['build']):>6s} {s(c['compile']):>7s} "
-            f"{s(c['solve']):>7s} {s(c['verify']):>6s} {c['attempts']:2d}/"
-            f"{c['fallbacks']:d} {s(warm):>7s} {lib['peak_rss_mb']:6.0f}"
-        )
-    if "plain" not in pl:
-        right = f"{pl['skipped']:>35s}"
-    else:
-        p = pl["plain"]
-        right = (
-            f"{s(p['total']):>7s} {s(p['compile']):>7s} {s(p['solve']):>7s} "
-            f"{p['iterations']:4d} {pl['peak_rss_mb']:6.0f}"
-        )
-    ratios = ""
-    if "cold" in lib and "plain" in pl:
-        ratios = f"{lib['cold']['total'] / pl['plain']['total']:7.2f} "
-        if lib.get("warm"):
-            ratios += f"{lib['warm']['total'] / pl['plain']['total']:7.2f}"
-    notes = [x["skipped"] for x in (lib, pl) if "skipped" in x and len(x) > 1]
-    print(head + left + " | " + right + " | " + ratios + " ".join(notes), flush=True)
+    first = out.get("first", {})
+    # Finished: certified, and not by the time budget ending the ladder.
+    row = {
+        "run": out,
+        "finished": bool(first.get("verified"))
+        and "MaxTime" not in first.get("statuses", [])
+        and first.get("wall", np.inf) < 0.95 * cap,
+    }
+    for label in ("first", "second"):
+        r = out.get(label)
+        if r:
+            print(
+                f"  {label}: {r['cpu']:.2f} s cpu, {r['wall']:.2f} s wall, solver "
+                f"{r['solver_cpu']:.2f} s cpu, statuses {r['statuses']}, gamma "
+                f"{r.get('gamma')}, certified {r.get('verified')}"
+            )
+    second = out.get("second")
+    if second and not second["error"]:
+        row["second_over_solver"] = ratio(second["cpu"], second["solver_cpu"])
+        print(f"  second call / its solver time: {row['second_over_solver']:.2f}")
+    return row
 
 
-# ----------------------------------------------------------------------
+def two_mass_part(repeat, cap):
+    cases = [
+        ("Lemma 1", None),
+        ("Theorem 1", None),
+        ("Lemma 2", None),
+        ("Theorem 2", None),
+        ("Lemma 2", 0.2),
+        ("Theorem 2", 0.2),
+    ]
+    rows = []
+    for name, backoff in cases:
+        spec = {"function": name, "backoff": backoff}
+        runs = {"library": [], "direct": []}
+        for _ in range(repeat):  # interleaved
+            runs["library"].append(spawn({**spec, "kind": "twomass"}, cap))
+            runs["direct"].append(spawn({**spec, "kind": "twomass_direct"}, cap))
+        row = {"function": name, "pipeline": f"backoff={backoff}", "runs": runs}
+        row.update({k: medians(v) for k, v in runs.items()})
+        rows.append(row)
+    ms = 1e3
+    table(
+        "Two-mass model (n = 5, N = 2): CPU ms, medians; warm = an identical "
+        "second call; direct = build + one solve (the stabilization stage for "
+        "Lemma 1 / Theorem 1)",
+        [
+            ("function", 9, lambda r: r["function"], 0),
+            ("pipeline", 12, lambda r: r["pipeline"], 0),
+            ("| cold", 7, lambda r: ms * r["library"].get("cold.cpu", np.nan), 1),
+            ("calls", 5, get("library", "cold.solver_calls"), 0),
+            ("warm", 7, lambda r: ms * r["library"].get("warm.cpu", np.nan), 1),
+            ("calls", 5, get("library", "warm.solver_calls"), 0),
+            ("| direct", 8, lambda r: ms * r["direct"].get("warm.cpu", np.nan), 1),
+            ("solve", 6, lambda r: ms * r["direct"].get("warm.solver_cpu", np.nan), 1),
+            (
+                "| c/dir",
+                7,
+                lambda r: ratio(
+                    r["library"].get("cold.cpu"), r["direct"].get("warm.cpu")
+                ),
+                2,
+            ),
+            (
+                "w/dir",
+                6,
+                lambda r: ratio(
+                    r["library"].get("warm.cpu"), r["direct"].get("warm.cpu")
+                ),
+                2,
+            ),
+            ("| gamma_opt", 11, get("library", "cold.gamma_opt"), 6),
+            ("direct", 9, get("direct", "warm.gamma"), 6),
+        ],
+        rows,
+    )
+    return rows
+
+
+def verdicts(results):
+    """Per target: the worst measured case (N >= 16), PASS or MISS."""
+    rows = [r for r in results.get("grid", []) if r["N"] >= 16]
+    out = []
+
+    def add(what, values, limit):
+        values = [v for v in values if v is not None]
+        worst = max(values) if values else None
+        status = "-" if worst is None else ("PASS" if worst <= limit else "MISS")
+        out.append(
+            {"target": what, "measured": worst, "limit": limit, "status": status}
+        )
+
+    if any("library_ratios" in r for r in rows):
+        for n in sorted({r["n"] for r in rows}):
+            mine = [r["library_ratios"] for r in rows if r["n"] == n]
+            add(
+                f"Theorem 2 n={n}: cold / Clarabel solve",
+                [q["cold_over_solve"] for q in mine],
+                TARGETS["cold"],
+            )
+            add(
+                f"Theorem 2 n={n}: warm / Clarabel solve",
+                [q["warm_over_solve"] for q in mine],
+                TARGETS["warm"],
+            )
+        add(
+            "Theorem 2: peak RSS library / direct",
+            [r["library_ratios"]["memory"] for r in rows],
+            TARGETS["memory"],
+        )
+    if any("backoff_ratios" in r for r in rows):
+        for key, label in (
+            ("cold_over_direct", "cold"),
+            ("warm_over_direct", "warm"),
+            ("memory", "peak RSS"),
+        ):
+            limit = TARGETS["memory" if key == "memory" else "backoff"]
+            add(
+                f"default back-off: {label} / direct",
+                [r["backoff_ratios"][key] for r in rows],
+                limit,
+            )
+    h2 = results.get("h2")
+    if h2 is not None:
+        out.append(
+            {
+                "target": "H2 affine n=4 N=16 certified within budget",
+                "measured": h2["finished"],
+                "limit": True,
+                "status": "PASS" if h2["finished"] else "MISS",
+            }
+        )
+        add(
+            "H2: identical second call / its solver time",
+            [h2.get("second_over_solver")],
+            TARGETS["h2_repeat"],
+        )
+    return out
+
+
+def print_verdicts(rows):
+    print("\nTargets (issue 20): the worst case over the rows measured with N >= 16")
+    for v in rows:
+        m = v["measured"]
+        shown = m if m is None or isinstance(m, bool) else f"{m:.2f}"
+        print(
+            f"  {v['status']:4s}  {v['target']:44s} {str(shown):>6s}  "
+            f"(target <= {v['limit']})"
+        )
+
+
+def load_note():
+    one, five, fifteen = os.getloadavg()
+    return f"load average {one:.2f} {five:.2f} {fifteen:.2f} on {os.cpu_count()} CPUs"
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="small grid, 2 repeats")
-    parser.add_argument("--repeat", type=int, default=None, help="runs per median")
-    parser.add_argument("--json", help="write all results to this JSON file")
-    parser.add_argument("--cap", type=float, default=None, help="seconds per case")
-    parser.add_argument("--parts", default="abc", help="any of a, b, c")
+    parser.add_argument("--quick", action="store_true", help="n=4, N=16, 1 repeat")
+    parser.add_argument("--full", action="store_true", help="also N = 64")
+    parser.add_argument("--sizes", help="comma-separated nxN, e.g. 4x16,8x32")
+    parser.add_argument("--repeat", type=int, help="runs per median (default 3)")
+    parser.add_argument("--parts", default="gbht", help="any of g, b, h, t")
+    parser.add_argument("--cap", type=float, help="s per call (300; quick 120)")
     parser.add_argument(
-        "--functions",
-        default="Theorem 2,Lemma 2,Theorem 1,Lemma 1",
-        help="functions of part c, comma-separated (default all four)",
+        "--h2-cap", type=float, default=600.0, help="s per H2 call (600, its budget)"
     )
-    parser.add_argument("--case", help=argparse.SUPPRESS)
+    parser.add_argument("--json", help="write all results to this JSON file")
     args = parser.parse_args(argv)
-    if args.case:
-        run_case(json.loads(args.case))
-        return
-    repeat = args.repeat or (2 if args.quick else 7)
-    cap = args.cap or (20.0 if args.quick else 60.0)
+    if args.sizes:
+        sizes = [tuple(int(x) for x in s.split("x")) for s in args.sizes.split(",")]
+    else:
+        Ns = (16, 32, 64) if args.full else (16, 32)
+        sizes = [(4, 16)] if args.quick else [(n, N) for n in (4, 8, 12) for N in Ns]
+    repeat = args.repeat or (1 if args.quick else 3)
+    cap = args.cap or (120.0 if args.quick else 300.0)
+    import clarabel
+
     results = {
         "machine": {
             "python": platform.python_version(),
             "platform": platform.platform(),
             "cpus": os.cpu_count(),
-            "cvxpy": cp.__version__,
-            "clarabel": __import__("clarabel").__version__,
+            "clarabel": clarabel.__version__,
             "numpy": np.__version__,
             "repeat": repeat,
             "cap_seconds": cap,
+            "load_before": os.getloadavg(),
         }
     }
-    if "a" in args.parts:
-        print_header_a()
-        results["two_mass"] = part_a(repeat)
-    if "b" in args.parts:
-        results["resolve"] = part_b(repeat, args.quick)
-    if "c" in args.parts:
-        functions = [f.strip() for f in args.functions.split(",")]
-        unknown = [f for f in functions if f not in FUNCTIONS]
-        if unknown:
-            parser.error(f"--functions: unknown {unknown}; use {list(FUNCTIONS)}")
-        results["scaling"] = part_c(args.quick, cap, functions)
+    print(f"bench_synthesis: repeat {repeat}, cap {cap:g} s; {load_note()}", flush=True)
+    if "g" in args.parts or "b" in args.parts:
+        results["grid"] = grid(sizes, repeat, cap, args.parts)
+        for kind, part in (("library", "g"), ("backoff", "b")):
+            if part in args.parts:
+                print_grid(results["grid"], kind)
+    if "h" in args.parts:
+        results["h2"] = h2_part(args.h2_cap)
+    if "t" in args.parts:
+        results["two_mass"] = two_mass_part(repeat, cap)
+    results["verdicts"] = verdicts(results)
+    print_verdicts(results["verdicts"])
+    results["machine"]["load_after"] = os.getloadavg()
+    print(f"\n{load_note()}")
     if args.json:
         with open(args.json, "w") as handle:
             json.dump(results, handle, indent=2, default=float)

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import ctrl_lpv as lpv
+from ctrl_lpv import twomass
 from ctrl_lpv.reachability import Ellipsoid
 from ctrl_lpv.simulation import simulate
 from ctrl_lpv.twomass import lpv_model, paper_gain, servo_design
@@ -66,10 +67,12 @@ CASES = [
     # servo_design: numbers and flags are validated, not coerced
     ("servo complex gain", lambda: servo_design(gain=paper_gain() + 1j),
      TypeError, r"^gain: complex"),
-    ("servo anti_hunting 'no'", lambda: servo(anti_hunting="no"),
-     TypeError, r"^anti_hunting: expected True or False, got 'no'"),
-    ("servo gap_estimate 0", lambda: servo(gap_estimate=0),
-     TypeError, r"^gap_estimate: expected True or False"),
+    ("servo anti_hunting 'no'", lambda: twomass.ServoAntiHunting(enabled="no"),
+     TypeError, r"^ServoAntiHunting.enabled: expected True or False, got 'no'"),
+    ("servo gap_estimate 0", lambda: twomass.ServoEstimator(gap_estimate=0),
+     TypeError, r"^ServoEstimator.gap_estimate: expected True or False"),
+    ("servo settings as a bool", lambda: servo(estimator=False),
+     TypeError, r"^estimator: expected a ServoEstimator"),
     ("servo string torque", lambda: servo(torque_limit="500"),
      TypeError, r"^torque_limit: expected a real number, got '500'"),
     ("servo bool torque", lambda: servo(torque_limit=True),
@@ -80,8 +83,11 @@ CASES = [
      TypeError, r"^Jl_range: expected a real number"),
     ("servo scalar Jl_range", lambda: servo(Jl_range=1.0),
      TypeError, r"^Jl_range: expected \(low, high\)"),
-    ("servo string p_bounds", lambda: servo(p_bounds="-0.5, 0"),
-     TypeError, r"^p_bounds: expected \(low, high\)"),
+    ("servo string p_bounds",
+     lambda: twomass.ServoSynthesis(p_bounds="-0.5, 0"),
+     TypeError, r"^ServoSynthesis.p_bounds: expected \(low, high\)"),
+    ("servo string flank_width", lambda: twomass.ServoAntiHunting(flank_width="1"),
+     TypeError, r"^ServoAntiHunting.flank_width: expected a real number"),
     ("servo string gain", lambda: servo_design(gain=["1", "2", "3", "4"]),
      TypeError, r"^gain: expected a numeric matrix"),
     # saturated_state_feedback and saturation_region

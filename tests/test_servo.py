@@ -6,6 +6,8 @@ computed here from the load angle.  Thresholds are the issue's must-show
 numbers.
 """
 
+import dataclasses
+
 import control as ct
 import numpy as np
 import pytest
@@ -158,7 +160,11 @@ def test_ultimate_bound_along_a_trajectory():
     that the certificate's premises hold after the move; the backlash step
     at 2.5 s drives the departure w~ from the contact model.
     """
-    d = servo_design(torque_limit=LIMIT, anti_hunting=False, gap_estimate=False)
+    d = servo_design(
+        torque_limit=LIMIT,
+        anti_hunting=twomass.ServoAntiHunting(enabled=False),
+        estimator=twomass.ServoEstimator(gap_estimate=False),
+    )
     resp = run(d.controller(), twomass.alpha_step(0.03, 0.045, 2.5), Td=8.0)
     p = d.params
     t = resp.time
@@ -237,6 +243,34 @@ def test_bad_arguments():
         servo_design(gain=np.ones((2, 5)), certify=False)
     with pytest.raises(ValueError, match="torque_limit"):
         servo_design(torque_limit=10.0, certify=False)  # nothing left after Td_max
+    with pytest.raises(TypeError, match=r"^anti_hunting: expected a ServoAntiHunting"):
+        servo_design(anti_hunting=False, certify=False)  # the switch is a field
+    with pytest.raises(ValueError, match=r"^ServoPlanner.torque_reserve: must be"):
+        twomass.ServoPlanner(torque_reserve=1.0)
+    with pytest.raises(ValueError, match=r"^ServoSynthesis.p_bounds: need low <= h"):
+        twomass.ServoSynthesis(p_bounds=(0.0, -0.5))
+
+
+def test_settings_reach_the_law():
+    """Each settings object sets its part of the law; the rest keeps defaults."""
+    planner = twomass.ServoPlanner(torque_reserve=0.25, min_duration=0.3)
+    anti = twomass.ServoAntiHunting(enabled=False, flank_width=0.8, integral_hold=0.0)
+    estimator = twomass.ServoEstimator(contact_torque=2.0, observer_bandwidth=500)
+    d = servo_design(
+        gain=twomass.paper_gain(), planner=planner, anti_hunting=anti,
+        estimator=estimator, certify=False,
+    )  # fmt: skip
+    p, t = d.params, d.tuning
+    # The torque budget of the docs: (1 - reserve) limit - Td_max moves the
+    # heaviest load (1.2 Jl) and the motor at the peak acceleration.
+    assert t.accel_limit == pytest.approx((0.75 * 500.0 - 10.0) / (p.Jm + 1.2 * p.Jl))
+    assert (t.min_duration, t.horizon_floor) == (0.3, 0.04)
+    assert (t.anti_hunting, t.flank_width, t.integral_hold) == (False, 0.8, 0.0)
+    assert t.integral_leak == 2.0 and t.gap_estimate
+    assert (t.contact_torque, t.observer_bandwidth) == (2.0, 500.0)
+    assert isinstance(t.observer_bandwidth, float)  # checked and normalised
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        planner.min_duration = 0.1
 
 
 @pytest.mark.slow

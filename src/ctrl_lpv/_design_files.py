@@ -20,14 +20,16 @@ from .saturation import (
     sector_checks,
     sector_statement,
 )
-from .synthesis import H2, Certificate, Hinf, StateFeedbackDesign
+from .synthesis import H2, Hinf, StateFeedbackDesign
 from .synthesis.channels import resolve_channels
 from .synthesis.recheck import recheck
+from .synthesis.results import DesignCertificate
 
 _SPECS = {"Hinf": Hinf, "H2": H2}
 
-# A design that has not been checked yet (replaced before it is returned).
-_UNCHECKED = Certificate((), 0.0, np.inf, np.inf, 0, np.inf)
+# A design that has not been checked yet (replaced before it is returned):
+# no checks, not verified.
+_UNCHECKED = DesignCertificate()
 
 # Relative agreement required between a stated and a recomputed level.
 _CLAIM_RTOL = 1e-9
@@ -338,7 +340,8 @@ def read_saturated(reader: DocumentReader, section: dict, plant):
     certificate = EllipsoidCertificate(tuple(checks), (), sector_statement(bool(nw)))
     if not certificate.verified:
         raise reader.fail(
-            "design.P", f"the saturation certificate does not hold ({certificate})"
+            "design.P",
+            f"the saturation certificate does not hold ({certificate.summary})",
         )
     beta = region_size(P, R, V)
     for key, stated, recomputed in (("beta", section.get("beta"), beta),

@@ -8,8 +8,8 @@ the call, in a context variable, so that the solve loop of
 
 * each solver gets the time left as its own limit (Clarabel's
   ``time_limit``, SCS's ``time_limit_secs``);
-* a compilation whose estimate (`compile_seconds`) exceeds the time left
-  is not started;
+* a problem whose reading is estimated (`compile_seconds`) to exceed the
+  time left is not started;
 * `check`, called before each solve, compilation, dual-certificate check,
   rung and search step, raises `TimeLimitReached` once the deadline has
   passed.
@@ -59,18 +59,18 @@ DEFAULT_TIME_LIMIT = 600.0
 
 logger = logging.getLogger(__name__)
 
-# cvxpy compiles each LMI in Python. Measured here (benchmarks/time_budget.py,
-# 11 to 154 LMIs of one stage, n = 2 to 8): the estimate is 1.1 to 2.9 times
-# the compile time on the loaded shared machine, up to 9 times when it was
-# quieter, so that a compilation it lets start ends in the time left.
-_SECONDS_PER_LMI = 0.03
-_SECONDS_PER_ENTRY = 2e-6
+# Reading an LMI's block function into conic data (`ctrl_lpv.lmi.blocks`)
+# takes 0.7 to 1.6 ms per LMI of 64 to 256 entries (one BLAS thread, quiet
+# machine; benchmarks/bench_synthesis.py): the estimate is about three
+# times that, for a loaded machine.
+_SECONDS_PER_LMI = 3e-3
+_SECONDS_PER_ENTRY = 1.5e-5
 # Longest detail part of a time-limit refusal, in characters.
 _DETAIL_CHARS = 1500
 
 
 def compile_seconds(nlmis: int, entries: int) -> float:
-    """Estimated seconds for cvxpy to compile `nlmis` LMIs of `entries` entries."""
+    """Estimated seconds to read `nlmis` LMIs of `entries` entries in all."""
     return _SECONDS_PER_LMI * nlmis + _SECONDS_PER_ENTRY * entries
 
 

@@ -28,7 +28,9 @@ File format ``"ctrl_lpv.design/1"``, a JSON object:
     ``P`` and the claimed bounds with their specs, signal names (see
     `design_document`).
 ``certificate``
-    The certificate as it was when saved: informative only, never read.
+    The certificate as it was when saved (``summary`` and
+    `ctrl_lpv.certificate.Certificate.to_dict`: ``statement``,
+    ``verified``, ``checks``): informative only, never read.
 ``library``
     The ``ctrl_lpv`` version that wrote the file.
 
@@ -347,7 +349,7 @@ def read_plant(reader: DocumentReader, section: dict, key: str = "plant"):
 
 def same_plant(a, b, rtol: float = 1e-9) -> str | None:
     """None if `a` and `b` are the same polytopic plant, else what differs."""
-    from .systems import _same_dt
+    from .systems.timebase import same_dt as _same_dt
 
     if type(a.domain) is not type(b.domain) or a.domain != b.domain:
         return f"the parameter domains differ ({a.domain!r}, {b.domain!r})"
@@ -408,8 +410,8 @@ def save(design, path) -> Path:
         "plant": plant_document(design.system),
         "design": DESIGN_TYPES[kind][1](design),
         "certificate": {
-            "verified": bool(design.certificate.verified),
-            "summary": str(design.certificate),
+            "summary": design.certificate.summary,
+            **design.certificate.to_dict(),
         },  # fmt: skip
     }
     return write_json(path, document)

@@ -49,7 +49,6 @@ import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-import cvxpy as cp
 import numpy as np
 import scipy.linalg as sla
 from control import StateSpace
@@ -62,8 +61,10 @@ from ._checks import (
     signal_indices,
 )
 from .budget import DEFAULT_TIME_LIMIT, time_budget
+from .certificate import Certificate, Check, negative_definite
 from .exceptions import CertificationError, InfeasibleError, SynthesisError
 from .lmi import LMIProblem, SolveAttempt, default_solvers, solver_chain
+from .lmi.blocks import diagonal, quadratic_rows, total
 
 __all__ = [
     "Ellipsoid",
@@ -137,67 +138,44 @@ class Ellipsoid:
         return Ellipsoid(self.P, self.level * factor**2)
 
 
-@dataclass(frozen=True)
-class EllipsoidCheck:
-    """One float64 check in original units.
+#: One float64 check in original units: ``EllipsoidCheck(name, value,
+#: bound)`` passes when ``value <= bound`` (see `ctrl_lpv.certificate.Check`).
+EllipsoidCheck = Check
 
-    Attributes
+
+class EllipsoidCertificate(Certificate):
+    """All float64 checks of an invariant-ellipsoid result, with numpy.
+
+    A `ctrl_lpv.Certificate` (see `ctrl_lpv.certificate`): the checks in
+    original units the statement rests on, and (group ``"LMI"``) the LMIs
+    as posed (scaled units) at the returned point.
+
+    Parameters
     ----------
-    name : str
-        What is checked (e.g. ``"decay vertex 0"``).
-    value : float
-        Checked quantity (for a matrix inequality ``M < 0``: the largest
-        eigenvalue of ``M`` after Jacobi normalisation ``D^-1/2 M D^-1/2``,
-        ``D = |diag(M)|``).
-    bound : float
-        `value` must not exceed it.
-    """
-
-    name: str
-    value: float
-    bound: float
-
-    @property
-    def passed(self) -> bool:
-        """Whether ``value <= bound``."""
-        return bool(self.value <= self.bound)
-
-
-@dataclass(frozen=True)
-class EllipsoidCertificate:
-    """All float64 checks of a result, recomputed with numpy.
-
-    Attributes
-    ----------
-    checks : tuple of `EllipsoidCheck`
-        Every inequality the statement rests on, in original units.
-    lmi_checks : tuple of `ctrl_lpv.lmi.LMICheck`
-        The LMIs as posed (scaled units), at the returned point.
-    statement : str
+    checks : sequence of `ctrl_lpv.certificate.Check`
+        The checks in original units.
+    lmi_checks : sequence of `ctrl_lpv.lmi.LMICheck` or `Check`, optional
+        The LMIs as posed, at the returned point.
+    statement : str, optional
         What the checks prove, in words.
+
+    Attributes
+    ----------
+    checks : tuple of `ctrl_lpv.certificate.Check`
+        Every check (those in original units first).
+    lmi_checks : tuple of `ctrl_lpv.certificate.Check`
+        The group ``"LMI"``.
+    statement : str
     """
 
-    checks: tuple[EllipsoidCheck, ...]
-    lmi_checks: tuple = ()
-    statement: str = ""
+    def __init__(self, checks=(), lmi_checks=(), statement=""):
+        lmi = tuple(c if isinstance(c, Check) else Check.from_lmi_check(c)
+                    for c in lmi_checks)  # fmt: skip
+        super().__init__(tuple(checks) + lmi, statement)
 
     @property
-    def verified(self) -> bool:
-        """Whether every check passed."""
-        return all(c.passed for c in self.checks)
-
-    @property
-    def worst(self) -> EllipsoidCheck:
-        """The check closest to (or beyond) its bound."""
-        return max(self.checks, key=lambda c: c.value - c.bound)
-
-    def __str__(self) -> str:
-        w = self.worst
-        state = "verified" if self.verified else "NOT verified"
-        return (
-            f"{state}: {len(self.checks)} float64 checks, worst {w.name} "
-            f"{w.value:.3g} <= {w.bound:.3g}"
-        )
+    def lmi_checks(self) -> tuple[Check, ...]:
+        return self.group("LMI")
 
 
 @dataclass(frozen=True)
@@ -264,7 +242,7 @@ class UltimateBound:
         rows = ", ".join(f"|{o}| <= {b:.4g}" for o, b in zip(self.outputs, self.bounds))
         return (
             f"UltimateBound: {rows} (ellipsoid x'Px <= {self.rho:.4g}, "
-            f"decay {self.decay:.4g}/s)\n  certificate: {self.certificate}"
+            f"decay {self.decay:.4g}/s)\n  certificate: {self.certificate.summary}"
         )
 
 
@@ -276,46 +254,16 @@ def _pow2(x: float) -> float:
     return float(2.0 ** np.round(np.log2(x))) if x > 0 and np.isfinite(x) else 1.0
 
 
-def _strict_check(name: str, M: np.ndarray, M_abs: np.ndarray) -> EllipsoidCheck:
-    """Float64 check of ``M < 0`` after Jacobi normalisation, rounding-aware.
-
-    ``D^-1/2 M D^-1/2`` with ``D = |diag(M)|`` (a congruence by a positive
-    diagonal keeps the inertia, so the test does not depend on units). Its
-    largest eigenvalue must lie below ``-(3 k + 10) eps ||D^-1/2 M_abs
-    D^-1/2||``, a bound on the rounding error of forming ``M`` (``M_abs``
-    is the same expression in absolute values, ``k`` its size) and of the
-    eigenvalue solver.
-    """
-    M = 0.5 * (M + M.T)
-    d = np.abs(np.diag(M))
-    d = np.where(d > 0, d, 1.0)
-    s = 1.0 / np.sqrt(d)
-    value = float(np.linalg.eigvalsh(s[:, None] * M * s)[-1])
-    k = M.shape[0]
-    err = (3 * k + 10) * np.finfo(float).eps
-    err *= max(1.0, float(np.linalg.norm(s[:, None] * M_abs * s, 2)))
-    return EllipsoidCheck(name, value, -err)
+def _strict_check(name: str, M: np.ndarray, M_abs: np.ndarray) -> Check:
+    """``M < 0`` in original units (`ctrl_lpv.certificate.negative_definite`:
+    Jacobi-normalised; ``M_abs``, the same expression in absolute values,
+    bounds the rounding of forming ``M``)."""
+    return negative_definite(M, absolute=M_abs, what=name)
 
 
-def _positive_check(name: str, P: np.ndarray) -> EllipsoidCheck:
-    """``P > 0``: smallest eigenvalue relative to ``||P||`` above rounding."""
-    lam = np.linalg.eigvalsh(0.5 * (P + P.T))
-    err = (3 * P.shape[0] + 10) * np.finfo(float).eps
-    return EllipsoidCheck(name, -float(lam[0] / lam[-1]), -err)
-
-
-def _xp_diag(v):
-    """``diag`` of a vector for cvxpy expressions and numpy arrays."""
-    if isinstance(v, cp.Expression):
-        return cp.diag(v)
-    return np.diag(np.asarray(v, float).reshape(-1))
-
-
-def _xp_sum(v):
-    """Sum of a vector as a 1 x 1 matrix (cvxpy or numpy)."""
-    if isinstance(v, cp.Expression):
-        return cp.reshape(cp.sum(v), (1, 1), order="F")
-    return np.array([[float(np.sum(v))]])
+def _positive_check(name: str, P: np.ndarray) -> Check:
+    """``P > 0`` (``-P < 0``, see `_strict_check`)."""
+    return negative_definite(-P, what=name)
 
 
 def _hurwitz_or_raise(As, what: str = "vertex") -> None:
@@ -657,12 +605,12 @@ def ultimate_bound(
             f"decay vertex {j}",
             lambda v, A=A, E=E: [
                 [2 * (A @ v.W) + v.lam * v.W],
-                [E.T, -_xp_diag(v.mu)],
+                [E.T, -diagonal(v.mu)],
             ],
         )
     lmi.add(
         "sum(mu) <= lambda",
-        lambda v: [[_xp_sum(v.mu) - v.lam * np.eye(1)]],
+        lambda v: [[total(v.mu) - v.lam * np.eye(1)]],
         strict=False,
     )
     if np.any(keep):
@@ -671,7 +619,10 @@ def ultimate_bound(
         lmi.add(
             "output size <= t",
             lambda v: [
-                [_xp_diag(scale) @ _quad_rows(Ck, v.W) - v.t[0, 0] * np.eye(len(scale))]
+                [
+                    diagonal(scale) @ quadratic_rows(Ck, v.W)
+                    - v.t[0, 0] * np.eye(len(scale))
+                ]
             ],
             strict=False,
         )
@@ -681,7 +632,7 @@ def ultimate_bound(
     else:
 
         def objective(v):
-            return cp.trace(v.W)
+            return np.trace(v.W)
 
     chain = solver_chain(solvers) or default_solvers()
 
@@ -742,7 +693,7 @@ def ultimate_bound(
     if not certificate.verified:
         raise CertificationError(
             "ultimate_bound: the returned point failed its float64 checks "
-            f"({certificate})",
+            f"({certificate.summary})",
             sol.attempts,
         )
     ell = Ellipsoid(P, rho)
@@ -762,10 +713,3 @@ def ultimate_bound(
         search=tuple(search),
         attempts=tuple(sol.attempts),
     )
-
-
-def _quad_rows(C, W):
-    """``diag(C W C')`` as a column-stacked diagonal matrix (cvxpy or numpy)."""
-    if isinstance(W, cp.Expression):
-        return cp.diag(cp.hstack([C[i] @ W @ C[i] for i in range(C.shape[0])]))
-    return np.diag(np.einsum("ij,jk,ik->i", C, W, C))

@@ -82,6 +82,7 @@ from ._checks import (
 from .budget import DEFAULT_TIME_LIMIT, time_budget
 from .exceptions import CertificationError, InfeasibleError, SynthesisError
 from .lmi import LMIProblem, SolveAttempt, default_solvers, solver_chain
+from .lmi.blocks import diagonal, quadratic_rows, total
 from .reachability import (
     Ellipsoid,
     EllipsoidCertificate,
@@ -89,10 +90,7 @@ from .reachability import (
     _line_search,
     _positive_check,
     _pow2,
-    _quad_rows,
     _strict_check,
-    _xp_diag,
-    _xp_sum,
 )
 from .synthesis import StateFeedbackDesign
 from .synthesis.results import frozen_loop
@@ -306,7 +304,7 @@ class SaturatedDesign:
             for j, K in enumerate(self.gains):
                 label = f"K[{j}]" if self.scheduled else "K"
                 lines.append(f"  {label} = {np.array2string(K, prefix='  K = ')}")
-        lines.append(f"  certificate: {self.certificate}")
+        lines.append(f"  certificate: {self.certificate.summary}")
         return "\n".join(lines)
 
 
@@ -427,15 +425,15 @@ def _build(s: _Scaled, nK, K_fixed, has_w, margin):
 
     def sector(v, j, k):
         A, B = s.A[j], s.B[j]
-        S = _xp_diag(v.s)
+        S = diagonal(v.s)
         d = A @ v.W - B @ Y(v, k)
         rows = [[d + d.T + v.c * v.W], [-(S @ B.T) - Z(v, k), -2 * S]]
         if has_w:
-            rows.append([s.E[j].T, np.zeros((nw, m)), -_xp_diag(v.mu)])
+            rows.append([s.E[j].T, np.zeros((nw, m)), -diagonal(v.mu)])
         return rows
 
     lmi.add("W > 0", lambda v: [[-v.W]])
-    lmi.add("S > 0", lambda v: [[-_xp_diag(v.s)]])
+    lmi.add("S > 0", lambda v: [[-diagonal(v.s)]])
     lmi.add("W <= cap", lambda v: [[v.W - _W_CAP * np.eye(n)]], strict=False)
     for j, k in _pairs(N, scheduled):
         if j == k or not scheduled:
@@ -467,7 +465,7 @@ def _build(s: _Scaled, nK, K_fixed, has_w, margin):
 
             lmi.add(f"inclusion gain {k} input {i}", incl)
     if has_w:
-        lmi.add("sum(mu) < lambda", lambda v: [[_xp_sum(v.mu) - v.lam * np.eye(1)]])
+        lmi.add("sum(mu) < lambda", lambda v: [[total(v.mu) - v.lam * np.eye(1)]])
     # Objective g: the region (beta^2 = 1 / g) or the size along outputs.
     if s.C is not None:
         rows = s.C[np.einsum("ij,ij->i", s.C, s.C) > 0]
@@ -476,7 +474,7 @@ def _build(s: _Scaled, nK, K_fixed, has_w, margin):
             "output size <= g",
             lambda v: [
                 [
-                    _xp_diag(weight) @ _quad_rows(rows, v.W)
+                    diagonal(weight) @ quadratic_rows(rows, v.W)
                     - v.g[0, 0] * np.eye(len(weight))
                 ]
             ],
@@ -1047,7 +1045,8 @@ def _finish(prob, s, sol, lam_t, nK, K_fixed, beta_opt, sigma):
     )
     if not certificate.verified:
         raise CertificationError(
-            f"saturation: the returned point failed its float64 checks ({certificate})",
+            f"saturation: the returned point failed its float64 checks "
+            f"({certificate.summary})",
             sol.attempts,
         )
     labels = prob["sys"].physical_inputs

@@ -14,8 +14,16 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ..certificate import Check, rounding_bound
 from .parametric import step_terms
-from .results import Certificate
+from .results import (
+    CLOSED_LOOP,
+    DESIGN_STATEMENT,
+    EIGENVALUES,
+    LYAPUNOV,
+    DesignCertificate,
+    residual_check,
+)
 from .terms import names
 
 _VERIFY_SAMPLES = 64
@@ -161,26 +169,33 @@ def verify_frozen(problem, shape, frame, values, gains, bounds, margin, checks,
         The certified bound of each channel spec.
     margin : float
         The margin the LMIs were posed with.
-    checks : tuple of `ctrl_lpv.lmi.LMICheck`
+    checks : tuple of `ctrl_lpv.certificate.Check`
         The point's LMI checks.
     final : bool, optional
         Whether to check a spec's gain bound too (the last stage's point).
 
     Returns
     -------
-    `Certificate`, dict
+    `DesignCertificate`, dict
         The certificate, and the largest value each spec reports over the
         points (`~ctrl_lpv.synthesis.spec.Spec.reported`).
     """
     sc, lyap = frame.scaling, problem.lyap
     Ti = np.linalg.inv(sc.matrix)
     plant = problem.plant
-    worst_eig = worst_lyap = worst_spec = -np.inf
+    # Worst (value, where, rounding) of each cross-check, by name.
+    worst = {}
+
+    def record(what, value, where, rounding=0.0):
+        if what not in worst or value - rounding > worst[what][0] - worst[what][2]:
+            worst[what] = (float(value), where, rounding)
+
     Ws = [values[f"W{e}"] for e in range(lyap.count)]
     Zs = [values[f"Z{k}"] for k in range(problem.nZ)]
     reported = {}
     npoints = 0
     for delta, p in verification_points(plant.system):
+        where = _where(plant.system, delta, p)
 
         def mix(items, delta=delta):
             return np.tensordot(delta, items, axes=1)
@@ -197,8 +212,11 @@ def verify_frozen(problem, shape, frame, values, gains, bounds, margin, checks,
             K = gains[0]
         Acl = A - B2 @ K
         eig = np.linalg.eigvals(Acl)
-        worst_eig = max(worst_eig, (eig.real.max() if problem.continuous
-                                    else np.abs(eig).max() - 1))  # fmt: skip
+        # ROUNDING n eps ||Acl|| marks the level below which the sign of a
+        # (non-normal) matrix's eigenvalue means nothing.
+        record(EIGENVALUES, eig.real.max() if problem.continuous
+               else np.abs(eig).max() - 1, where,
+               rounding_bound(len(Acl), np.linalg.norm(Acl, 2)))  # fmt: skip
         fields = {}
         for q, spec in enumerate(problem.specs):
             here = Here(problem, frame, values, delta, W_here, q)
@@ -226,22 +244,31 @@ def verify_frozen(problem, shape, frame, values, gains, bounds, margin, checks,
                         loop, Bw=mix(c.Bw), Cz=mix(c.Cz) - mix(c.Dzu) @ K,
                         Dzw=mix(c.Dzw), bound=bounds[i],
                     )  # fmt: skip
-                worst_spec = max(worst_spec, spec.residual(channel, problem.continuous))
-            worst_lyap = max(worst_lyap, _dual_lyapunov(
-                Acl_scaled, W_here, W_moved_scaled, problem.continuous))  # fmt: skip
+                record(str(spec), spec.residual(channel, problem.continuous), where)
+            record(LYAPUNOV, _dual_lyapunov(Acl_scaled, W_here, W_moved_scaled,
+                                            problem.continuous), where)  # fmt: skip
         for q, spec in enumerate(problem.specs):
             value = spec.reported(P)
             if value is not None:
                 reported[q] = max(reported.get(q, value), value)
-    certificate = Certificate(
-        lmi_checks=checks,
-        margin=margin,
-        max_closed_loop_real=float(worst_eig),
-        max_lyapunov_eig=float(worst_lyap),
-        npoints=npoints,
-        max_original_eig=float(worst_spec),
-    )
-    return certificate, reported
+    eig_value, eig_where, eig_rounding = worst.pop(EIGENVALUES)
+    units = "real part" if problem.continuous else "modulus - 1"
+    checks = (
+        *(Check.from_lmi_check(c) for c in checks),
+        Check(EIGENVALUES, eig_value, 0.0, True, eig_rounding, True, units,
+              eig_where, CLOSED_LOOP),
+        *(residual_check(what, value, where, cross_check=True)
+          for what, (value, where, _) in worst.items()),
+    )  # fmt: skip
+    return DesignCertificate(checks, DESIGN_STATEMENT, margin, npoints), reported
+
+
+def _where(sys, delta, p) -> str:
+    """The label of a verification point: its parameter values (box) or
+    convex coordinates."""
+    if p is not None:
+        return ", ".join(f"{n} = {v:.6g}" for n, v in zip(sys.domain.names, p))
+    return "delta = [" + ", ".join(f"{d:.4g}" for d in delta) + "]"
 
 
 def _sym_inv(W):

@@ -80,7 +80,7 @@ def check_point(problem, shape, frame, sol, settings, margin, final):
         sol.checks, final,
     )  # fmt: skip
     if not certificate.verified:
-        return None, f"closed-loop verification failed ({certificate})"
+        return None, f"closed-loop verification failed ({certificate.summary})"
     Ps = tuple(sc.unscale_P(np.linalg.inv(W)) for W in Wl)
     N = problem.plant.N
     P = Ps[0] if lyap.constant else tuple(Ps[lyap.index[j]] for j in range(N))

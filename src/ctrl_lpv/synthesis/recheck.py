@@ -8,11 +8,11 @@ centre) and at every vertex of the rate box, the frozen closed loop is
 built in the model's units (a `~ctrl_lpv.synthesis.frozen.FrozenLoop`) and
 checked with the specs' own residuals: the statements
 `~ctrl_lpv.synthesis.frozen.verify_frozen` checks after a solve, with the
-same acceptance (``ORIGINAL_UNITS_TOL`` after a Jacobi normalisation, a
-rounding level). Stability is asked with a rounding margin: the recorded
-``max_closed_loop_real`` and ``max_lyapunov_eig`` include it, so that a
-mode within rounding of the boundary (an uncontrollable eigenvalue at 0)
-is not taken for a stable one.
+rounding level, but as proofs: nothing else is left to prove them, so a
+value must lie below 0 by its rounding, not only within it. A mode within
+rounding of the stability boundary (an uncontrollable eigenvalue at 0) is
+not taken for a stable one. The result is a
+`~ctrl_lpv.synthesis.results.DesignCertificate` without LMI checks.
 """
 
 from __future__ import annotations
@@ -22,18 +22,18 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .._checks import signal_indices
-from ..lmi import LMICheck
-from .frozen import FrozenLoop, verification_points
+from ..certificate import Check, negative_definite_stack, rounding_bound
+from .frozen import FrozenLoop, _where, verification_points
 from .parametric import lyapunov_structure, step_terms
-from .results import ORIGINAL_UNITS_TOL, Certificate
+from .results import (
+    CLOSED_LOOP,
+    EIGENVALUES,
+    LYAPUNOV,
+    ORIGINAL_UNITS_TOL,
+    DesignCertificate,
+    residual_check,
+)
 from .spec import lyapunov_residual
-
-# A positive definite P needs lambda_min / lambda_max above rounding.
-_PD_TOL = 4 * np.finfo(float).eps
-# Rounding level per unit of size and norm: closed-loop eigenvalues must
-# be below -_ROUNDING n ||A_cl|| (continuous; below 1 by as much in
-# discrete time), the normalised Lyapunov inequality below -_ROUNDING n.
-_ROUNDING = 16 * np.finfo(float).eps
 
 
 @dataclass(frozen=True)
@@ -42,16 +42,16 @@ class Recheck:
 
     Attributes
     ----------
-    certificate : `ctrl_lpv.Certificate`
+    certificate : `ctrl_lpv.synthesis.results.DesignCertificate`
         The recomputed certificate (``margin`` 0: no solver margin is
-        involved).
+        involved; no LMI checks).
     failures : tuple of (str, str)
         ``(what, message)`` for every statement that failed: ``what`` is
         ``"gains"`` (closed loop not stable), ``"P"`` (a Lyapunov or bound
         inequality) or ``"regions"``; empty when the certificate holds.
     """
 
-    certificate: Certificate
+    certificate: DesignCertificate
     failures: tuple[tuple[str, str], ...]
 
     @property
@@ -85,7 +85,7 @@ def recheck(design, performance=()) -> Recheck:
     failures: list[tuple[str, str]] = []
     lyap, Wd, checks = _lyapunov_data(design, sys, failures)
     points = verification_points(sys)
-    worst = {"eig": (-np.inf, None), "lyap": (-np.inf, None)}
+    worst = {"eig": (-np.inf, None, 0.0), "lyap": (-np.inf, None)}
     spec_worst = {i: (-np.inf, None) for i in range(len(performance))}
     region_worst = {i: (-np.inf, None) for i in range(len(design.regions))}
     npoints = 0
@@ -99,8 +99,9 @@ def recheck(design, performance=()) -> Recheck:
         stab = eig.real.max() if continuous else np.abs(eig).max() - 1.0
         # An eigenvalue within rounding of the boundary is not a proof of
         # stability (an uncontrollable mode at 0 computes as -3e-15).
-        stab += _ROUNDING * len(eig) * max(np.linalg.norm(Acl, 2), 1.0)
-        worst["eig"] = max(worst["eig"], (float(stab), where), key=_first)
+        rounding = rounding_bound(len(eig), np.linalg.norm(Acl, 2))
+        worst["eig"] = max(worst["eig"], (float(stab), where, rounding),
+                           key=lambda item: item[0] + item[2])  # fmt: skip
         if Wd is None:
             npoints += 1
             continue
@@ -111,7 +112,7 @@ def recheck(design, performance=()) -> Recheck:
                 sys, lyap, Wd, delta, p, rate, P, W, continuous, design.primal
             )
             loop = FrozenLoop(A, B2, K, Acl, eig, P, P_moved, W, W_moved)
-            value = lyapunov_residual(loop, continuous) + _ROUNDING * len(P)
+            value = lyapunov_residual(loop, continuous)
             worst["lyap"] = max(worst["lyap"], (value, where), key=_first)
             for i, (spec, (iw, iz), bound) in enumerate(performance):
                 channel = replace(
@@ -126,29 +127,36 @@ def recheck(design, performance=()) -> Recheck:
             for i, region in enumerate(design.regions):
                 value = region.residual(loop, continuous)
                 region_worst[i] = max(region_worst[i], (value, where), key=_first)
-    eig_value, eig_where = worst["eig"]
-    if not eig_value < 0:
+    eig_value, eig_where, eig_rounding = worst["eig"]
+    units = "real part" if continuous else "modulus - 1"
+    checks.append(Check(EIGENVALUES, eig_value, 0.0, True, eig_rounding,
+                        units=units, where=eig_where, group=CLOSED_LOOP))  # fmt: skip
+    if not checks[-1].passed:
         what = "real part" if continuous else "modulus minus 1"
         failures.append(
             ("gains", f"the closed loop is not stable at {eig_where} (largest "
                       f"eigenvalue {what} {eig_value:.4g}, rounding level "
-                      "included)")
+                      f"{eig_rounding:.2g})")
         )  # fmt: skip
-    lyap_value, lyap_where = worst["lyap"]
-    if Wd is not None and not lyap_value < 0:
-        failures.append(
-            ("P", f"the Lyapunov inequality of P fails at {lyap_where} (largest "
-                  f"normalised eigenvalue {lyap_value:.3g})")
-        )  # fmt: skip
-    others = []
+    if Wd is None:  # no (usable) P: nothing proves stability
+        checks.append(Check(LYAPUNOV, np.inf, 0.0, True, where="no P",
+                            group=CLOSED_LOOP))  # fmt: skip
+    else:
+        lyap_value, lyap_where = worst["lyap"]
+        checks.append(residual_check(LYAPUNOV, lyap_value, lyap_where,
+                                     cross_check=False))  # fmt: skip
+        if not checks[-1].passed:
+            failures.append(
+                ("P", f"the Lyapunov inequality of P fails at {lyap_where} "
+                      f"(largest normalised eigenvalue {lyap_value:.3g}, rounding "
+                      f"level {ORIGINAL_UNITS_TOL:g})")
+            )  # fmt: skip
     for i, (spec, _, bound) in enumerate(performance):
         value, where = spec_worst[i]
         name = spec.inequality
-        checks.append(
-            LMICheck(f"{spec} <= {bound:.6g}", value, ORIGINAL_UNITS_TOL, True)
-        )
-        others.append(value)
-        if Wd is not None and not value < ORIGINAL_UNITS_TOL:
+        checks.append(residual_check(f"{spec} <= {bound:.6g}", value, where,
+                                     cross_check=False))  # fmt: skip
+        if Wd is not None and not checks[-1].passed:
             failures.append(
                 ("P", f"the {name} inequality of P and gamma = {bound:.6g} fails at "
                       f"{where} (largest normalised eigenvalue {value:.3g}, rounding "
@@ -156,32 +164,27 @@ def recheck(design, performance=()) -> Recheck:
             )  # fmt: skip
     for i, region in enumerate(design.regions):
         value, where = region_worst[i]
-        checks.append(LMICheck(str(region), value, ORIGINAL_UNITS_TOL, True))
-        others.append(value)
-        if Wd is not None and not value < ORIGINAL_UNITS_TOL:
+        checks.append(residual_check(str(region), value, where, cross_check=False))
+        if Wd is not None and not checks[-1].passed:
             failures.append(
                 ("regions", f"the pole region {region} fails at {where} ({value:.3g})")
             )
-    checks.append(LMICheck("Lyapunov inequality", lyap_value, 0.0, True))
-    certificate = Certificate(
-        lmi_checks=tuple(checks),
-        margin=0.0,
-        max_closed_loop_real=float(eig_value),
-        max_lyapunov_eig=float(lyap_value) if Wd is not None else np.inf,
-        npoints=npoints,
-        max_original_eig=float(max(others, default=lyap_value)),
-    )
+    certificate = DesignCertificate(tuple(checks), _statement(design), 0.0, npoints)
     return Recheck(certificate, tuple(failures))
+
+
+def _statement(design) -> str:
+    if design.P is None:
+        return ("the closed-loop eigenvalues at the vertices and sampled points "
+                "only (no Lyapunov matrix): not a certificate")  # fmt: skip
+    return (
+        "recomputed from the design's data alone (gains, P, claimed bounds) in "
+        "the model's units, at the vertices, sampled points and rate-box vertices"
+    )
 
 
 def _first(item):
     return item[0]
-
-
-def _where(sys, delta, p) -> str:
-    if p is not None:
-        return ", ".join(f"{n} = {v:.6g}" for n, v in zip(sys.domain.names, p))
-    return "delta = [" + ", ".join(f"{d:.4g}" for d in delta) + "]"
 
 
 def _sym_inv(M):
@@ -199,11 +202,12 @@ def _lyapunov_data(design, sys, failures):
         design.rate_bounds if design.lyapunov == "affine" else None,
     )
     Ps = [design.P] if design.lyapunov == "constant" else list(design.P)
-    ratio = max(
-        -np.linalg.eigvalsh(P)[0] / max(np.linalg.eigvalsh(P)[-1], 1e-300) for P in Ps
+    labels = ["P"] if len(Ps) == 1 else [f"P[{j}]" for j in range(len(Ps))]
+    positive = negative_definite_stack(
+        -np.stack(Ps), what="P > 0", where=labels, group=CLOSED_LOOP
     )
-    checks = [LMICheck("P > 0", float(ratio), -_PD_TOL, True)]
-    if not ratio < -_PD_TOL:
+    checks = [positive]
+    if not positive.passed:
         failures.append(("P", "is not positive definite"))
         return lyap, None, checks
     Wd = {}

@@ -8,75 +8,112 @@ from pathlib import Path
 import numpy as np
 from control import StateSpace
 
-from ..lmi import LMICheck, SolveAttempt
+from ..certificate import Certificate, Check
+from ..lmi import SolveAttempt
 from ..regions import LMIRegion
 from ..systems import PolytopicStateSpace
 from .channels import channel_indices
 
-# Rounding level below which the Jacobi-normalised inequality with the
-# returned P, in the model's units, must stay (a few eps times its size).
+# The rounding level of a specification's residual (the largest eigenvalue
+# of its Jacobi-normalised inequality, whose size the residual does not
+# report): `ctrl_lpv.certificate.rounding_bound` of a 6 x 6 one. Until the
+# specs return `ctrl_lpv.certificate.negative_definite` checks; the gain
+# files report it (`ctrl_lpv.twomass.load_gains`).
 ORIGINAL_UNITS_TOL = 1e-12
+
+#: Groups of a design's checks: the LMIs as posed, the frozen closed loops.
+LMI, CLOSED_LOOP = "LMI", "closed loop"
+#: Names of the closed-loop checks read by `DesignCertificate`'s properties.
+EIGENVALUES, LYAPUNOV = "closed-loop eigenvalues", "Lyapunov inequality"
+#: What a design's checks state.
+DESIGN_STATEMENT = (
+    "the LMIs hold with their margin at the returned point (scaled units, "
+    "exactly congruent to the model's); the frozen closed loops in the "
+    "model's units, at the vertices and sampled points, are cross-checks"
+)
+
+
+def residual_check(what, value, where, *, cross_check, units="normalised"):
+    """A specification's residual (see `ORIGINAL_UNITS_TOL`) as a check."""
+    return Check(what, value, 0.0, True, ORIGINAL_UNITS_TOL, cross_check, units,
+                 where, CLOSED_LOOP)  # fmt: skip
 
 
 @dataclass(frozen=True)
-class Certificate:
-    """Independent float64 verification of a design.
+class DesignCertificate(Certificate):
+    """The `ctrl_lpv.Certificate` of a state-feedback design.
+
+    Its checks: group ``"LMI"``, every LMI as posed to the solver (scaled
+    units) at the returned point; group ``"closed loop"``, the frozen
+    closed loops at `npoints` parameter points, each check at its worst
+    point: the closed-loop eigenvalues, the Lyapunov inequality and each
+    specification's inequality with the returned ``P`` and gains.
 
     Attributes
     ----------
-    lmi_checks : tuple of `ctrl_lpv.lmi.LMICheck`
-        Largest eigenvalue of every LMI at the returned point (scaled units,
-        exactly congruent to the original LMIs).
     margin : float
         Margin the strict LMIs were posed with (scaled units).
-    max_closed_loop_real : float
-        Largest real part of the closed-loop eigenvalues over the vertices
-        and the sampled interior points (original units).
-    max_lyapunov_eig : float
-        Largest eigenvalue of ``A_cl W + W A_cl'`` over the same points,
-        divided by ``||W||`` (must be negative).
     npoints : int
         Number of parameter points checked (vertices plus samples).
+    lmi_checks : tuple of `ctrl_lpv.certificate.Check`
+        The group ``"LMI"``: largest eigenvalue of every LMI at the
+        returned point (`Check.max_eig`) and its bound (`Check.required`).
+    max_closed_loop_real : float
+        Largest real part of the closed-loop eigenvalues over the points
+        (modulus minus 1 in discrete time); inf when not checked.
+    max_lyapunov_eig : float
+        Largest Jacobi-normalised eigenvalue of the Lyapunov inequality over
+        the points; inf when not checked.
     max_original_eig : float
-        Largest eigenvalue, over the same points, of the Lyapunov (or
-        bounded-real, with `gamma`) inequality written with the returned
-        ``P`` and gains in the model's units, after a Jacobi normalisation
-        (must be below the rounding level `ORIGINAL_UNITS_TOL`).
-    verified : bool
-        True when every check passed. A design is only returned verified.
+        Largest normalised eigenvalue, over the points, of the
+        specifications' inequalities (bounded-real with `gamma`, Lyapunov
+        without) written with the returned ``P`` and gains in the model's
+        units.
+    worst_lmi : `ctrl_lpv.certificate.Check` or None
+        The strict LMI with the largest eigenvalue.
     """
 
-    lmi_checks: tuple[LMICheck, ...]
-    margin: float
-    max_closed_loop_real: float
-    max_lyapunov_eig: float
-    npoints: int
-    max_original_eig: float = -1.0
+    margin: float = 0.0
+    npoints: int = 0
 
     @property
-    def verified(self) -> bool:
-        """Whether every LMI and closed-loop check passed."""
-        return (
-            all(c.passed for c in self.lmi_checks)
-            and self.max_closed_loop_real < 0
-            and self.max_lyapunov_eig < 0
-            and self.max_original_eig < ORIGINAL_UNITS_TOL
-        )
+    def lmi_checks(self) -> tuple[Check, ...]:
+        return self.group(LMI)
+
+    def _closed_loop(self, what) -> float:
+        values = [c.value for c in self.group(CLOSED_LOOP) if c.what == what]
+        return max(values, default=np.inf)
 
     @property
-    def worst_lmi(self) -> LMICheck:
-        """The strict LMI with the smallest distance to its bound."""
+    def max_closed_loop_real(self) -> float:
+        return self._closed_loop(EIGENVALUES)
+
+    @property
+    def max_lyapunov_eig(self) -> float:
+        return self._closed_loop(LYAPUNOV)
+
+    @property
+    def max_original_eig(self) -> float:
+        values = [c.value for c in self.group(CLOSED_LOOP)
+                  if c.what not in (EIGENVALUES, LYAPUNOV)]  # fmt: skip
+        return max(values, default=self.max_lyapunov_eig)
+
+    @property
+    def worst_lmi(self) -> Check | None:
         strict = [c for c in self.lmi_checks if c.strict]
-        return max(strict, key=lambda c: c.max_eig)
+        return max(strict, key=lambda c: c.value, default=None)
 
-    def __str__(self) -> str:
+    @property
+    def summary(self) -> str:
+        """One line; for a verified design its worst LMI and closed loop."""
         worst = self.worst_lmi
+        if not self.verified or worst is None:
+            return super().summary
         return (
-            f"{'verified' if self.verified else 'NOT verified'}: "
-            f"{len(self.lmi_checks)} LMIs, worst {worst.name} "
-            f"lambda_max = {worst.max_eig:.3g} (margin {self.margin:.1g}); "
-            f"closed loop max Re = {self.max_closed_loop_real:.4g} "
-            f"over {self.npoints} points"
+            f"verified: {len(self.lmi_checks)} LMIs, worst {worst.what} "
+            f"lambda_max = {worst.value:.3g} (margin {self.margin:.1g}); "
+            f"closed loop max Re = {self.max_closed_loop_real:.4g} over "
+            f"{self.npoints} points"
         )
 
 
@@ -134,8 +171,8 @@ class StateFeedbackDesign:
         may miss the strict margin); only `gamma` is.
     w, u, z : tuple of str
         Exogenous inputs, control inputs and performance outputs.
-    certificate : `Certificate`
-        The float64 verification.
+    certificate : `DesignCertificate`
+        The float64 verification (a `ctrl_lpv.Certificate`).
     attempts : tuple of `ctrl_lpv.lmi.SolveAttempt`
         Every solver attempt of every stage.
     timing : dict
@@ -183,7 +220,7 @@ class StateFeedbackDesign:
     w: tuple[str, ...]
     u: tuple[str, ...]
     z: tuple[str, ...]
-    certificate: Certificate
+    certificate: DesignCertificate
     attempts: tuple[SolveAttempt, ...]
     timing: dict = field(default_factory=dict)
     backoff: float | None = None
@@ -393,7 +430,7 @@ class StateFeedbackDesign:
             for j, K in enumerate(self.gains):
                 label = f"K[{j}]" if self.scheduled else "K"
                 lines.append(f"  {label} = {np.array2string(K, prefix='  K = ')}")
-        lines.append(f"  certificate: {self.certificate}")
+        lines.append(f"  certificate: {self.certificate.summary}")
         solved = [a for a in self.attempts if a.certified]
         solver = solved[-1].solver if solved else "none"
         lines.append(

@@ -13,7 +13,9 @@
 * `compare`, `reproduce`: the LPV vs backstepping comparison and the whole
   reproduction of the paper (``ctrl-lpv reproduce``);
 * `servo_design`: the torque-limited position servo (planner, feedforward,
-  certified feedback, no hunting) and its comparison (`servo_comparison`).
+  certified feedback, no hunting), its settings (`ServoPlanner`,
+  `ServoSynthesis`, `ServoAntiHunting`, `ServoEstimator`) and its comparison
+  (`servo_comparison`).
 
 The names are imported lazily, as in `ctrl_lpv`.
 """
@@ -36,9 +38,9 @@ _EXPORTS = {
     "metrics": "scenarios",
     "alpha_step": "scenarios",
     "design": "designs",
-    "save_gains": "designs",
-    "load_gains": "designs",
-    "GainFile": "designs",
+    "save_gains": "gain_files",
+    "load_gains": "gain_reader",
+    "GainFile": "gain_files",
     "compare": "comparison",
     "comparison_designs": "comparison",
     "comparison_scenarios": "comparison",
@@ -52,6 +54,10 @@ _EXPORTS = {
     "servo_design": "servo",
     "ServoDesign": "servo",
     "servo_polytope": "servo",
+    "ServoPlanner": "servo_config",
+    "ServoSynthesis": "servo_config",
+    "ServoAntiHunting": "servo_config",
+    "ServoEstimator": "servo_config",
     "servo_loop": "servo_compare",
     "run_servo_scenario": "servo_compare",
     "servo_metrics": "servo_compare",

@@ -52,7 +52,7 @@ from .comparison import (
     comparison_scenarios,
     markdown_table,
 )
-from .designs import save_gains
+from .gain_files import save_gains
 from .model import PAPER_GAIN, lpv_model, paper_gain
 from .scenarios import simulate
 from .servo_figures import markdown_row, markdown_rule

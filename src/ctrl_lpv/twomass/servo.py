@@ -23,6 +23,9 @@ backlash plant, in four parts (details in ``docs/servo.rst``):
    contact asked for is not made; the integral of the load error runs only
    in contact and fades out of it (at rest in the gap no torque reaches the
    load, so there is no load torque to integrate).
+
+The settings of each part are one object of `ctrl_lpv.twomass.servo_config`
+(`ServoPlanner`, `ServoSynthesis`, `ServoAntiHunting`, `ServoEstimator`).
 """
 
 from __future__ import annotations
@@ -39,6 +42,14 @@ from ..systems import PolytopicStateSpace
 from .model import lpv_model
 from .parameters import Parameters
 from .servo_certificate import ServoCertificate, servo_certificate
+from .servo_config import (
+    ServoAntiHunting,
+    ServoEstimator,
+    ServoPlanner,
+    ServoSynthesis,
+    interval,
+    positive_range,
+)
 from .servo_kernel import INPUTS, STATES, ServoTuning, servo_kernel
 from .trajectory import PEAK_ACCEL, move_duration
 
@@ -48,10 +59,10 @@ __all__ = ["ServoDesign", "servo_design", "servo_polytope"]
 def servo_polytope(
     params: Parameters | None = None,
     *,
-    p_bounds: tuple[float, float] = (-0.5, 0.0),
+    p_bounds: tuple[float, float] = ServoSynthesis.p_bounds,
     Jl_range: tuple[float, float] = (0.8, 1.2),
-    torque_weight: float = 5e-4,
-    integral_weight: float = 30.0,
+    torque_weight: float = ServoSynthesis.torque_weight,
+    integral_weight: float = ServoSynthesis.integral_weight,
 ) -> PolytopicStateSpace:
     """The tracking-error model with the load inertia as a second parameter.
 
@@ -80,8 +91,8 @@ def servo_polytope(
         "int_e_l_w"]``.
     """
     params = Parameters() if params is None else params
-    lo, hi = _range(Jl_range, "Jl_range")
-    p_bounds = _interval(p_bounds, "p_bounds")
+    lo, hi = positive_range(Jl_range, "Jl_range")
+    p_bounds = interval(p_bounds, "p_bounds")
     torque_weight = real_number(torque_weight, "torque_weight", positive=True)
     integral_weight = real_number(integral_weight, "integral_weight", positive=True)
     vertices = []
@@ -199,25 +210,20 @@ def servo_design(
     alpha_max: float = 0.06,
     Jl_range: tuple[float, float] = (0.8, 1.2),
     Td_max: float = 10.0,
-    torque_reserve: float = 0.12,
-    min_duration: float = 0.2,
-    p_bounds: tuple[float, float] = (-0.5, 0.0),
-    torque_weight: float = 5e-4,
-    integral_weight: float = 30.0,
     gain=None,
-    anti_hunting: bool = True,
-    gap_estimate: bool = True,
-    flank_width: float = 0.5,
-    contact_torque: float = 1.5,
-    estimate_rate: float = 50.0,
-    probe_rate: float = 0.05,
-    integral_leak: float = 2.0,
-    observer_bandwidth: float = 1000.0,
-    integral_hold: float = 0.05,
-    horizon_floor: float = 0.04,
+    planner: ServoPlanner | None = None,
+    synthesis: ServoSynthesis | None = None,
+    anti_hunting: ServoAntiHunting | None = None,
+    estimator: ServoEstimator | None = None,
     certify: bool = True,
 ) -> ServoDesign:
     """Design the torque-limited position servo of the two-mass drive.
+
+    The limits and ranges say what the design knows of the drive; the
+    settings of each part of the servo are one object each
+    (`ctrl_lpv.twomass.servo_config`), default the tuning of
+    ``docs/servo.rst``: ``servo_design(anti_hunting=ServoAntiHunting(
+    enabled=False))`` switches the anti-hunting law off.
 
     Parameters
     ----------
@@ -232,48 +238,20 @@ def servo_design(
         Load inertia range as multiples of ``params.Jl`` (default 0.8-1.2).
     Td_max : float, optional
         Largest load torque, Nm, for the torque budget (default 10).
-    torque_reserve : float, optional
-        Share of the limit kept for the feedback: moves are planned so that
-        the rigid-body torque of the heaviest load plus `Td_max` stays below
-        ``(1 - torque_reserve) * torque_limit`` (default 0.12).
-    min_duration : float, optional
-        Shortest move, s (default 0.2: short moves excite the shaft mode
-        through the feedforward's inertia error).
-    p_bounds : (float, float), optional
-        Backlash parameter interval of the feedback synthesis.
-    torque_weight, integral_weight : float, optional
-        Weights of the synthesis (see `lpv_model`).
     gain : array_like, optional
         Use this ``1 x 4`` or ``1 x 5`` gain instead of the synthesis (for
         comparisons, e.g. `paper_gain`); a 4-column gain gets no integral.
-    anti_hunting : bool, optional
-        Flank choice by the feedback, probing and contact-aware integral
-        (default True).  False: the backlash offset follows the feedforward
-        torque only and the integral always runs.
-    gap_estimate : bool, optional
-        Estimate the gap online (default True); otherwise the offset uses
-        ``alpha_max / 2``.
-    flank_width : float, optional
-        Shaft torque, Nm, over which the offset turns from one flank to the
-        other (default 0.5; a steady asked torque inside this band makes a
-        steep flank choice, so it is kept small).
-    contact_torque : float, optional
-        Observed shaft torque, Nm, above which the drive counts as in
-        contact (weight 1 from twice this value; default 1.5).  The gap
-        estimate widens when twice this torque is asked for and not seen.
-    estimate_rate, probe_rate : float, optional
-        Rate of the gap estimate in contact (1/s) and of its widening when a
-        contact asked for is not made (rad/s).
-    integral_leak : float, optional
-        Decay rate (1/s) of the integral out of contact.
-    observer_bandwidth : float, optional
-        Shaft-torque observer bandwidth, rad/s (default 1000).
-    integral_hold : float, optional
-        Planned speed, rad/s, above which the integral is held (default
-        0.05): it integrates at rest, for the load torque, not the tracking
-        error of a move (which would wind it up); 0 disables the hold.
-    horizon_floor : float, optional
-        Floor of the planner's time-to-go, s.
+    planner : `ServoPlanner`, optional
+        The move planner: torque reserve, shortest move, horizon floor.
+    synthesis : `ServoSynthesis`, optional
+        The feedback synthesis: backlash parameter interval and weights
+        (unused with `gain`).
+    anti_hunting : `ServoAntiHunting`, optional
+        The flank choice and the integral action: on or off, flank width,
+        integral leak and hold.
+    estimator : `ServoEstimator`, optional
+        The shaft-torque observer and the gap estimate: on or off, contact
+        torque, rates, observer bandwidth.
     certify : bool, optional
         Compute the ultimate bound of the certificate (default True).
 
@@ -283,6 +261,10 @@ def servo_design(
 
     Raises
     ------
+    TypeError
+        For settings that are not of their class (``anti_hunting=False``:
+        use ``ServoAntiHunting(enabled=False)``), and values that are not
+        real numbers or bools.
     ValueError
         For non-positive limits, reversed ranges, or a torque budget that
         leaves no acceleration.
@@ -290,33 +272,16 @@ def servo_design(
     params = Parameters() if params is None else params
     if not isinstance(params, Parameters):
         raise TypeError(f"params: expected twomass.Parameters, got {type(params)!r}")
-    positive = dict(
-        torque_limit=torque_limit, alpha_max=alpha_max, flank_width=flank_width,
-        contact_torque=contact_torque, observer_bandwidth=observer_bandwidth,
-        horizon_floor=horizon_floor, min_duration=min_duration,
-        torque_weight=torque_weight, integral_weight=integral_weight,
-    )  # fmt: skip
-    positive = {k: real_number(v, k, positive=True) for k, v in positive.items()}
-    nonnegative = dict(
-        Td_max=Td_max, estimate_rate=estimate_rate, probe_rate=probe_rate,
-        integral_leak=integral_leak, integral_hold=integral_hold,
-    )  # fmt: skip
-    nonnegative = {k: real_number(v, k, minimum=0.0) for k, v in nonnegative.items()}
-    torque_reserve = real_number(
-        torque_reserve, "torque_reserve", minimum=0.0, below=1.0
-    )
-    switches = dict(
-        anti_hunting=anti_hunting, gap_estimate=gap_estimate, certify=certify
-    )
-    switches = {k: flag(v, k) for k, v in switches.items()}
-    torque_limit, alpha_max, Td_max = (
-        positive["torque_limit"],
-        positive["alpha_max"],
-        nonnegative["Td_max"],
-    )
-    p_bounds = _interval(p_bounds, "p_bounds")
-    lo, hi = _range(Jl_range, "Jl_range")
-    budget = (1.0 - torque_reserve) * torque_limit - Td_max
+    torque_limit = real_number(torque_limit, "torque_limit", positive=True)
+    alpha_max = real_number(alpha_max, "alpha_max", positive=True)
+    Td_max = real_number(Td_max, "Td_max", minimum=0.0)
+    lo, hi = positive_range(Jl_range, "Jl_range")
+    planner = _settings(planner, ServoPlanner, "planner")
+    synthesis = _settings(synthesis, ServoSynthesis, "synthesis")
+    anti_hunting = _settings(anti_hunting, ServoAntiHunting, "anti_hunting")
+    estimator = _settings(estimator, ServoEstimator, "estimator")
+    certify = flag(certify, "certify")
+    budget = (1.0 - planner.torque_reserve) * torque_limit - Td_max
     if budget <= 0:
         raise ValueError(
             f"torque_limit: {torque_limit:g} Nm leaves no torque for motion after "
@@ -327,9 +292,9 @@ def servo_design(
     feedback = None
     if gain is None:
         model = servo_polytope(
-            params, p_bounds=p_bounds, Jl_range=(lo, hi),
-            torque_weight=positive["torque_weight"],
-            integral_weight=positive["integral_weight"],
+            params, p_bounds=synthesis.p_bounds, Jl_range=(lo, hi),
+            torque_weight=synthesis.torque_weight,
+            integral_weight=synthesis.integral_weight,
         )  # fmt: skip
         feedback = hinf_state_feedback(model, w=["Td"], u=["Tm"])
         K = np.asarray(feedback.gains[0], float).reshape(1, -1)
@@ -343,22 +308,19 @@ def servo_design(
         Jm=params.Jm, Jl=params.Jl, cm=params.cm, cl=params.cl, ks=params.ks,
         cs=params.cs, gain=tuple(float(k) for k in K[0]),
         torque_limit=torque_limit, accel_limit=float(accel_limit),
-        min_duration=positive["min_duration"],
-        horizon_floor=positive["horizon_floor"],
+        min_duration=planner.min_duration, horizon_floor=planner.horizon_floor,
         alpha_max=alpha_max, alpha_initial=0.5 * alpha_max,
-        flank_width=positive["flank_width"],
-        contact_torque=positive["contact_torque"],
-        estimate_rate=nonnegative["estimate_rate"],
-        probe_rate=nonnegative["probe_rate"],
-        integral_leak=nonnegative["integral_leak"],
-        observer_bandwidth=positive["observer_bandwidth"],
-        integral_hold=nonnegative["integral_hold"],
-        anti_hunting=switches["anti_hunting"],
-        gap_estimate=switches["gap_estimate"],
+        flank_width=anti_hunting.flank_width,
+        contact_torque=estimator.contact_torque,
+        estimate_rate=estimator.estimate_rate, probe_rate=estimator.probe_rate,
+        integral_leak=anti_hunting.integral_leak,
+        observer_bandwidth=estimator.observer_bandwidth,
+        integral_hold=anti_hunting.integral_hold,
+        anti_hunting=anti_hunting.enabled, gap_estimate=estimator.gap_estimate,
     )  # fmt: skip
     certificate = servo_certificate(
         params, K, feedback, alpha_max=alpha_max, Jl_range=(lo, hi),
-        Td_max=Td_max, torque_limit=torque_limit, bound=switches["certify"],
+        Td_max=Td_max, torque_limit=torque_limit, bound=certify,
     )  # fmt: skip
     return ServoDesign(
         params=params, torque_limit=torque_limit, alpha_max=alpha_max,
@@ -367,25 +329,16 @@ def servo_design(
     )  # fmt: skip
 
 
-def _interval(value, label: str) -> tuple[float, float]:
-    """A pair ``(low, high)`` of real numbers with ``low <= high``."""
-    try:
-        items = list(value)
-    except TypeError:
-        items = None
-    if isinstance(value, (str, bytes)) or items is None or len(items) != 2:
-        raise TypeError(f"{label}: expected (low, high), got {value!r}")
-    lo, hi = (real_number(v, label) for v in items)
-    if lo > hi:
-        raise ValueError(f"{label}: need low <= high, got {value!r}")
-    return lo, hi
-
-
-def _range(value, label: str) -> tuple[float, float]:
-    lo, hi = _interval(value, label)
-    if not lo > 0:
-        raise ValueError(f"{label}: need 0 < low <= high, got {value!r}")
-    return lo, hi
+def _settings(value, cls, label: str):
+    """The settings object of one part: `value`, or the defaults for None."""
+    if value is None:
+        return cls()
+    if not isinstance(value, cls):
+        raise TypeError(
+            f"{label}: expected a {cls.__name__} (e.g. {cls.__name__}(...) with the "
+            f"fields to change), got {value!r}"
+        )
+    return value
 
 
 # Keep the planner's constant visible for the docs and tests.

@@ -24,10 +24,11 @@ for any load inertia in the range, also varying); by homogeneity ``|e_l|
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..certificate import Certificate
 from ..exceptions import SynthesisError
 from ..reachability import UltimateBound, ultimate_bound
 from ..saturation import SaturatedDesign, saturation_region
@@ -40,8 +41,13 @@ __all__ = ["ServoCertificate", "servo_certificate", "contact_loop"]
 
 
 @dataclass(frozen=True)
-class ServoCertificate:
-    """The servo's certified statements.
+class ServoCertificate(Certificate):
+    """The servo's certified statements: one `ctrl_lpv.Certificate`.
+
+    Its checks are those of its parts, grouped ``"feedback"``,
+    ``"ultimate bound"`` and ``"region"``; `statement` says what each part
+    covers and what is not certified. A servo without any part (a given
+    gain, nothing computed) has no checks and is not verified.
 
     Attributes
     ----------
@@ -65,19 +71,11 @@ class ServoCertificate:
         was not computed or did not certify.
     """
 
-    feedback: object | None
-    gamma: float | None
-    ultimate: UltimateBound | None
-    w_max: np.ndarray
-    statement: str
-    region: SaturatedDesign | None = None
-
-    @property
-    def verified(self) -> bool:
-        """Whether every float64 check passed."""
-        ok = self.feedback is None or bool(self.feedback.verified)
-        ok = ok and (self.region is None or self.region.certificate.verified)
-        return ok and (self.ultimate is None or self.ultimate.certificate.verified)
+    feedback: Certificate | None = None
+    gamma: float | None = None
+    ultimate: UltimateBound | None = field(default=None, compare=False)
+    w_max: np.ndarray = field(default_factory=lambda: np.ones(1), compare=False)
+    region: SaturatedDesign | None = field(default=None, compare=False)
 
     @property
     def error_bound(self) -> float | None:
@@ -88,9 +86,6 @@ class ServoCertificate:
     def torque_bound(self) -> float | None:
         """Certified ultimate feedback torque ``|K x|`` per Nm of ``sup|w~|``."""
         return None if self.ultimate is None else float(self.ultimate.bounds[1])
-
-    def __str__(self) -> str:
-        return self.statement
 
 
 def contact_loop(params: Parameters, gain, Jl_range) -> tuple[list, np.ndarray]:
@@ -194,7 +189,18 @@ def servo_certificate(
         "gap estimate and the contact-aware, held integral (checked by "
         "simulation)"
     )
-    return ServoCertificate(fb_cert, gamma, ultimate, w_max, "\n".join(lines), region)
+    parts = {
+        "feedback": fb_cert,
+        "ultimate bound": None if ultimate is None else ultimate.certificate,
+        "region": None if region is None else region.certificate,
+    }
+    whole = Certificate.combine(
+        *(part.regrouped(name) for name, part in parts.items() if part is not None)
+    )
+    return ServoCertificate(
+        whole.checks, "\n".join(lines), feedback=fb_cert, gamma=gamma,
+        ultimate=ultimate, w_max=w_max, region=region,
+    )  # fmt: skip
 
 
 def _saturation_region(params, K, Jl_range, torque_limit, Td_max):

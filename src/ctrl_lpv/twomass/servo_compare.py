@@ -29,6 +29,7 @@ from .parameters import Parameters
 from .plant import plant
 from .scenarios import alpha_step
 from .servo import ServoDesign, servo_design
+from .servo_config import ServoAntiHunting, ServoEstimator
 from .trajectory import reference_generator
 
 __all__ = [
@@ -316,10 +317,12 @@ def comparison_controllers(
         torque_limit=torque_limit, alpha_max=design.alpha_max,
         Jl_range=design.Jl_range, Td_max=design.Td_max, certify=False,
     )  # fmt: skip
-    plain = servo_design(design.params, anti_hunting=False, **kw)
+    off = ServoAntiHunting(enabled=False)
+    plain = servo_design(design.params, anti_hunting=off, **kw)
     paper_ff = servo_design(
-        design.params, gain=paper_gain(), anti_hunting=False, gap_estimate=False, **kw
-    )
+        design.params, gain=paper_gain(), anti_hunting=off,
+        estimator=ServoEstimator(gap_estimate=False), **kw,
+    )  # fmt: skip
     planner = reference_generator(
         design.accel_limit, min_duration=design.tuning.min_duration,
         horizon_floor=design.tuning.horizon_floor, name="planner",

@@ -1,0 +1,385 @@
+"""Block matrices of LMIs in float64, and their affine maps.
+
+An LMI is written once, as a block function of its variables that returns
+the lower block triangle (`assemble`). The block functions are only ever
+evaluated on float64 values: at the returned point (the certificate), and
+at the unit points of the variables, which give the affine map ``x ->
+F(x)`` that the conic backends pose (`columns`).
+
+`columns` reads the map in one evaluation: the unit points of the
+variables are stacked along a leading axis (`Batch`, whose ``.T``,
+indexing and a few numpy functions act on the trailing axes), which numpy
+broadcasts through the products and sums of a block function. A block
+function written for one point may still not broadcast (an operation on
+fixed axes, say): every batched map is therefore checked against a direct
+evaluation at a random point, and read one unit point at a time when it
+does not agree (logged at DEBUG on ``ctrl_lpv.lmi``). The check is not
+skipped for a block function that passed it before: the same code with
+other data may take another branch.
+"""
+
+from __future__ import annotations
+
+import logging
+from types import SimpleNamespace
+
+import numpy as np
+
+logger = logging.getLogger("ctrl_lpv.lmi")
+
+__all__ = [
+    "Recording",
+    "assemble",
+    "columns",
+    "diagonal",
+    "normalized_max_eig",
+    "quadratic_rows",
+    "total",
+    "unit_points",
+]
+
+# A batched map must reproduce a direct evaluation at a random point to
+# this relative accuracy (rounding of a few products and sums).
+_BATCH_TOLERANCE = 1e-10
+
+
+def _sizes(blocks):
+    sizes = []
+    for i, row in enumerate(blocks):
+        shape = np.shape(row[i])
+        if len(shape) < 2 or shape[-1] != shape[-2]:
+            raise ValueError(f"block ({i}, {i}) must be a square matrix, got {shape}")
+        sizes.append(shape[-1])
+    return sizes
+
+
+def assemble(blocks):
+    """Symmetric matrix ``(M + M') / 2`` from the lower block triangle of ``M``.
+
+    Only the symmetric part is ever used, so a diagonal block may be given
+    as ``2 Q`` for ``Q + Q'``.
+
+    Parameters
+    ----------
+    blocks : sequence of sequences
+        Row ``i`` holds blocks ``(i, 0), ..., (i, i)``; entries above the
+        diagonal may be omitted or ``None`` (symmetric completion). A scalar
+        ``0`` is a zero block of the size implied by the diagonal blocks.
+        Blocks may carry a leading stack axis (`Batch`).
+
+    Returns
+    -------
+    ndarray
+    """
+    sizes = _sizes(blocks)
+    stacks = [np.shape(b)[0] for row in blocks for b in row if np.ndim(b) > 2]
+    lead = (max(stacks),) if stacks else ()
+
+    def block(i, j):
+        item = blocks[i][j] if j <= i else blocks[j][i]
+        if isinstance(item, (int, float)) and item == 0:
+            return np.zeros(lead + (sizes[i], sizes[j]))
+        item = np.asarray(item, float)
+        if j > i:
+            item = np.swapaxes(item, -1, -2)
+        if lead and item.ndim == 2:
+            item = np.broadcast_to(item, lead + item.shape)
+        return item
+
+    if len(blocks) == 1:
+        full = block(0, 0)
+    else:
+        rows = [np.concatenate([block(i, j) for j in range(len(blocks))], axis=-1)
+                for i in range(len(blocks))]  # fmt: skip
+        full = np.concatenate(rows, axis=-2)
+    return 0.5 * (full + np.swapaxes(full, -1, -2))
+
+
+def _like(v, out):
+    """`out` as a `Batch` when `v` is one."""
+    return out.view(Batch) if isinstance(v, Batch) else out
+
+
+def diagonal(v):
+    """``diag(v)`` of a vector (a column is read as a vector), stack-aware."""
+    d = np.asarray(v, float)
+    if not isinstance(v, Batch):
+        d = d.reshape(-1)
+    elif d.ndim == 3:  # a stack of columns
+        d = d[:, :, 0]
+    return _like(v, d[..., :, None] * np.eye(d.shape[-1]))
+
+
+def total(v):
+    """The sum of a vector's entries as a 1 x 1 matrix, stack-aware."""
+    d = np.asarray(v, float)
+    if isinstance(v, Batch):
+        return _like(v, d.reshape(d.shape[0], -1).sum(axis=1)[:, None, None])
+    return np.array([[d.sum()]])
+
+
+def quadratic_rows(C, W):
+    """``diag(C W C')`` as a diagonal matrix, stack-aware in ``W``."""
+    rows = np.einsum("ij,...jk,ik->...i", C, np.asarray(W, float), C)
+    return _like(W, rows[..., :, None] * np.eye(C.shape[0]))
+
+
+def normalized_max_eig(M) -> float:
+    """Largest ``lambda_max(D M D)`` over a stack, ``D = |diag M|^-1/2``.
+
+    The Jacobi normalisation makes the test scale-free; a nonnegative
+    diagonal entry (no strict inequality possible) gives ``inf``.
+    """
+    diag = np.diagonal(M, axis1=1, axis2=2)
+    if not np.all(diag < 0):
+        return float("inf")
+    d = 1.0 / np.sqrt(-diag)
+    return float(np.linalg.eigvalsh(M * d[:, :, None] * d[:, None, :])[:, -1].max())
+
+
+def unit_points(shape, symmetric: bool) -> np.ndarray:
+    """The unit points of a variable, stacked: one per free entry.
+
+    A symmetric variable's free entries are its upper triangle, row by row
+    (``np.triu_indices``); another variable's are its entries in C order.
+    """
+    if symmetric:
+        n = shape[0]
+        a, b = np.triu_indices(n)
+        E = np.zeros((a.size, n, n))
+        E[np.arange(a.size), a, b] = 1.0
+        E[np.arange(a.size), b, a] = 1.0
+        return E
+    size = int(np.prod(shape))
+    return np.eye(size).reshape((size,) + tuple(shape))
+
+
+class Batch(np.ndarray):
+    """Values of one variable stacked along a leading axis.
+
+    Transposition, indexing and the numpy functions of `_BATCHED` act on
+    the trailing axes (the value), so a block function written for one
+    value evaluates the whole stack; an indexed scalar keeps two trailing
+    axes of size 1, so that it scales the matrices it multiplies. Other
+    numpy functions raise ``TypeError`` (and the map is read one unit
+    point at a time).
+    """
+
+    @property
+    def T(self):  # noqa: N802 (numpy's name)
+        if self.ndim <= 2:
+            return self
+        return np.asarray(self).swapaxes(-1, -2).view(Batch)
+
+    def trace(self, *args, **kwargs):
+        if args or kwargs or self.ndim != 3:
+            raise TypeError("trace: only the trace of matrices is batched")
+        return _trace(self)
+
+    def __getitem__(self, index):
+        if not isinstance(index, tuple):
+            index = (index,)
+        if any(i is Ellipsis or i is None for i in index):
+            raise IndexError("a Batch takes plain indices")
+        out = np.asarray(self)[(slice(None),) + index]
+        if out.ndim == 1:
+            out = out[:, None, None]
+        return out.view(Batch)
+
+    def __array_function__(self, func, types, args, kwargs):
+        if func in _QUERIES:  # of the array as it is, stack axis included
+            return func(*(np.asarray(a) for a in args), **kwargs)
+        batched = _BATCHED.get(func)
+        if batched is None:
+            raise TypeError(f"{func.__name__} is not batched")
+        return batched(*args, **kwargs)
+
+
+def _lead(arrays):
+    """The stack size of the Batch arrays among `arrays`."""
+    return next(a.shape[0] for a in arrays if isinstance(a, Batch))
+
+
+def _stacked(arrays, ndim=2):
+    """Every array with the leading stack axis (constants broadcast)."""
+    k = _lead(arrays)
+    out = []
+    for a in arrays:
+        if isinstance(a, Batch):
+            out.append(np.asarray(a))
+        else:
+            a = np.asarray(a, float)
+            out.append(np.broadcast_to(a, (k,) + a.shape))
+    return out
+
+
+def _concatenate(arrays, axis=0):
+    if axis is None or not -2 <= axis < 2:
+        raise TypeError("concatenate: only axes of a matrix are batched")
+    if any(np.ndim(a) != 2 + isinstance(a, Batch) for a in arrays):
+        raise TypeError("concatenate: only matrices are batched")
+    axis = axis + 1 if axis >= 0 else axis
+    return np.concatenate(_stacked(arrays), axis=axis).view(Batch)
+
+
+def _kron(a, b):
+    a, b = _stacked([a, b])
+    k = a.shape[0]
+    out = np.einsum("kij,kab->kiajb", a, b)
+    return out.reshape(k, a.shape[1] * b.shape[1], a.shape[2] * b.shape[2]).view(Batch)
+
+
+def _diag(v, k=0):
+    if k != 0 or np.ndim(v) != 3:
+        raise TypeError("diag: only the diagonal of matrices is batched")
+    return np.diagonal(np.asarray(v), axis1=1, axis2=2).view(Batch)
+
+
+def _trace(a):
+    if np.ndim(a) != 3:
+        raise TypeError("trace: only matrices are batched")
+    return np.trace(np.asarray(a), axis1=1, axis2=2)[:, None, None].view(Batch)
+
+
+_QUERIES = frozenset({np.shape, np.ndim, np.size})
+_BATCHED = {
+    np.concatenate: _concatenate,
+    np.hstack: lambda arrays: _concatenate(arrays, axis=1),
+    np.vstack: lambda arrays: _concatenate(arrays, axis=0),
+    np.kron: _kron,
+    np.diag: _diag,
+    np.trace: _trace,
+}
+
+
+def _direct(evaluate, read, units, x):
+    values, offset = {}, 0
+    for name, points in units.items():
+        if name in read and len(points):
+            k = len(points)
+            values[name] = (x[offset : offset + k] @ points.reshape(k, -1)).reshape(
+                points.shape[1:]
+            )
+        offset += len(points)
+    return evaluate(values)
+
+
+def columns(evaluate, F0, read, units, batched=True) -> tuple:
+    """The columns of one inequality ``F(x) = F0 + sum_k x_k M_k``.
+
+    Parameters
+    ----------
+    evaluate : callable
+        ``evaluate(values)`` is the float64 matrix ``F`` with the variables
+        of `values` set and every other variable zero.
+    F0 : ndarray
+        ``evaluate({})``.
+    read : set of str
+        The variables the block function reads; the others get no columns.
+    units : dict of str to ndarray
+        Per variable, in column order, its stacked unit points
+        (`unit_points`).
+    batched : bool, optional
+        Read in one batched evaluation, checked at a random point (True),
+        or one unit point at a time.
+
+    Returns
+    -------
+    tuple
+        ``(rows, cols, data)`` of the nonzero entries of ``M`` (rows: the
+        entries of ``vec F`` in C order), column indices counted over all
+        variables of `units` in their order.
+    """
+    pieces = _batched(evaluate, F0, read, units) if batched else None
+    if pieces is not None:
+        rng = np.random.default_rng(20261202)
+        x = np.zeros(sum(len(p) for p in units.values()))
+        for name, (start, stop) in _spans(units).items():
+            if name in read:
+                x[start:stop] = rng.standard_normal(stop - start)
+        rows, cols, data = pieces
+        expected = F0.ravel().copy()
+        np.add.at(expected, rows, data * x[cols])
+        actual = _direct(evaluate, read, units, x).ravel()
+        # Relative to the size of the terms: a map of small entries gets no
+        # absolute allowance.
+        scale = np.abs(F0).sum() + np.abs(data * x[cols]).sum()
+        if np.abs(actual - expected).max() <= _BATCH_TOLERANCE * scale:
+            return pieces
+        logger.debug("batched map of an LMI rejected at a random point")
+    elif batched:
+        logger.debug("an LMI does not evaluate batched: read point by point")
+    return _one_by_one(evaluate, F0, read, units)
+
+
+def _spans(units):
+    spans, offset = {}, 0
+    for name, points in units.items():
+        spans[name] = (offset, offset + len(points))
+        offset += len(points)
+    return spans
+
+
+def _collect(blocks_of):
+    rows, cols, data = [], [], []
+    for offset, dense in blocks_of:
+        r, c = np.nonzero(dense)
+        rows.append(r)
+        cols.append(c + offset)
+        data.append(dense[r, c])
+    if not rows:
+        return np.zeros(0, int), np.zeros(0, int), np.zeros(0)
+    return np.concatenate(rows), np.concatenate(cols), np.concatenate(data)
+
+
+def _batched(evaluate, F0, read, units):
+    """All columns in one evaluation: the stack holds every unit point of
+    every variable read, each variable zero outside its own slots."""
+    spans = [(name, span) for name, span in _spans(units).items()
+             if name in read and span[1] > span[0]]  # fmt: skip
+    total = sum(stop - start for _, (start, stop) in spans)
+    if not total:
+        return _collect([])
+    values, slot = {}, 0
+    for name, _ in spans:
+        points = units[name]
+        stack = np.zeros((total,) + points.shape[1:])
+        stack[slot : slot + len(points)] = points
+        values[name] = stack.view(Batch)
+        slot += len(points)
+    try:
+        stack = evaluate(values)
+    except (ValueError, TypeError, IndexError):
+        return None
+    if np.shape(stack) != (total,) + F0.shape:
+        return None
+    dense = (np.asarray(stack) - F0).reshape(total, -1).T
+    found, slot = [], 0
+    for _, (start, stop) in spans:
+        found.append((start, dense[:, slot : slot + stop - start]))
+        slot += stop - start
+    return _collect(found)
+
+
+def _one_by_one(evaluate, F0, read, units):
+    found = []
+    for name, (start, stop) in _spans(units).items():
+        if name in read and stop > start:
+            dense = np.column_stack(
+                [(evaluate({name: E}) - F0).ravel() for E in units[name]]
+            )
+            found.append((start, dense))
+    return _collect(found)
+
+
+class Recording(SimpleNamespace):
+    """A namespace that adds to ``_read`` the names looked up in it."""
+
+    def __init__(self, values, read: set):
+        super().__init__(**values)
+        object.__setattr__(self, "_read", read)
+
+    def __getattribute__(self, name):
+        if name == "__dict__" or not name.startswith("_"):
+            object.__getattribute__(self, "_read").add(name)
+        return object.__getattribute__(self, name)

@@ -1,0 +1,245 @@
+"""The LMIs of a stage in sparse conic form, solved by Clarabel or SCS.
+
+A stage is ``min c'x`` subject to ``F_i(x) <= -m_i I`` (``m_i`` the margin
+of a strict inequality, 0 otherwise), with ``F_i(x) = F_i(0) + M_i x`` read
+off the block functions (`ctrl_lpv.lmi.blocks.columns`). Both solvers take
+``min c'x`` subject to ``s = b - A x`` in a product of cones; here each
+``s_i = svec(-F_i(x) - m_i I)`` lies in a cone of PSD matrices stored as a
+scaled triangle, off-diagonal entries times ``sqrt(2)`` (so that inner
+products are preserved):
+
+* Clarabel (``PSDTriangleConeT``): the upper triangle, column by column;
+* SCS (cone ``"s"``): the lower triangle, column by column.
+
+The data are assembled once per structure with numpy and scipy.sparse; a
+re-solve with another margin changes ``b`` only. Other solvers take the
+same data through cvxpy (`ctrl_lpv.lmi.cvxpy_backend`).
+"""
+
+from __future__ import annotations
+
+import functools
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = ["ConicData", "ConicResult", "conic_data", "solve_direct", "DIRECT"]
+
+# Solver statuses, as cvxpy names them (the engine's vocabulary).
+OPTIMAL = "optimal"
+OPTIMAL_INACCURATE = "optimal_inaccurate"
+INFEASIBLE = "infeasible"
+INFEASIBLE_INACCURATE = "infeasible_inaccurate"
+SOLVED = (OPTIMAL, OPTIMAL_INACCURATE)
+PROVED_INFEASIBLE = (INFEASIBLE, INFEASIBLE_INACCURATE)
+
+
+@functools.cache
+def _layout(d: int, upper: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Row-major positions in ``vec F`` of a triangle's entries, and scales."""
+    if upper:  # (i, j), i <= j, column by column
+        i, j = np.triu_indices(d)
+        order = np.lexsort((i, j))
+    else:  # (i, j), i >= j, column by column
+        i, j = np.tril_indices(d)
+        order = np.lexsort((i, j))
+    i, j = i[order], j[order]
+    scale = np.where(i == j, 1.0, np.sqrt(2.0))
+    return i * d + j, scale
+
+
+@dataclass(frozen=True)
+class ConicData:
+    """``min c'x`` s.t. ``b - A x`` in PSD triangle cones of `sizes`.
+
+    Attributes
+    ----------
+    A : scipy.sparse.csc_array
+    b0 : ndarray
+        ``b`` without the margins: ``svec(-F_i(0))``.
+    b_margin : ndarray
+        ``svec(I)`` for the strict inequalities, 0 elsewhere: ``b = b0 -
+        margin * b_margin``.
+    sizes : tuple of int
+        Size of each inequality.
+    upper : bool
+        The triangle stored (Clarabel: upper; SCS: lower).
+    """
+
+    A: sp.csc_array
+    b0: np.ndarray
+    b_margin: np.ndarray
+    sizes: tuple[int, ...]
+    upper: bool
+
+    def b(self, margin: float) -> np.ndarray:
+        return self.b0 - margin * self.b_margin
+
+    def matrices(self, z) -> list[np.ndarray]:
+        """Symmetric matrices from a vector of the cones' layout (duals)."""
+        out, start = [], 0
+        for d in self.sizes:
+            where, scale = _layout(d, self.upper)
+            Y = np.zeros(d * d)
+            Y[where] = np.asarray(z[start : start + where.size]) / scale
+            Y = Y.reshape(d, d)
+            out.append(Y + np.triu(Y, 1).T + np.tril(Y, -1).T)
+            start += where.size
+        return out
+
+
+def conic_data(pieces, strict, nfree: int, upper: bool) -> ConicData:
+    """Conic form of inequalities given as ``(F0, (rows, cols, data))``.
+
+    Parameters
+    ----------
+    pieces : sequence
+        Per inequality, ``F_i(0)`` and the entries of ``M_i`` (rows in
+        ``vec F_i``, row-major).
+    strict : sequence of bool
+        Which inequalities carry the margin.
+    nfree : int
+        Number of free entries ``x``.
+    upper : bool
+        Clarabel's layout (True) or SCS's.
+    """
+    rows, cols, data, b0, b_margin, sizes = [], [], [], [], [], []
+    offset = 0
+    for (F0, (r, c, x)), is_strict in zip(pieces, strict):
+        d = F0.shape[0]
+        where, scale = _layout(d, upper)
+        position = np.full(d * d, -1)
+        position[where] = np.arange(where.size)
+        keep = position[r] >= 0
+        svec_rows = position[r[keep]]
+        rows.append(svec_rows + offset)
+        cols.append(c[keep])
+        data.append(x[keep] * scale[svec_rows])
+        b0.append(-F0.ravel()[where] * scale)
+        b_margin.append(np.eye(d).ravel()[where] * (1.0 if is_strict else 0.0))
+        sizes.append(d)
+        offset += where.size
+    A = sp.csc_array(
+        (np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))),
+        shape=(offset, nfree),
+    )
+    return ConicData(
+        A, np.concatenate(b0), np.concatenate(b_margin), tuple(sizes), upper
+    )
+
+
+@dataclass(frozen=True)
+class ConicResult:
+    """What a solver returned (nothing in it is trusted).
+
+    Attributes
+    ----------
+    status : str
+        cvxpy's name for the solver's status.
+    x : ndarray or None
+        The point, when the solver reported one.
+    duals : list of ndarray or None
+        One symmetric matrix per inequality: the dual point (a Farkas
+        point after an infeasible solve).
+    objective : float or None
+    seconds : float
+        Wall time.
+    setup_seconds : float
+        The part spent posing the data in another form (cvxpy's
+        compilation); 0 for the solvers called directly.
+    """
+
+    status: str
+    x: np.ndarray | None
+    duals: list | None
+    objective: float | None
+    seconds: float
+    setup_seconds: float = 0.0
+
+
+_CLARABEL_STATUS = {
+    "Solved": OPTIMAL,
+    "AlmostSolved": OPTIMAL_INACCURATE,
+    "PrimalInfeasible": INFEASIBLE,
+    "AlmostPrimalInfeasible": INFEASIBLE_INACCURATE,
+    "DualInfeasible": "unbounded",
+    "AlmostDualInfeasible": "unbounded_inaccurate",
+    "MaxIterations": "user_limit",
+    "MaxTime": "user_limit",
+}
+
+# SCS's status_val.
+_SCS_STATUS = {
+    1: OPTIMAL,
+    2: OPTIMAL_INACCURATE,
+    -2: INFEASIBLE,
+    -7: INFEASIBLE_INACCURATE,
+    -1: "unbounded",
+    -6: "unbounded_inaccurate",
+}
+
+
+def clarabel_settings(options: dict):
+    """Clarabel's settings with `options` (AttributeError for an unknown one)."""
+    import clarabel
+
+    settings = clarabel.DefaultSettings()
+    settings.verbose = False
+    for key, value in options.items():
+        if not hasattr(settings, key):
+            raise AttributeError(f"Clarabel has no setting {key!r}")
+        setattr(settings, key, value)
+    return settings
+
+
+def _clarabel(c, data: ConicData, b, options) -> ConicResult:
+    import clarabel
+
+    start = time.perf_counter()
+    settings = clarabel_settings(options)
+    cones = [
+        clarabel.NonnegativeConeT(1) if d == 1 else clarabel.PSDTriangleConeT(d)
+        for d in data.sizes
+    ]
+    n = data.A.shape[1]
+    P = sp.csc_matrix((n, n))
+    solver = clarabel.DefaultSolver(P, c, sp.csc_matrix(data.A), b, cones, settings)
+    solution = solver.solve()
+    status = _CLARABEL_STATUS.get(str(solution.status), "solver_error")
+    x = np.array(solution.x, float) if status in SOLVED else None
+    duals = data.matrices(np.array(solution.z, float))
+    objective = float(solution.obj_val) if status in SOLVED else None
+    return ConicResult(status, x, duals, objective, time.perf_counter() - start)
+
+
+def _scs(c, data: ConicData, b, options) -> ConicResult:
+    import scs
+
+    start = time.perf_counter()
+    solver = scs.SCS(
+        {"A": sp.csc_matrix(data.A), "b": b, "c": c},
+        {"s": list(data.sizes)},
+        **{"verbose": False, **options},
+    )
+    solution = solver.solve()
+    status = _SCS_STATUS.get(int(solution["info"]["status_val"]), "solver_error")
+    x = np.array(solution["x"], float) if status in SOLVED else None
+    duals = data.matrices(np.array(solution["y"], float))
+    objective = float(solution["info"]["pobj"]) if status in SOLVED else None
+    return ConicResult(status, x, duals, objective, time.perf_counter() - start)
+
+
+#: The solvers this module calls directly, and their layout (upper triangle).
+DIRECT = {"CLARABEL": (_clarabel, True), "SCS": (_scs, False)}
+
+
+def solve_direct(
+    solver: str, c, data: ConicData, margin: float, options
+) -> ConicResult:
+    """Solve with `solver` (a key of `DIRECT`); `data` in its layout."""
+    call, upper = DIRECT[solver]
+    if data.upper != upper:
+        raise ValueError(f"data: not in {solver}'s layout")
+    return call(np.asarray(c, float), data, data.b(margin), options)

@@ -1,0 +1,227 @@
+"""Settings of `servo_design`, one small frozen dataclass per part.
+
+The servo's four parts (see `ctrl_lpv.twomass.servo`) each take their
+settings as one object: the move planner (`ServoPlanner`), the certified
+feedback synthesis (`ServoSynthesis`), the anti-hunting law
+(`ServoAntiHunting`) and the shaft-torque observer with its gap estimate
+(`ServoEstimator`). Every field is checked when the object is made, and
+the error names the class and the field. The defaults are the tuning of
+``docs/servo.rst``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .._checks import flag, real_number
+
+__all__ = ["ServoPlanner", "ServoSynthesis", "ServoAntiHunting", "ServoEstimator"]
+
+
+def interval(value, label: str) -> tuple[float, float]:
+    """A pair ``(low, high)`` of real numbers with ``low <= high``."""
+    try:
+        items = list(value)
+    except TypeError:
+        items = None
+    if isinstance(value, (str, bytes)) or items is None or len(items) != 2:
+        raise TypeError(f"{label}: expected (low, high), got {value!r}")
+    lo, hi = (real_number(v, label) for v in items)
+    if lo > hi:
+        raise ValueError(f"{label}: need low <= high, got {value!r}")
+    return lo, hi
+
+
+def positive_range(value, label: str) -> tuple[float, float]:
+    """A pair ``(low, high)`` with ``0 < low <= high``."""
+    lo, hi = interval(value, label)
+    if not lo > 0:
+        raise ValueError(f"{label}: need 0 < low <= high, got {value!r}")
+    return lo, hi
+
+
+def _check(obj, positive=(), nonnegative=(), flags=()) -> None:
+    """Check the named fields of a frozen dataclass and store them normalised.
+
+    Positive and nonnegative fields become floats, flags bools; an error
+    names ``Class.field``.
+    """
+    cls = type(obj).__name__
+    for kind, names in (("positive", positive), ("nonneg", nonnegative),
+                        ("flag", flags)):  # fmt: skip
+        for name in names:
+            value, label = getattr(obj, name), f"{cls}.{name}"
+            if kind == "flag":
+                value = flag(value, label)
+            elif kind == "positive":
+                value = real_number(value, label, positive=True)
+            else:
+                value = real_number(value, label, minimum=0.0)
+            # Frozen: the checked value replaces the given one, once, here.
+            object.__setattr__(obj, name, value)
+
+
+@dataclass(frozen=True)
+class ServoPlanner:
+    """Settings of the servo's online rest-to-rest planner.
+
+    Parameters
+    ----------
+    torque_reserve : float, optional
+        Share of the torque limit kept for the feedback, in ``[0, 1)``:
+        moves are planned so that the rigid-body torque of the heaviest
+        load plus ``Td_max`` stays below ``(1 - torque_reserve) *
+        torque_limit`` (default 0.12).
+    min_duration : float, optional
+        Shortest move, s (default 0.2: short moves excite the shaft mode
+        through the feedforward's inertia error).
+    horizon_floor : float, optional
+        Floor of the planner's time-to-go, s (default 0.04).
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a value that is not a real number in its range, naming the
+        field.
+    """
+
+    torque_reserve: float = 0.12
+    min_duration: float = 0.2
+    horizon_floor: float = 0.04
+
+    def __post_init__(self):
+        _check(self, positive=("min_duration", "horizon_floor"))
+        reserve = real_number(
+            self.torque_reserve, "ServoPlanner.torque_reserve", minimum=0.0, below=1.0
+        )
+        object.__setattr__(self, "torque_reserve", reserve)
+
+
+@dataclass(frozen=True)
+class ServoSynthesis:
+    """Settings of the certified feedback synthesis of the servo.
+
+    The gain comes from `ctrl_lpv.hinf_state_feedback` on
+    `servo_polytope` with these settings (see `lpv_model` for the
+    weights).
+
+    Parameters
+    ----------
+    p_bounds : (float, float), optional
+        Interval of the backlash parameter (default ``(-0.5, 0)``).
+    torque_weight : float, optional
+        Weight of ``Tm`` in the performance output (default 5e-4).
+    integral_weight : float, optional
+        Weight of the integral of the load-angle error (default 30).
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a value that is not a real number in its range, or reversed
+        `p_bounds`, naming the field.
+    """
+
+    p_bounds: tuple[float, float] = (-0.5, 0.0)
+    torque_weight: float = 5e-4
+    integral_weight: float = 30.0
+
+    def __post_init__(self):
+        _check(self, positive=("torque_weight", "integral_weight"))
+        bounds = interval(self.p_bounds, "ServoSynthesis.p_bounds")
+        object.__setattr__(self, "p_bounds", bounds)
+
+
+@dataclass(frozen=True)
+class ServoAntiHunting:
+    """Settings of the servo's flank choice and integral action.
+
+    Against hunting (``docs/servo.rst``) the flank of the backlash offset
+    is chosen by the whole shaft torque asked for (feedforward plus load
+    feedback), and the integral of the load error runs only in contact,
+    fading out of it.
+
+    Parameters
+    ----------
+    enabled : bool, optional
+        Flank choice by the feedback, probing for a wider gap and the
+        contact-aware integral (default True). False: the backlash offset
+        follows the feedforward torque only and the integral always runs.
+    flank_width : float, optional
+        Shaft torque, Nm, over which the backlash offset turns from one
+        flank to the other (default 0.5; a steady asked torque inside this
+        band makes a steep flank choice, so it is kept small). Used with
+        `enabled` False too.
+    integral_leak : float, optional
+        Decay rate (1/s) of the integral out of contact (default 2).
+    integral_hold : float, optional
+        Planned speed, rad/s, above which the integral is held (default
+        0.05): it integrates at rest, for the load torque, not the tracking
+        error of a move (which would wind it up); 0 disables the hold.
+        Used with `enabled` False too.
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a value that is not a real number in its range, or an
+        `enabled` that is not a bool, naming the field.
+    """
+
+    enabled: bool = True
+    flank_width: float = 0.5
+    integral_leak: float = 2.0
+    integral_hold: float = 0.05
+
+    def __post_init__(self):
+        _check(
+            self,
+            positive=("flank_width",),
+            nonnegative=("integral_leak", "integral_hold"),
+            flags=("enabled",),
+        )
+
+
+@dataclass(frozen=True)
+class ServoEstimator:
+    """Settings of the shaft-torque observer and the online gap estimate.
+
+    The observer on the motor side gives the shaft torque, which tells
+    contact from the gap; in contact the gap estimate moves towards the
+    flank seen in ``theta_m - theta_l``.
+
+    Parameters
+    ----------
+    gap_estimate : bool, optional
+        Estimate the gap online (default True); otherwise the backlash
+        offset uses ``alpha_max / 2``.
+    contact_torque : float, optional
+        Observed shaft torque, Nm, above which the drive counts as in
+        contact (weight 1 from twice this value; default 1.5). The gap
+        estimate widens when twice this torque is asked for and not seen.
+    estimate_rate : float, optional
+        Rate of the gap estimate in contact, 1/s (default 50).
+    probe_rate : float, optional
+        Rate at which the estimate widens when a contact asked for is not
+        made, rad/s (default 0.05).
+    observer_bandwidth : float, optional
+        Shaft-torque observer bandwidth, rad/s (default 1000).
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a value that is not a real number in its range, or a
+        `gap_estimate` that is not a bool, naming the field.
+    """
+
+    gap_estimate: bool = True
+    contact_torque: float = 1.5
+    estimate_rate: float = 50.0
+    probe_rate: float = 0.05
+    observer_bandwidth: float = 1000.0
+
+    def __post_init__(self):
+        _check(
+            self,
+            positive=("contact_torque", "observer_bandwidth"),
+            nonnegative=("estimate_rate", "probe_rate"),
+            flags=("gap_estimate",),
+        )

@@ -1,0 +1,236 @@
+"""The direct conic backend against independent facts and against cvxpy."""
+
+import control as ct
+import cvxpy as cp
+import numpy as np
+import pytest
+
+import ctrl_lpv as lpv
+from ctrl_lpv.lmi import LMIProblem
+from ctrl_lpv.lmi.blocks import assemble, columns, unit_points
+from ctrl_lpv.lmi.conic import ConicData, conic_data
+from ctrl_lpv.lmi.cvxpy_backend import solve_cvxpy
+from ctrl_lpv.lmi.solvers import solver_chain
+
+
+def stable_system(seed, n=4):
+    rng = np.random.default_rng(seed)
+    A = rng.normal(size=(n, n))
+    A -= (np.linalg.eigvals(A).real.max() + 0.5) * np.eye(n)
+    return (
+        A,
+        rng.normal(size=(n, 2)),
+        rng.normal(size=(3, n)),
+        0.1 * rng.normal(size=(3, 2)),
+    )
+
+
+def bounded_real(A, B, C, D):
+    """min g: [[A'P + PA, PB, C'], [., -g I, D'], [., ., -g I]] < 0, P > 0."""
+    n, m, p = A.shape[0], B.shape[1], C.shape[0]
+    lmi = LMIProblem(margin=1e-8)
+    lmi.variable("P", (n, n), symmetric=True)
+    lmi.variable("g", (1, 1))
+    lmi.add("P > 0", lambda v: [[-v.P]])
+    lmi.add(
+        "bounded real",
+        lambda v: [
+            [A.T @ v.P + v.P @ A],
+            [B.T @ v.P, -v.g * np.eye(m)],
+            [C, D, -v.g * np.eye(p)],
+        ],
+    )
+    return lmi
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize("solver", ["CLARABEL", "SCS"])
+def test_hinf_norm_of_a_stable_system(seed, solver):
+    A, B, C, D = stable_system(seed)
+    lmi = bounded_real(A, B, C, D)
+    chain = solver_chain(
+        [solver]
+        if solver == "CLARABEL"
+        else [(solver, {"eps_abs": 1e-9, "eps_rel": 1e-9, "max_iters": 50_000})]
+    )
+    sol = lmi.solve(lambda v: v.g[0, 0], solvers=chain)
+    assert sol.certified
+    norm = ct.linfnorm(ct.ss(A, B, C, D))[0]
+    assert sol.g[0, 0] >= norm * (1 - 1e-9)
+    assert sol.g[0, 0] == pytest.approx(norm, rel=1e-4)
+
+
+def test_cvxpy_poses_the_same_problem():
+    # The conic data read off the block functions, handed to cvxpy, and the
+    # same LMI written in cvxpy by hand: the same optimum.
+    A, B, C, D = stable_system(3)
+    lmi = bounded_real(A, B, C, D)
+    lmi.compile()
+    data, _ = lmi._conic_data("default", True)
+    c = lmi._objective_vector(lambda v: v.g[0, 0])
+    result = solve_cvxpy("CLARABEL", c, data, lmi.margin, {})
+    n, m, p = 4, 2, 3
+    P = cp.Variable((n, n), symmetric=True)
+    g = cp.Variable()
+    M = cp.bmat([
+        [A.T @ P + P @ A, P @ B, C.T],
+        [B.T @ P, -g * np.eye(m), D.T],
+        [C, D, -g * np.eye(p)],
+    ])  # fmt: skip
+    size = n + m + p
+    problem = cp.Problem(
+        cp.Minimize(g),
+        [P >> lmi.margin * np.eye(n), M << -lmi.margin * np.eye(size)],
+    )
+    problem.solve(solver="CLARABEL")
+    assert result.objective == pytest.approx(problem.value, rel=1e-6)
+    values = lmi._values(result.x)
+    assert values["g"][0, 0] == pytest.approx(g.value, rel=1e-6)
+
+
+def _map(evaluate, F0, read, units, check):
+    rows, cols, data = columns(evaluate, F0, read, units, check)
+    nfree = sum(len(u) for u in units.values())
+    M = np.zeros((F0.size, nfree))
+    np.add.at(M, (rows, cols), data)
+    return M
+
+
+@pytest.mark.parametrize(
+    "blocks",
+    [
+        lambda v: [[v.X @ v.L + v.L.T @ v.X.T], [v.Y, -np.eye(3)]],
+        lambda v: [[np.kron(np.eye(2), v.X) + 3.0 * v.s[0, 0] * np.eye(4)]],
+        # Broadcasts wrongly (fixed axes): read one unit point at a time.
+        lambda v: [[np.concatenate([v.X, v.X.T], axis=0).T @ np.ones((4, 2))]],
+        lambda v: [[np.diag(np.diag(v.X)) + v.s[0, 0] * np.eye(2)]],
+    ],
+)
+def test_batched_columns_are_the_unit_point_columns(blocks):
+    rng = np.random.default_rng(0)
+    L = rng.normal(size=(2, 2))
+    shapes = {"X": ((2, 2), False), "Y": ((3, 2), False), "s": ((1, 1), False)}
+    units = {k: unit_points(shape, sym) for k, (shape, sym) in shapes.items()}
+    zero = {k: np.zeros(shape) for k, (shape, _) in shapes.items()}
+
+    def evaluate(values):
+        from types import SimpleNamespace
+
+        return assemble(blocks(SimpleNamespace(L=L, **{**zero, **values})))
+
+    F0 = evaluate({})
+    fast = _map(evaluate, F0, set(shapes), units, True)
+    exact = _map(evaluate, F0, set(shapes), units, False)
+    np.testing.assert_allclose(fast, exact, atol=1e-14)
+    # and both reproduce the block function at a random point
+    x = rng.normal(size=fast.shape[1])
+    values, offset = {}, 0
+    for name, points in units.items():
+        values[name] = np.tensordot(x[offset : offset + len(points)], points, 1)
+        offset += len(points)
+    np.testing.assert_allclose(
+        F0.ravel() + exact @ x, evaluate(values).ravel(), atol=1e-12
+    )
+
+
+@pytest.mark.parametrize("upper", [True, False])
+def test_dual_layout_round_trip(upper):
+    rng = np.random.default_rng(5)
+    Y = [rng.normal(size=(d, d)) for d in (1, 3, 4)]
+    Y = [y + y.T for y in Y]
+    pieces = [(-y, (np.zeros(0, int), np.zeros(0, int), np.zeros(0))) for y in Y]
+    data = conic_data(pieces, [False] * 3, 1, upper)
+    assert isinstance(data, ConicData)
+    # b0 = svec(Y): inner products are preserved
+    assert data.b0 @ data.b0 == pytest.approx(sum(np.sum(y * y) for y in Y))
+    for a, b in zip(data.matrices(data.b0), Y):
+        np.testing.assert_allclose(a, b, atol=1e-14)
+
+
+def test_unknown_solver_option_is_named():
+    with pytest.raises(ValueError, match="'bogus'"):
+        solver_chain([("CLARABEL", {"bogus": 1})])
+    with pytest.raises(ValueError, match="'bogus'"):
+        solver_chain([("SCS", {"bogus": 1})])
+
+
+# ----------------------------------------------------------------------
+# Found by benchmarks/compare_backends.py and the review (issue 20)
+# ----------------------------------------------------------------------
+def test_ultimate_bound_of_a_zero_output_row_is_zero():
+    # Objectives are now evaluated on float64 arrays only: the objective
+    # ``cp.trace(v.W)`` of reachability.ultimate_bound (every output row
+    # zero) raised TypeError; the old cvxpy layer returned the bound 0.
+    A1 = np.array([[-1.0, 2.0], [-2.0, -1.0]])
+    A2 = np.array([[-2.0, 1.0], [-1.0, -1.5]])
+    E = np.array([[1.0], [0.5]])
+    loop = lpv.pss([ct.ss(A1, E, np.eye(2), 0), ct.ss(A2, E, np.eye(2), 0)])
+    result = lpv.ultimate_bound(loop, output=np.zeros((1, 2)))
+    assert result.certificate.verified
+    np.testing.assert_array_equal(result.bounds, [0.0])
+
+
+def _dense(pieces, nfree):
+    out = []
+    for F0, (rows, cols, data) in pieces:
+        M = np.zeros((F0.size, nfree))
+        np.add.at(M, (rows, cols), data)
+        out.append(M)
+    return out
+
+
+def _trace_lmi(n, scale, rng):
+    """A Lyapunov map with ``scale * P.trace() I``: ``ndarray.trace`` is a
+    method, which `Batch` does not see (summed over the stack axis)."""
+    A = rng.normal(size=(n, n))
+    shapes = {"P": ((n, n), True)}
+    units = {"P": unit_points((n, n), True)}
+
+    def evaluate(values):
+        from types import SimpleNamespace
+
+        P = values.get("P", np.zeros((n, n)))
+        v = SimpleNamespace(P=P)
+        return assemble([[scale * (A.T @ v.P + v.P @ A + v.P.trace() * np.eye(n))]])
+
+    return evaluate, shapes, units
+
+
+@pytest.mark.parametrize("scale", [1.0, 1e-12])
+def test_batched_map_check_does_not_depend_on_the_data_scale(scale):
+    # The random-point check accepts a batched map when the miss is below
+    # 1e-10 * (sum |F0| + sum |M x| + 1): the absolute "+ 1" lets any map
+    # of a block function with small entries through (here the map of a
+    # wrongly broadcast trace, rejected at scale 1, accepted at 1e-12).
+    evaluate, shapes, units = _trace_lmi(4, scale, np.random.default_rng(7))
+    F0 = evaluate({})
+    fast = _map(evaluate, F0, set(shapes), units, True)
+    exact = _map(evaluate, F0, set(shapes), units, False)
+    np.testing.assert_allclose(fast, exact, rtol=1e-9, atol=0)
+
+
+def test_block_function_trusted_by_its_code_is_checked_with_other_data():
+    # `LMIProblem._pieces` skips the random-point check for a block function
+    # whose code and shapes passed it once; the same code (a lambda made in
+    # a loop or a factory) with other closure data may take another branch,
+    # here one that does not broadcast: its wrong map goes to the solver.
+    rng = np.random.default_rng(11)
+    n = 3
+    A = rng.normal(size=(n, n)) - 3 * np.eye(n)
+    lmi = LMIProblem()
+    lmi.variable("P", (n, n), symmetric=True)
+
+    def lyapunov(weight):
+        def blocks(v):
+            extra = weight * v.P.trace() * np.eye(n) if weight else 0.0
+            return [[A.T @ v.P + v.P @ A + extra]]
+
+        return blocks
+
+    lmi.add("plain", lyapunov(0.0))
+    lmi.add("with trace", lyapunov(0.5))
+    active = lmi._active("default")
+    fast = _dense(lmi._pieces(active), lmi._nfree())
+    exact = _dense(lmi._pieces(active, exact=True), lmi._nfree())
+    for a, b in zip(fast, exact):
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-14)
