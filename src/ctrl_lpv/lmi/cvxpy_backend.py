@@ -8,6 +8,7 @@ the PSD cones, to cvxpy, the only module of the library that imports it.
 from __future__ import annotations
 
 import functools
+import importlib.util
 import time
 import warnings
 
@@ -16,16 +17,21 @@ import scipy.sparse as sp
 
 from .conic import SOLVED, ConicData, ConicResult, _layout
 
-__all__ = ["installed", "solve_cvxpy", "options_error"]
+__all__ = ["available", "installed", "solve_cvxpy", "options_error"]
+
+
+def available() -> bool:
+    """Whether cvxpy is installed (the optional extra ``ctrl_lpv[cvxpy]``)."""
+    return importlib.util.find_spec("cvxpy") is not None
 
 
 @functools.cache
 def installed() -> frozenset[str]:
     """Solvers cvxpy can call (empty without cvxpy); probed once."""
-    try:
-        import cvxpy as cp
-    except ImportError:
+    if not available():
         return frozenset()
+    import cvxpy as cp
+
     return frozenset(cp.installed_solvers())
 
 

@@ -158,9 +158,13 @@ def solver_chain(solvers) -> list[tuple[str, dict]] | None:
                 f"solvers: expected a name or a (name, options) pair, got {item!r}"
             )
         if name.upper() not in _installed_solvers():
+            hint = ""
+            if name.upper() not in DIRECT and not cvxpy_backend.available():
+                hint = (" (solvers other than Clarabel and SCS are called "
+                        "through cvxpy: pip install 'ctrl_lpv[cvxpy]')")  # fmt: skip
             raise ValueError(
                 f"solvers: {name!r} is not installed; installed: "
-                f"{sorted(_installed_solvers())}"
+                f"{sorted(_installed_solvers())}{hint}"
             )
         _check_options(name.upper(), options)
         chain.append((name.upper(), dict(options)))

@@ -132,6 +132,10 @@ def run(problem: Problem, time_limit=None) -> StateFeedbackDesign:
             best = rung.best
         record.extend(f"{label}: {note}" for note in rung.notes)
         if rung.confirmed:
+            if found is not None and found[0].value < fallback[0].value:
+                # A raw optimum below the design at hand; the lower estimate.
+                estimates = [e for e in (found[1], fallback[1]) if e is not None]
+                fallback = (found[0], min(estimates, default=None))
             break
         if found is None:
             continue

@@ -369,12 +369,16 @@ class Rung(GainSteps):
             and gamma_opt >= self.confirm * (1 - CONFIRM_RTOL)
         ):
             # No better than the design at hand: no back-off needed here.
+            # Without a back-off the design at hand is a raw optimum that
+            # may have certified only at a larger margin (above the
+            # optimum): this rung's raw optimum, if it certified, competes.
             self.confirmed = self.optimum_certified
             self.notes.append(
                 f"optimum {gamma_opt:.8g}: no better than the design's estimate"
                 + (" (confirmed)" if self.confirmed else "")
             )
-            return None
+            if self.problem.backoff or raw_design is None:
+                return None
         backoff = self.problem.backoff
         if not backoff:
             if raw_design is not None:
@@ -384,7 +388,6 @@ class Rung(GainSteps):
                 return self._gain_bound(raw_design, gamma_opt)
             self.notes.append("raw optimum: not certified; backing off")
         w_star = max(W_star, 1e-12)
-        best = None
         best = None
         if backoff:
             self.lmi.set_parameter("g_max", g_opt * (1 + backoff) ** 2)
