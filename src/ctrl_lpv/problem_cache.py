@@ -1,9 +1,10 @@
 """Compiled synthesis problems kept for re-solves (`synthesis_cache`).
 
 The synthesis functions pose their LMIs with every number that changes
-between calls as a cvxpy parameter, so one compiled problem serves every
-call of the same structure; this module keeps them, in a process-wide
-cache bounded in count and memory.
+between calls as a parameter of `ctrl_lpv.lmi.LMIProblem`, so one problem
+(its variables, its block functions and the affine maps read from them)
+serves every call of the same structure; this module keeps them, in a
+process-wide cache bounded in count and memory.
 """
 
 from __future__ import annotations
@@ -21,11 +22,10 @@ __all__ = ["SynthesisCache", "synthesis_cache"]
 class SynthesisCache:
     """Compiled synthesis problems, reused across calls of one process.
 
-    The four synthesis functions pose their LMIs with the vertex data, the
-    margin and the stage bounds as cvxpy parameters, so the compiled
-    problem depends only on the structure: the function, the dimensions
-    ``n, m, n_w, n_z``, the number of vertices, the pole-region shapes and
-    whether a gain bound is set. A later call with the same structure (a
+    The engine poses its LMIs with the vertex data, the margin and the
+    stage bounds as parameters, so the problem depends only on the
+    structure: the specs, the dimensions ``n, m, n_w, n_z``, the number of
+    vertices, the Lyapunov structure and the pole-region shapes. A later call with the same structure (a
     gamma or back-off sweep, new performance weights, another plant of the
     same size) sets the parameter values and calls the solver without
     compiling again. Every result is still verified and certified from
@@ -34,9 +34,9 @@ class SynthesisCache:
     The cache is least-recently-used and thread-safe: a problem in use by
     one call is taken out, so concurrent calls with one structure compile
     their own. Two limits bound it: the number of structures and the total
-    size of their LMIs, since a compiled problem holds about 2 kB per LMI
-    matrix entry (measured: 60 MB for Theorem 2 with 32 vertices and
-    ``n = 4``, 528 LMIs of size 8). ``maxsize = 0`` disables the cache.
+    size of their LMIs, since a problem with its kept maps holds about
+    0.4 kB per LMI matrix entry (measured: 12.5 MB for Theorem 2 with 32
+    vertices and ``n = 4``, 528 LMIs of size 8). ``maxsize = 0`` disables the cache.
 
     Parameters
     ----------

@@ -61,7 +61,7 @@ def quadratic_stabilization(
         certifies, the first solver is tried again with ``1e-3 * margin``.
     solvers : str or sequence, optional
         A solver name, or names or ``(name, options)`` pairs tried in turn
-        (``options``: keywords of that cvxpy solver); default Clarabel,
+        (``options``: keywords of that solver); default Clarabel,
         then SCS, then CVXOPT and MOSEK if installed. A solver that is not
         installed is a `ValueError`.
     time_limit : float or None, optional
@@ -140,7 +140,7 @@ def gain_scheduled_stabilization(
         certifies, the first solver is tried again with ``1e-3 * margin``.
     solvers : str or sequence, optional
         A solver name, or names or ``(name, options)`` pairs tried in turn
-        (``options``: keywords of that cvxpy solver); default Clarabel,
+        (``options``: keywords of that solver); default Clarabel,
         then SCS, then CVXOPT and MOSEK if installed. A solver that is not
         installed is a `ValueError`.
     time_limit : float or None, optional
@@ -224,7 +224,7 @@ def hinf_state_feedback(
         certifies, the first solver is tried again with ``1e-3 * margin``.
     solvers : str or sequence, optional
         A solver name, or names or ``(name, options)`` pairs tried in turn
-        (``options``: keywords of that cvxpy solver); default Clarabel,
+        (``options``: keywords of that solver); default Clarabel,
         then SCS, then CVXOPT and MOSEK if installed. A solver that is not
         installed is a `ValueError`.
     time_limit : float or None, optional
@@ -308,7 +308,7 @@ def gain_scheduled_hinf(
         certifies, the first solver is tried again with ``1e-3 * margin``.
     solvers : str or sequence, optional
         A solver name, or names or ``(name, options)`` pairs tried in turn
-        (``options``: keywords of that cvxpy solver); default Clarabel,
+        (``options``: keywords of that solver); default Clarabel,
         then SCS, then CVXOPT and MOSEK if installed. A solver that is not
         installed is a `ValueError`.
     time_limit : float or None, optional

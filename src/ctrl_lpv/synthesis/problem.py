@@ -397,8 +397,7 @@ def gain_tangent_blocks(X, Z, H, C, HK, kappa, T, Su):
     or, at ``X0 = w0 I`` with ``T = I``, for ``H = I``, ``C = w0 I``, ``HK
     = I`` and ``kappa0 = 1 / w0`` (well scaled where ``w0`` is far below
     ``X``). ``H``, ``C``, ``HK`` are parameters, `T` and `Su` the state and
-    input scalings as matrices (constants: a parameter on each side of a
-    variable is not DPP).
+    input scalings as matrices (constants of the structure).
     """
     m = Z.shape[0]
     M = T @ X @ H

@@ -177,8 +177,9 @@ class StateFeedbackDesign:
         Every solver attempt of every stage.
     timing : dict
         Seconds spent: "build" (checks and the stabilizability test),
-        "compile" (building and compiling the cvxpy problems; 0 when they
-        were reused from `synthesis_cache`), "solve" (solver calls,
+        "compile" (reading the LMIs' block functions into conic data;
+        about 0 when the problem and its maps were reused from
+        `synthesis_cache`), "solve" (solver calls,
         parameter application and certificates) and "verify" (closed
         loops).
     backoff : float or None

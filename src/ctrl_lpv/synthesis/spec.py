@@ -294,8 +294,7 @@ def extended(t):
 
 def unit(m, i):
     """The ``m x m`` matrix with a one at ``(i, i)`` (builds diagonal
-    multipliers from scalar variables, which cvxpy's ``diag`` would not keep
-    DPP)."""
+    multipliers from scalar variables)."""
     E = np.zeros((m, m))
     E[i, i] = 1.0
     return E

@@ -6,8 +6,8 @@ blocks with: ``A(delta) W(delta) + B2(delta) Z(delta)`` (degree two),
 ``W(delta)`` and the data of a channel (degree one), constants (degree
 zero). It reads everything from a namespace ``v`` of named variables and
 parameters (the prescaled vertex data are parameters, see `names`), so the
-same code builds the problem (cvxpy objects) and checks a point (float64
-arrays, `ctrl_lpv.lmi.LMIProblem.check`). A spec sees a view bound to
+same code is read into the problem's affine maps and checks a point
+(float64 arrays, `ctrl_lpv.lmi.LMIProblem.check`). A spec sees a view bound to
 itself (`Terms.bind`): its channel's data, its own variables.
 """
 
