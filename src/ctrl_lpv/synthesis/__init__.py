@@ -1,7 +1,9 @@
 """Certified state-feedback synthesis for polytopic systems.
 
-Four entry points, after the paper's Lemma 1, Lemma 2, Theorem 1 and
-Theorem 2 (Section III):
+One engine: `synthesize` poses every design from composable specs
+(`Hinf`, `H2`, `Peak`, `GainBound`, `Saturation`, pole regions). The
+paper's Lemma 1, Lemma 2, Theorem 1 and Theorem 2 (Section III) are thin
+calls of it with their specs, as is `h2_state_feedback`:
 
 =============================  =============  ===================
 function                       gain           performance
@@ -50,9 +52,9 @@ structures, the Lyapunov structure); the state and input scalings, read as
 constants by a gain bound's stage alone, rebuild that stage when they
 change. `synthesis_cache` keeps compiled problems by structure: a gamma or
 back-off sweep, new performance weights or another plant of the same size
-reuse them, and a call then costs the solver and the verification only
-(``design.timing["compile"]`` is 0). Each call sets every parameter and
-verifies its own result from scratch.
+reuse them and read again only the LMIs whose data changed (an identical
+second call reads none: ``design.timing["compile"]`` is then about 0).
+Each call sets every parameter and verifies its own result from scratch.
 
 Modules
 -------
