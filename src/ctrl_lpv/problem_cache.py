@@ -25,11 +25,12 @@ class SynthesisCache:
     The engine poses its LMIs with the vertex data, the margin and the
     stage bounds as parameters, so the problem depends only on the
     structure: the specs, the dimensions ``n, m, n_w, n_z``, the number of
-    vertices, the Lyapunov structure and the pole-region shapes. A later call with the same structure (a
-    gamma or back-off sweep, new performance weights, another plant of the
-    same size) sets the parameter values and calls the solver without
-    compiling again. Every result is still verified and certified from
-    scratch; the cache holds no results, only compiled problems.
+    vertices, the Lyapunov structure and the pole-region shapes. A later
+    call with the same structure (a gamma or back-off sweep, new
+    performance weights, another plant of the same size) sets the
+    parameter values and reads again only the LMIs whose data changed.
+    Every result is still verified and certified from scratch; the cache
+    holds no results, only problems.
 
     The cache is least-recently-used and thread-safe: a problem in use by
     one call is taken out, so concurrent calls with one structure compile

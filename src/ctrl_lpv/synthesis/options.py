@@ -71,9 +71,9 @@ def guard_estimate(nlmis, entries, largest, time_limit=None, cached=False) -> No
 
     Each LMI is read from its block function in Python
     (`ctrl_lpv.budget.compile_seconds`), so a scheduled design on 200
-    vertices (20,100 LMIs) takes a minute before any solver runs. The time is that of the call's budget, or
-    `time_limit` if shorter. A `cached` problem is compiled already: only
-    the memory is checked.
+    vertices (20,100 LMIs) takes a minute before any solver runs. The
+    time is that of the call's budget, or `time_limit` if shorter. A
+    `cached` problem is read already: only the memory is checked.
 
     Raises
     ------
