@@ -28,6 +28,8 @@ _EXPORTS = {
     "gain_scheduled_hinf": "synthesis",
     "synthesize": "synthesis",
     "h2_state_feedback": "synthesis",
+    "hinf_output_feedback": "output_feedback",
+    "OutputFeedbackDesign": "output_feedback",
     "Hinf": "synthesis",
     "H2": "synthesis",
     "GainBound": "synthesis",
