@@ -29,6 +29,7 @@ _EXPORTS = {
     "synthesize": "synthesis",
     "h2_state_feedback": "synthesis",
     "hinf_output_feedback": "output_feedback",
+    "h2_output_feedback": "output_feedback",
     "OutputFeedbackDesign": "output_feedback",
     "Hinf": "synthesis",
     "H2": "synthesis",

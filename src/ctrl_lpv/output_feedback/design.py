@@ -1,15 +1,16 @@
-"""H-infinity output feedback for polytopic LPV plants: the design.
+"""Output feedback for polytopic LPV plants: the design.
 
 Two stages on one `ctrl_lpv.lmi.LMIProblem` (the certified LMI layer of the
-library; every point is checked in float64 before it is used):
+library; every point is checked in float64 before it is used), for any
+objective of `ctrl_lpv.output_feedback.objectives`:
 
 ``optimal``
-    minimise ``gamma`` subject to the bounded-real LMIs at every vertex and
+    minimise the objective's level subject to its LMIs at every vertex and
     ``[[X, I], [I, Y]] > 0`` (`ctrl_lpv.output_feedback.lmis`);
 ``center``
-    with ``gamma <= (1 + backoff) gamma_opt`` and ``X, Y <= r I`` (``r``
-    the larger norm of the optimal point's ``X, Y``), maximise ``t`` with
-    ``[[X, I], [I, Y]] >= t I``. At the optimum ``I - X Y`` is nearly
+    with the bound at most ``(1 + 0.9 backoff)`` times the optimum, maximise
+    ``mu`` with ``[[X, mu I], [mu I, Y]] >= 0`` and the Lyapunov part
+    tightened by a decay margin. At the optimum ``I - X Y`` is nearly
     singular and the rebuilt controller has huge, ill-conditioned
     matrices; this stage buys a well-conditioned ``M N' = I - X Y`` with
     the back-off, as LPVTools' ``lpvsyn`` does with its default 1.2.
@@ -30,11 +31,12 @@ from ..stabilizability import _vertex_modes, check_stabilizability
 from ..systems import PolytopicStateSpace
 from . import lmis
 from .checks import closed_loop_analysis, closed_loop_certificate
+from .objectives import H2Objective, HinfObjective
 from .plant import OutputFeedbackPlant
 from .reconstruct import closed_loop_lyapunov, controller_matrices, factor
 from .results import OutputFeedbackDesign
 
-__all__ = ["hinf_output_feedback"]
+__all__ = ["hinf_output_feedback", "h2_output_feedback"]
 
 
 @time_budget
@@ -120,9 +122,105 @@ def hinf_output_feedback(
     >>> d.certificate.verified and d.gamma >= float(ct.linfnorm(d.closed_loop())[0])
     True
     """
+    return _output_feedback(
+        HinfObjective(), sys, w, u, z, y, gains, backoff, margin, solvers
+    )
+
+
+@time_budget
+def h2_output_feedback(
+    sys: PolytopicStateSpace,
+    w,
+    u,
+    z,
+    y,
+    *,
+    gains: str = "scheduled",
+    backoff: float | None = 0.2,
+    margin: float = 1e-6,
+    solvers=None,
+    time_limit: float | None = DEFAULT_TIME_LIMIT,
+) -> OutputFeedbackDesign:
+    """Certified H2 dynamic output feedback of a polytopic plant.
+
+    A strictly proper full-order controller ``xk' = Ak(p) xk + Bk(p) y``,
+    ``u = Ck(p) xk`` (continuous or discrete time, as the plant) that
+    minimises the bound on the H2 norm from `w` to `z` at every frozen
+    parameter value (the plant needs ``D11 = 0``): one Lyapunov pair
+    ``(X, Y)``,
+    one controller per vertex interpolated with the plant's convex
+    coordinates (Apkarian, Gahinet and Becker 1995), the change of
+    variables of Scherer, Gahinet and Chilali (1997).
+
+    Parameters
+    ----------
+    sys : `PolytopicStateSpace`
+        The plant; ``B2, C2, D12, D21`` (the rows and columns of `u` and
+        `y`) must not depend on the parameter and ``D22 = 0``.
+    w, u : str, int or list
+        Exogenous and control inputs (`w` None: every other input).
+    z, y : str, int or list
+        Performance and measured outputs (`z` None: every other output).
+    gains : {"scheduled", "common"}, optional
+        One controller per vertex scheduled with the parameter (default),
+        or one LTI controller (only when ``A`` does not depend on the
+        parameter: otherwise the problem is not convex).
+    backoff : float or None, optional
+        Relax the minimum bound by this fraction (default 0.2) and maximise
+        the conditioning of the Lyapunov pair for a well-conditioned
+        controller. None or 0: the raw optimum, or if its rebuilt
+        controller does not certify (``I - X Y`` too close to singular)
+        the least of the back-offs 1e-5, 1e-4 and 1e-3 that does.
+    margin : float, optional
+        Margin of the strict LMIs relative to the data's norm (default
+        1e-6).
+    solvers : str or sequence, optional
+        A solver name, or names or ``(name, options)`` pairs tried in turn;
+        default Clarabel, then SCS (then CVXOPT and MOSEK if installed).
+    time_limit : float or None, optional
+        Wall-time budget in seconds (default 600; None for no limit).
+
+    Returns
+    -------
+    `OutputFeedbackDesign`
+        ``.gamma`` the certified bound, ``.gamma_opt`` the optimum's
+        estimate, ``.controller()`` the controller I/O system,
+        ``.closed_loop(p)`` the frozen closed loop, ``.certificate``.
+
+    Raises
+    ------
+    ValueError, TypeError
+        For arguments that do not fit the plant (named), a parameter-
+        dependent ``B2, C2, D12`` or ``D21`` or a nonzero ``D22``.
+    InfeasibleError
+        A vertex that is not stabilizable from `u` or not detectable from
+        `y` (continuous time), or a verified proof that no controller of
+        this form exists.
+    CertificationError
+        If no design passed its float64 certificate.
+
+    Examples
+    --------
+    >>> import control as ct
+    >>> import ctrl_lpv as lpv
+    >>> G = ct.ss([[0.0, 1.0], [-1.0, 0.5]], [[0.0, 0.0], [1.0, 1.0]],
+    ...           [[1.0, 0.0], [0.0, 0.0], [1.0, 0.0]],
+    ...           [[0.0, 0.0], [0.0, 1.0], [0.1, 0.0]],
+    ...           inputs=["w", "u"], outputs=["z1", "z2", "y"])
+    >>> d = lpv.h2_output_feedback(lpv.pss([G]), "w", "u", ["z1", "z2"], "y")
+    >>> d.certificate.verified and d.gamma >= float(ct.norm(d.closed_loop(), 2))
+    True
+    """
+    return _output_feedback(
+        H2Objective(), sys, w, u, z, y, gains, backoff, margin, solvers
+    )
+
+
+def _output_feedback(objective, sys, w, u, z, y, gains, backoff, margin, solvers):
     if gains not in ("scheduled", "common"):
         raise ValueError(f"gains: expected 'scheduled' or 'common', got {gains!r}")
     plant = OutputFeedbackPlant.of(sys, w, u, z, y)
+    objective.check(plant)
     if gains == "common" and any(not np.array_equal(A, plant.A[0]) for A in plant.A):
         raise ValueError(
             "gains: a common (LTI) output-feedback controller of a plant whose "
@@ -134,19 +232,46 @@ def hinf_output_feedback(
     chain = solver_chain(solvers)
     if plant.continuous:
         _require_stabilizable_detectable(plant)
-    lmi, hats = _problem(plant, gains == "scheduled", margin)
+    settings = (gains == "scheduled", backoff, margin, chain)
+    design, failure, bound_opt = _solve(plant, objective, *settings)
+    if design is None and bound_opt is not None and not 0.5 <= bound_opt <= 2.0:
+        # Renormalised so that the bound is near 1 (z scaled by s: the
+        # controllers are the same, the bound scales by s): then certified
+        # again on the plant itself.
+        scale = 1.0 / bound_opt
+        scaled, _, _ = _solve(plant.scaled(scale), objective, *settings)
+        if scaled is not None:
+            P, values = objective.rescaled(scaled.P, scaled.values, scale)
+            limit = (1.0 + backoff) * bound_opt * (1.0 + 1e-3)
+            try:
+                design = _certified(plant, objective, scaled.controllers, P, values,
+                                    scaled.gamma_opt / scale, limit,
+                                    (margin, chain), scaled.condition)  # fmt: skip
+            except CertificationError as exc:
+                failure = exc
+    if design is None:
+        raise failure
+    return design
+
+
+def _solve(plant, objective, scheduled, backoff, margin, chain):
+    """``(design, None, bound_opt)``, or ``(None, refusal, bound_opt)``."""
+    lmi, hats = _problem(plant, objective, scheduled, margin)
     rate = max(np.linalg.norm(A, 2) for A in plant.A) if plant.continuous else 1.0
-    # A trace term far below the solver's tolerance on gamma keeps X and Y
-    # bounded in the directions the bound does not constrain (there the
+    # A trace term far below the solver's tolerance on the level keeps X and
+    # Y bounded in the directions the bound does not constrain (there the
     # central path drifts to 1e5 and the solve ends inaccurate).
-    optimal = lmi.solve(
-        lambda v: v.g[0, 0] + _TRACE_WEIGHT * (np.trace(v.X) + np.trace(v.Y)),
-        stage="optimal",
-        solvers=chain,
-    )
+    try:
+        optimal = lmi.solve(
+            lambda v: v.level[0, 0] + _TRACE_WEIGHT * (np.trace(v.X) + np.trace(v.Y)),
+            stage="optimal",
+            solvers=chain,
+        )
+    except CertificationError as exc:
+        return None, exc, None
     # The solver's point at the nominal margin, when only a larger margin
     # certified, is the better estimate of the optimum.
-    gamma_opt = float((optimal.nominal or optimal).g[0, 0])
+    bound_opt = objective.bound((optimal.nominal or optimal).level[0, 0])
     # The raw optimum's I - X Y is often too close to singular for the
     # rebuilt controller to certify: then the smallest back-off that does.
     # When the back-off stage itself fails (badly scaled data), the same
@@ -160,17 +285,19 @@ def hinf_output_feedback(
             else:
                 # Solved a little inside the bound it is certified at: the
                 # gap is the closed loop's slack after the reconstruction.
-                lmi.set_parameter("g_max", (1.0 + _INSIDE * b) * gamma_opt)
+                inside = objective.level((1.0 + _INSIDE * b) * bound_opt)
+                lmi.set_parameter("level_max", inside)
                 lmi.set_parameter("decay", _DECAY * b * rate)
                 point = lmi.solve(lambda v: -v.mu[0, 0], stage="center",
                                   solvers=chain)  # fmt: skip
-            target = max((1.0 + b) * gamma_opt, float(point.g[0, 0]))
-            limit = (1.0 + max(b, backoff)) * gamma_opt * (1.0 + 1e-6)
-            return _design(plant, point, hats, gamma_opt, (target, limit),
-                           (margin, chain))  # fmt: skip
+            limit = (1.0 + max(b, backoff)) * bound_opt * (1.0 + 1e-6)
+            target = max((1.0 + b) * bound_opt, objective.bound(point.level[0, 0]))
+            design = _design(plant, objective, point, hats, bound_opt,
+                             (target, limit), (margin, chain))  # fmt: skip
+            return design, None, bound_opt
         except CertificationError as exc:
             failure = exc
-    raise failure
+    return None, failure, bound_opt
 
 
 _TRACE_WEIGHT = 1e-7
@@ -181,7 +308,7 @@ _MU_MAX = 10.0
 #: data's rate (``max ||A_j||`` in continuous time, 1 in discrete time).
 _DECAY = 0.1
 
-#: The back-off stage solves at ``(1 + _INSIDE backoff) gamma_opt``.
+#: The back-off stage solves at ``(1 + _INSIDE backoff)`` times the optimum.
 _INSIDE = 0.9
 
 #: Back-offs tried in turn for ``backoff=None``: the raw optimum, then the
@@ -189,7 +316,7 @@ _INSIDE = 0.9
 _RAW_BACKOFFS = (0.0, 1e-5, 1e-4, 5e-4)
 
 
-def _problem(plant, scheduled, margin):
+def _problem(plant, objective, scheduled, margin):
     n, N = plant.n, plant.nvertices
     m, p = plant.B2.shape[1], plant.C2.shape[0]
     scale = max(
@@ -200,34 +327,35 @@ def _problem(plant, scheduled, margin):
     lmi = LMIProblem(margin=margin * max(scale, 1.0))
     lmi.variable("X", (n, n), symmetric=True)
     lmi.variable("Y", (n, n), symmetric=True)
-    lmi.variable("g", (1, 1), symmetric=True)
-    copies = N if scheduled else 1
-    for k in range(copies):
+    objective.declare(lmi, plant)
+    for k in range(N if scheduled else 1):
         lmi.variable(f"Ah{k}", (n, n))
         lmi.variable(f"Bh{k}", (n, p))
         lmi.variable(f"Ch{k}", (m, n))
-        lmi.variable(f"Dh{k}", (m, p))
+        if not objective.strictly_proper:
+            lmi.variable(f"Dh{k}", (m, p))
+    zero = np.zeros((m, p))
 
     def hats(v, j):
         k = j if scheduled else 0
-        return tuple(getattr(v, f"{h}{k}") for h in ("Ah", "Bh", "Ch", "Dh"))
+        Dh = zero if objective.strictly_proper else getattr(v, f"Dh{k}")
+        return (getattr(v, f"Ah{k}"), getattr(v, f"Bh{k}"), getattr(v, f"Ch{k}"), Dh)
 
     lmi.add("[[X, I], [I, Y]] > 0", lmis.lyapunov_pair)
     # The back-off stage adds a decay margin relative to P (see
-    # `lmis.bounded_real`), so that the rebuilt closed loop certifies.
+    # `ctrl_lpv.output_feedback.lmis`), so that the rebuilt loop certifies.
     lmi.parameter("decay", value=0.0, nonneg=True)
     for j in range(N):
-        lmi.add(
-            f"bounded real vertex {j}",
-            lambda v, j=j: lmis.bounded_real(plant, j, v, hats(v, j), v.decay[()]),
-        )
-    # The back-off stage: gamma within the back-off, and eig(X Y) >= mu^2
-    # pushed up (``[[X, mu I], [mu I, Y]] >= 0``, linear in mu): I - X Y
+        for name, blocks in objective.transformed_lmis(plant, j, hats):
+            lmi.add(name, blocks)
+    # The back-off stage: the level within the back-off, and eig(X Y) >=
+    # mu^2 pushed up (``[[X, mu I], [mu I, Y]] >= 0``, linear in mu): I - X Y
     # then has no eigenvalue in (1 - mu^2, 0], whatever the scale of X, Y.
-    lmi.parameter("g_max", value=1.0)
+    lmi.parameter("level_max", value=1.0)
     lmi.variable("mu", (1, 1), symmetric=True)
-    lmi.add("gamma <= (1 + backoff) gamma_opt", lambda v: [[v.g - v.g_max]],
-            strict=False, stages=["center"])  # fmt: skip
+    lmi.add("level <= (1 + backoff) level_opt",
+            lambda v: [[v.level - v.level_max]], strict=False,
+            stages=["center"])  # fmt: skip
     eye = np.eye(n)
     lmi.add("[[X, mu I], [mu I, Y]] >= 0",
             lambda v: [[-v.X], [-v.mu * eye, -v.Y]],
@@ -237,14 +365,15 @@ def _problem(plant, scheduled, margin):
     return lmi, hats
 
 
-def _design(plant, point, hats, gamma_opt, bounds, analysis):
+def _design(plant, objective, point, hats, bound_opt, bounds, analysis):
+    """The controllers rebuilt from `point`, certified on the closed loop."""
     X, Y = point.X, point.Y
-    gamma, limit = bounds
+    target, limit = bounds
     try:
         factors = factor(X, Y)
     except np.linalg.LinAlgError:
         raise CertificationError(
-            "hinf_output_feedback: I - X Y is singular at the solver's point; "
+            "output feedback: I - X Y is singular at the solver's point; "
             "no controller can be rebuilt (try a larger backoff)",
             point.attempts,
         ) from None
@@ -254,38 +383,50 @@ def _design(plant, point, hats, gamma_opt, bounds, analysis):
         for j in range(plant.nvertices)
     )
     P = closed_loop_lyapunov(X, Y, factors)
-    certificate = closed_loop_certificate(plant, controllers, P, gamma)
+    values = dict(point.values, level=objective.level(target))
+    condition = float(np.linalg.cond(np.eye(plant.n) - X @ Y))
+    return _certified(plant, objective, controllers, P, values, bound_opt, limit,
+                      analysis, condition, point.attempts)  # fmt: skip
+
+
+def _certified(plant, objective, controllers, P, values, bound_opt, limit,
+               analysis, condition, attempts=()):  # fmt: skip
+    """`OutputFeedbackDesign` if the closed loop certifies within `limit`."""
+    certificate = closed_loop_certificate(plant, objective, controllers, P, values)
     if not certificate.verified:
         # The rebuilt P is exact but ill-conditioned (its slack scales with
         # 1 / ||Pi1||^2): the closed loop's own Lyapunov matrix instead.
-        P, gamma = closed_loop_analysis(plant, controllers, *analysis)
-        certificate = closed_loop_certificate(plant, controllers, P, gamma)
-    if gamma > limit:
-        # The point's own gamma (certified at a margin above the nominal
+        P, values = closed_loop_analysis(plant, objective, controllers, *analysis)
+        certificate = closed_loop_certificate(plant, objective, controllers, P, values)
+    bound = objective.bound(values["level"])
+    if bound > limit:
+        # The point's own bound (certified at a margin above the nominal
         # one), or what the rebuilt controller keeps of it after rounding
         # through an ill-conditioned I - X Y, exceeds the back-off.
         raise CertificationError(
-            f"hinf_output_feedback: the controller rebuilt at gamma = "
-            f"{point.g[0, 0]:.6g} certifies {gamma:.6g}, above {limit:.6g} "
-            f"(I - X Y has condition {np.linalg.cond(np.eye(plant.n) - X @ Y):.3g})",
-            point.attempts,
+            f"output feedback: the rebuilt controller certifies an "
+            f"{objective.name} bound of {bound:.6g}, above {limit:.6g} (I - X Y "
+            f"has condition {condition:.3g})",
+            attempts,
         )
     if not certificate.verified:
         worst = certificate.worst
         raise CertificationError(
-            f"hinf_output_feedback: the rebuilt controller failed its closed-loop "
-            f"certificate at gamma = {gamma:.6g}: {worst.what} at {worst.where} "
-            f"({worst.value:.3g} against {worst.bound:.3g})",
-            point.attempts,
+            f"output feedback: the rebuilt controller failed its closed-loop "
+            f"certificate at {objective.name} bound {bound:.6g}: {worst.what} at "
+            f"{worst.where} ({worst.value:.3g} against {worst.bound:.3g})",
+            attempts,
         )
     return OutputFeedbackDesign(
         plant=plant,
+        objective=objective.name,
         controllers=controllers,
-        gamma=gamma,
-        gamma_opt=gamma_opt,
+        gamma=bound,
+        gamma_opt=bound_opt,
         P=P,
+        values=values,
         certificate=certificate,
-        condition=float(np.linalg.cond(np.eye(plant.n) - X @ Y)),
+        condition=condition,
     )
 
 

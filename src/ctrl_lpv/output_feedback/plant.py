@@ -8,6 +8,7 @@ A refusal names the assumption that failed (``hinfassumptions``).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -137,6 +138,11 @@ class OutputFeedbackPlant:
         w = np.asarray(weights, dtype=float)
         return tuple(np.tensordot(w, M, axes=1) for M in
                      (self.A, self.B1, self.C1, self.D11))  # fmt: skip
+
+    def scaled(self, s: float) -> OutputFeedbackPlant:
+        """The plant with its performance outputs z scaled by `s`."""
+        return dataclasses.replace(self, C1=s * self.C1, D11=s * self.D11,
+                                   D12=s * self.D12)  # fmt: skip
 
     def names(self, role: str) -> list[str]:
         """Signal names of `role` (``"w"``, ``"u"``, ``"z"`` or ``"y"``)."""

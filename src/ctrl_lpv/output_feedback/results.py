@@ -23,18 +23,24 @@ class OutputFeedbackDesign:
     ----------
     plant : `ctrl_lpv.output_feedback.OutputFeedbackPlant`
         The plant with its w/u/z/y partition.
+    objective : {"Hinf", "H2"}
+        The norm from w to z that `gamma` bounds.
     controllers : tuple of (Ak, Bk, Ck, Dk)
         The controller at each vertex: ``xk' = Ak xk + Bk y``, ``u = Ck xk
         + Dk y``; interpolated with the plant's convex coordinates.
     gamma : float
-        The certified bound on the L2 gain from w to z, for every parameter
-        trajectory in the polytope.
+        The certified bound of the objective: the L2 gain from w to z for
+        every parameter trajectory in the polytope ("Hinf"), or the H2 norm
+        at every frozen parameter value ("H2").
     gamma_opt : float
         The minimum bound the LMIs reached (an estimate from above of the
         optimum of the formulation); ``gamma / gamma_opt - 1`` is the
         back-off.
     P : ndarray
         The closed loop's Lyapunov matrix (plant states first).
+    values : dict
+        The certified level (``"level"``: gamma, or gamma^2 for H2) and the
+        objective's other certificate variables (H2: ``"Q<j>"``).
     certificate : `ctrl_lpv.Certificate`
         Float64 checks on the closed loop with the returned controller.
     condition : float
@@ -42,17 +48,19 @@ class OutputFeedbackDesign:
     """
 
     plant: OutputFeedbackPlant
+    objective: str
     controllers: tuple
     gamma: float
     gamma_opt: float
     P: np.ndarray
+    values: dict
     certificate: Certificate
     condition: float
 
     @property
     def bounds(self) -> dict:
-        """``{"Hinf": gamma}``: the certified bound of each objective."""
-        return {"Hinf": self.gamma}
+        """``{objective: gamma}``: the certified bound of each objective."""
+        return {self.objective: self.gamma}
 
     def controller(self, name: str = "controller") -> PolytopicStateSpace:
         """The controller as a python-control I/O system.

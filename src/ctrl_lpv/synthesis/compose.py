@@ -30,7 +30,7 @@ from .parametric import lyapunov_structure
 from .problem import Problem
 from .results import StateFeedbackDesign
 from .spec import DesignContext, Spec, with_stability
-from .specs import Hinf
+from .specs import H2, Hinf
 
 __all__ = ["synthesize"]
 
@@ -72,9 +72,10 @@ def synthesize(
         Control inputs.
     y : str, int or list, optional
         Measured outputs: a full-order dynamic output-feedback controller
-        (`ctrl_lpv.hinf_output_feedback`, whose `OutputFeedbackDesign` is
-        returned; `objective` must be an `Hinf` without a bound, `lyapunov`
-        "constant", no `constraints`). None (default):
+        (`ctrl_lpv.hinf_output_feedback` or `ctrl_lpv.h2_output_feedback`,
+        whose `OutputFeedbackDesign` is returned; `objective` must be an
+        `Hinf` or `H2` without a bound, `lyapunov` "constant", no
+        `constraints`). None (default):
         every state is measured, ``u = -K x``.
     objective : `Hinf`, `H2` or `Peak`, optional
         The bound to minimise (``bound=None``) or to meet (a given
@@ -208,13 +209,14 @@ def synthesize(
 def _output_feedback(sys, u, y, objective, constraints, gains, lyapunov,
                      rate_bounds, backoff, margin, solvers, time_limit):  # fmt: skip
     """`synthesize` with measured outputs `y`: what is implemented, or why not."""
-    from ..output_feedback import hinf_output_feedback
+    from ..output_feedback import h2_output_feedback, hinf_output_feedback
 
-    if not isinstance(objective, Hinf) or objective.bound is not None:
+    if not isinstance(objective, (Hinf, H2)) or objective.bound is not None:
         raise ValueError(
-            "objective: output feedback (y given) minimises an Hinf(w, z) "
-            f"objective without a bound; got {objective!r}"
+            "objective: output feedback (y given) minimises an Hinf(w, z) or "
+            f"H2(w, z) objective without a bound; got {objective!r}"
         )
+    design = hinf_output_feedback if isinstance(objective, Hinf) else h2_output_feedback
     if constraints not in ((), None, []):
         raise ValueError("constraints: not implemented for output feedback (y given)")
     if lyapunov != "constant" or rate_bounds is not None:
@@ -223,7 +225,7 @@ def _output_feedback(sys, u, y, objective, constraints, gains, lyapunov,
             "constant Lyapunov pair (valid for arbitrarily fast parameters); "
             "parameter-dependent pairs with rate bounds are not"
         )
-    return hinf_output_feedback(
+    return design(
         sys, objective.w, u, objective.z, y,
         gains="scheduled" if gains is None else gains,
         backoff=backoff, margin=margin, solvers=solvers, time_limit=time_limit,
