@@ -278,26 +278,42 @@ def _solve(plant, objective, scheduled, backoff, margin, chain):
     # sequence, within the back-off asked for.
     failure = None
     for b in (backoff, *_RAW_BACKOFFS) if backoff > 0 else _RAW_BACKOFFS:
-        try:
-            if b == 0:
-                lmi.set_parameter("decay", 0.0)
-                point = optimal
-            else:
-                # Solved a little inside the bound it is certified at: the
-                # gap is the closed loop's slack after the reconstruction.
-                inside = objective.level((1.0 + _INSIDE * b) * bound_opt)
-                lmi.set_parameter("level_max", inside)
-                lmi.set_parameter("decay", _DECAY * b * rate)
-                point = lmi.solve(lambda v: -v.mu[0, 0], stage="center",
-                                  solvers=chain)  # fmt: skip
-            limit = (1.0 + max(b, backoff)) * bound_opt * (1.0 + 1e-6)
-            target = max((1.0 + b) * bound_opt, objective.bound(point.level[0, 0]))
-            design = _design(plant, objective, point, hats, bound_opt,
-                             (target, limit), (margin, chain))  # fmt: skip
-            return design, None, bound_opt
-        except CertificationError as exc:
-            failure = exc
+        # The decay margin is relative to the data's fastest rate: too much
+        # for a stiff plant, then the back-off stage is tried without it.
+        for decay in (_DECAY * b * rate, 0.0) if b else (0.0,):
+            try:
+                point = _point(lmi, objective, optimal, b, bound_opt, decay, chain)
+                limit = (1.0 + max(b, backoff)) * bound_opt * (1.0 + 1e-6)
+                target = max((1.0 + b) * bound_opt,
+                             objective.bound(point.level[0, 0]))  # fmt: skip
+                design = _design(plant, objective, point, hats, bound_opt,
+                                 (target, limit), (margin, chain))  # fmt: skip
+                return design, None, bound_opt
+            except CertificationError as exc:
+                failure = exc
     return None, failure, bound_opt
+
+
+def _point(lmi, objective, optimal, b, bound_opt, decay, chain):
+    """The optimal point (``b = 0``) or the back-off stage's.
+
+    The back-off stage only chooses a better point: a proof that its LMIs
+    are infeasible (they add a decay margin and a bound on the level) says
+    nothing of the design problem, so it is not a refusal of the design.
+    """
+    if b == 0:
+        return optimal
+    # Solved a little inside the bound it is certified at: the gap is the
+    # closed loop's slack after the reconstruction.
+    lmi.set_parameter("level_max", objective.level((1.0 + _INSIDE * b) * bound_opt))
+    lmi.set_parameter("decay", decay)
+    try:
+        return lmi.solve(lambda v: -v.mu[0, 0], stage="center", solvers=chain)
+    except InfeasibleError as exc:
+        raise CertificationError(
+            f"output feedback: the back-off stage at {b:g} is infeasible ({exc})",
+            exc.attempts,
+        ) from None
 
 
 _TRACE_WEIGHT = 1e-7
