@@ -1,0 +1,214 @@
+"""`observer`: certified LPV observers through the dual state-feedback design."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..budget import DEFAULT_TIME_LIMIT
+from ..exceptions import CertificationError
+from ..regions import LMIRegion
+from ..stabilizability import check_detectability
+from ..synthesis.channels import require_pss
+from ..synthesis.compose import synthesize
+from ..synthesis.constraints import PoleRegion
+from ..synthesis.specs import H2, Hinf
+from .checks import error_certificate
+from .duality import (
+    ErrorData,
+    ObserverChannels,
+    dual_plant,
+    dual_signals,
+    dual_spec,
+    require_parameter_independent,
+)
+from .results import ObserverDesign
+
+__all__ = ["observer"]
+
+
+def observer(
+    sys,
+    y,
+    *,
+    u=None,
+    w=None,
+    z=None,
+    objective=None,
+    constraints=(),
+    gains: str = "scheduled",
+    lyapunov: str = "constant",
+    rate_bounds=None,
+    backoff: float | None = 0.2,
+    margin: float = 1e-6,
+    solvers=None,
+    time_limit: float | None = DEFAULT_TIME_LIMIT,
+) -> ObserverDesign:
+    """Certified observer ``x_hat' = A x_hat + B_u u + L (y - C_y x_hat - D_yu u)``.
+
+    The gain ``L`` is the transpose of the state-feedback gain of the dual
+    plant (`ctrl_lpv.estimation.duality`), designed by the one engine
+    (`ctrl_lpv.synthesize`); the certificate is then recomputed on the
+    estimation-error system itself (`ctrl_lpv.estimation.checks`). In
+    discrete time (``dt > 0``) the estimator is the predictor ``x_hat[k+1]
+    = A x_hat[k] + B_u u[k] + L (y[k] - C_y x_hat[k] - D_yu u[k])``.
+
+    Parameters
+    ----------
+    sys : `PolytopicStateSpace`
+        The plant, continuous or discrete time.
+    y : str, int or list
+        Measured outputs.
+    u : str, int or list, optional
+        Known inputs (fed to the estimator); default none.
+    w : str, int or list, optional
+        Exogenous inputs (process and sensor noise) of the objective;
+        default every input not in `u`. Only with an objective.
+    z : str, int or list, optional
+        Outputs whose estimation error ``C_z (x - x_hat)`` is weighted
+        (their state part); default every state (``z_e = x - x_hat``).
+        Only with an objective.
+    objective : `Hinf` or `H2`, optional
+        ``Hinf()`` / ``H2()`` (no `w`, `z` of their own: given here), with a
+        ``bound`` to meet or None to minimise; None: stability of the
+        error dynamics alone.
+    constraints : pole region or sequence of them, optional
+        `ctrl_lpv.halfplane`, `ctrl_lpv.disk`, `ctrl_lpv.sector` regions
+        for the frozen error dynamics (discrete time: disks in the unit
+        circle).
+    gains : {"scheduled", "common"}, optional
+        One ``L`` per vertex, ``L(p) = sum_j delta_j(p) L_j`` (default;
+        needs ``C_y``, ``D_yu``, ``D_yw`` of the measured outputs
+        independent of the parameter), or one ``L`` for the polytope.
+    lyapunov : {"constant"}, optional
+        A constant Lyapunov matrix (the bound holds for arbitrarily fast
+        parameter variation). "affine" is not implemented: a `ValueError`.
+    rate_bounds : None, optional
+        Only with ``lyapunov="affine"`` (not implemented).
+    backoff : float or None, optional
+        Relax the minimum bound by this fraction (default 0.2) and re-solve
+        for a well-conditioned Lyapunov matrix; None or 0 returns the raw
+        optimum.
+    margin : float, optional
+        Margin of the strict LMIs of the dual design in its prescaled
+        units (default 1e-6).
+    solvers : str or sequence, optional
+        Solver name(s) tried in turn, as for `ctrl_lpv.synthesize`.
+    time_limit : float or None, optional
+        Wall-time budget in seconds (default 600; None for no limit).
+
+    Returns
+    -------
+    `ObserverDesign`
+
+    Raises
+    ------
+    InfeasibleError
+        A vertex ``(C_y, A_j)`` that is not detectable (named with its
+        mode), or a verified infeasibility proof of the dual.
+    CertificationError
+        If no design certified, or the error system's own certificate
+        fails.
+    ValueError, TypeError
+        For arguments that do not fit (named).
+
+    Examples
+    --------
+    >>> import control as ct
+    >>> import ctrl_lpv as lpv
+    >>> plant = lpv.PolytopicStateSpace([ct.ss(
+    ...     [[0.0, 1.0], [-2.0, -0.5]], [[0.0, 0.0], [1.0, 1.0]],
+    ...     [[1.0, 0.0]], [[0.0, 0.0]], inputs=["u", "d"], outputs=["pos"],
+    ...     states=["x", "v"])])
+    >>> obs = lpv.observer(plant, "pos", u="u")
+    >>> obs.certificate.verified, obs.estimator().output_labels
+    (True, ['x_hat', 'v_hat'])
+    """
+    require_pss(sys)
+    if gains not in ("common", "scheduled"):
+        raise ValueError(f"gains: expected 'scheduled' or 'common', got {gains!r}")
+    if lyapunov != "constant":
+        raise ValueError(
+            f"lyapunov: only 'constant' is implemented for observers, got "
+            f"{lyapunov!r} (a parameter-dependent Lyapunov function does not "
+            "transpose to the same inequality in discrete time, and its "
+            "float64 re-check on the error system is not written yet)"
+        )
+    if rate_bounds is not None:
+        raise ValueError("rate_bounds: only with lyapunov='affine' (not implemented)")
+    if objective is not None:
+        if not isinstance(objective, (Hinf, H2)):
+            raise TypeError(
+                f"objective: expected None, Hinf() or H2(), got {objective!r}"
+            )
+        if objective.w is not None or objective.z is not None:
+            raise ValueError(
+                f"objective: {objective} names its own w or z; give them to "
+                "observer(w=..., z=...) instead"
+            )
+    regions = _regions(constraints)
+    ch = ObserverChannels.resolve(sys, y, u, w, z, objective is not None)
+    scheduled = gains == "scheduled" and sys.nvertices > 1
+    if scheduled:
+        require_parameter_independent(sys, ch)
+    check_detectability(sys, list(ch.y))
+    dual = dual_plant(sys, ch)
+    nz = dual.ninputs - len(ch.y) if ch.w else 0
+    du, dw, dz = dual_signals(ch, nz)
+    dual_objective = None if objective is None else dual_spec(objective, dw, dz)
+    design = synthesize(
+        dual, du, objective=dual_objective, constraints=regions,
+        gains="scheduled" if scheduled else "common", backoff=backoff,
+        margin=margin, solvers=solvers, time_limit=time_limit,
+    )  # fmt: skip
+    L = tuple(K.T.copy() for K in design.gains)
+    # The error's Lyapunov matrix is the engine's own variable W = P_dual^-1.
+    P = np.linalg.inv(design.P)
+    P = 0.5 * (P + P.T)
+    kind = None if objective is None else type(objective).__name__
+    certificate = error_certificate(
+        ErrorData.of(sys, ch), L, P, continuous=not sys.isdtime(strict=True),
+        kind=kind, gamma=design.gamma, regions=regions,
+        labels=[f"vertex {j}" for j in range(sys.nvertices)],
+    )  # fmt: skip
+    if not certificate.verified:
+        raise CertificationError(
+            "observer: the dual design certified, but the estimation-error "
+            "system's own float64 checks failed:\n"
+            + "\n".join(
+                f"  {c.what} at {c.where}: {c.value:.3g} (bound {c.bound:.3g})"
+                for c in certificate.failed
+            )  # fmt: skip
+        )
+    names = sys.output_labels
+    inputs = sys.physical_inputs
+    return ObserverDesign(
+        system=sys, L=L, gamma=design.gamma, gamma_opt=design.gamma_opt,
+        bounds={} if objective is None else {objective: design.gamma},
+        certificate=certificate, P=P,
+        y=tuple(names[i] for i in ch.y), u=tuple(inputs[i] for i in ch.u),
+        w=tuple(inputs[i] for i in ch.w), z=tuple(names[i] for i in ch.z),
+        dual=design, regions=regions, channels=ch,
+    )  # fmt: skip
+
+
+def _regions(constraints) -> tuple[LMIRegion, ...]:
+    """The pole regions of `constraints` (the only constraints an observer
+    takes)."""
+    if isinstance(constraints, (LMIRegion, PoleRegion)):
+        constraints = (constraints,)
+    if isinstance(constraints, (str, bytes)) or not hasattr(constraints, "__iter__"):
+        raise TypeError(
+            f"constraints: expected pole regions (halfplane, disk, sector), got "
+            f"{constraints!r}"
+        )
+    out = []
+    for item in constraints:
+        if isinstance(item, PoleRegion):
+            item = item.region
+        if not isinstance(item, LMIRegion):
+            raise TypeError(
+                "constraints: an observer takes pole regions (halfplane, disk, "
+                f"sector) only, got {item!r}"
+            )
+        out.append(item)
+    return tuple(out)
