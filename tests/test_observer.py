@@ -257,3 +257,11 @@ def test_bad_arguments_are_named(kwargs, match):
     kwargs = {"y": "pos", **kwargs}
     with pytest.raises((ValueError, TypeError), match=match):
         lpv.observer(plant, **kwargs)
+
+
+def test_polytopic_h2_bound_covers_frozen_norms():
+    plant = _scheduled_plant()
+    design = lpv.observer(plant, "pos", u="u", w=["d", "v"], objective=lpv.H2())
+    assert design.bounds == {lpv.H2(): design.gamma}
+    for k in np.linspace(1.0, 4.0, 13):
+        assert ct.system_norm(design.closed_loop({"k": k}), p=2) <= design.gamma
