@@ -265,3 +265,10 @@ def test_polytopic_h2_bound_covers_frozen_norms():
     assert design.bounds == {lpv.H2(): design.gamma}
     for k in np.linspace(1.0, 4.0, 13):
         assert ct.system_norm(design.closed_loop({"k": k}), p=2) <= design.gamma
+
+
+def test_refusal_of_the_dual_says_it_is_the_observer():
+    plant, A, G, C, y = _noisy_plant(1)
+    reference = _hinf_filter_reference(A, G, C)
+    with pytest.raises(lpv.SynthesisError, match=r"(?s)observer: this is the dual"):
+        lpv.observer(plant, y, objective=lpv.Hinf(bound=0.5 * reference))

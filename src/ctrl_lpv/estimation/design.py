@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..budget import DEFAULT_TIME_LIMIT
-from ..exceptions import CertificationError
+from ..budget import DEFAULT_TIME_LIMIT, TimeLimitReached
+from ..exceptions import CertificationError, InfeasibleError
 from ..regions import LMIRegion
 from ..stabilizability import check_detectability
 from ..synthesis.channels import require_pss
@@ -155,11 +155,24 @@ def observer(
     nz = dual.ninputs - len(ch.y) if ch.w else 0
     du, dw, dz = dual_signals(ch, nz)
     dual_objective = None if objective is None else dual_spec(objective, dw, dz)
-    design = synthesize(
-        dual, du, objective=dual_objective, constraints=regions,
-        gains="scheduled" if scheduled else "common", backoff=backoff,
-        margin=margin, solvers=solvers, time_limit=time_limit,
-    )  # fmt: skip
+    try:
+        design = synthesize(
+            dual, du, objective=dual_objective, constraints=regions,
+            gains="scheduled" if scheduled else "common", backoff=backoff,
+            margin=margin, solvers=solvers, time_limit=time_limit,
+        )  # fmt: skip
+    except (InfeasibleError, CertificationError) as exc:
+        if isinstance(exc, TimeLimitReached):
+            raise
+        raise type(exc)(
+            f"{exc}\n(observer: this is the dual state-feedback design, whose "
+            f"control inputs {du} are the measured outputs {_names(sys, ch)[0]}, "
+            f"exogenous inputs {dw} the weighted errors and outputs {dz} the "
+            f"exogenous inputs {_names(sys, ch)[2]}; its bounds are the "
+            "observer's)",
+            exc.attempts,
+            exc.farkas,
+        ) from exc
     L = tuple(K.T.copy() for K in design.gains)
     # The error's Lyapunov matrix is the engine's own variable W = P_dual^-1.
     P = np.linalg.inv(design.P)
@@ -189,6 +202,16 @@ def observer(
         w=tuple(inputs[i] for i in ch.w), z=tuple(names[i] for i in ch.z),
         dual=design, regions=regions, channels=ch,
     )  # fmt: skip
+
+
+def _names(sys, ch):
+    """``(y, u, w)`` names of the channels."""
+    inputs = sys.physical_inputs
+    return (
+        [sys.output_labels[i] for i in ch.y],
+        [inputs[i] for i in ch.u],
+        [inputs[i] for i in ch.w],
+    )
 
 
 def _regions(constraints) -> tuple[LMIRegion, ...]:
