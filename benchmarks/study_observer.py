@@ -67,6 +67,15 @@ def main():
                 f"  dt={dt} {gains:9s}: gamma {d.gamma:.5g} "
                 f"(gamma* {d.gamma_opt:.5g}), worst frozen norm {worst:.5g}"
             )
+    print("Same plant, continuous time, common gain, P(p) affine in k")
+    plant = _scheduled_plant()
+    for nu in (0.0, 0.5, 5.0):
+        d = lpv.observer(plant, "pos", u="u", w=["d", "v"], objective=lpv.Hinf(),
+                         gains="common", lyapunov="affine",
+                         rate_bounds={"k": nu})  # fmt: skip
+        worst = max(ct.linfnorm(d.closed_loop({"k": k}))[0]
+                    for k in np.linspace(1, 4, 31))  # fmt: skip
+        print(f"  |dk/dt| <= {nu}: gamma {d.gamma:.5g}, worst frozen norm {worst:.5g}")
 
 
 if __name__ == "__main__":

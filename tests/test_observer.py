@@ -244,7 +244,18 @@ def test_refuses_parameter_dependent_measurement_with_scheduled_gains():
         ({"y": "u"}, "^y: unknown signal"),
         ({"y": None}, "^y: name"),
         ({"gains": "vertex"}, "^gains:"),
-        ({"lyapunov": "affine"}, "^lyapunov:"),
+        ({"lyapunov": "quadratic"}, "^lyapunov:"),
+        ({"lyapunov": "affine", "gains": "common"}, "^rate_bounds:"),
+        ({"lyapunov": "affine", "rate_bounds": {"k": 1.0}}, "^gains:"),
+        (
+            {
+                "lyapunov": "affine",
+                "rate_bounds": {"k": 1.0},
+                "gains": "common",
+                "constraints": [lpv.halfplane(1.0)],
+            },
+            "^constraints:",
+        ),  # fmt: skip
         ({"rate_bounds": {"k": 1.0}}, "^rate_bounds:"),
         ({"w": "d"}, "^w, z:"),
         ({"objective": lpv.Hinf(w="d")}, "^objective:"),
@@ -272,3 +283,62 @@ def test_refusal_of_the_dual_says_it_is_the_observer():
     reference = _hinf_filter_reference(A, G, C)
     with pytest.raises(lpv.SynthesisError, match=r"(?s)observer: this is the dual"):
         lpv.observer(plant, y, objective=lpv.Hinf(bound=0.5 * reference))
+
+
+def test_affine_lyapunov_with_rate_bound():
+    # A common gain certified with P(p) multi-affine for |dk/dt| <= 0.5.
+    plant = _scheduled_plant()
+    kwargs = dict(u="u", w=["d", "v"], objective=lpv.Hinf(), gains="common")
+    design = lpv.observer(plant, "pos", lyapunov="affine", rate_bounds={"k": 0.5},
+                          **kwargs)  # fmt: skip
+    assert design.certificate.verified and design.rate_bounds == {"k": 0.5}
+    worst = max(ct.linfnorm(design.closed_loop({"k": k}))[0]
+                for k in np.linspace(1.0, 4.0, 31))  # fmt: skip
+    assert worst <= design.gamma
+    # The primal rate-bounded bounded-real inequality of the error system,
+    # written again here, at the vertices and both signs of the rate:
+    # [[A'P + PA + dP/dt, P B, C'], [B'P, -I, 0], [C, 0, -gamma^2 I]] < 0.
+    P0, P1 = design.P
+    dP = (P1 - P0) / 3.0  # dP/dk over k in [1, 4]
+    g, L = design.gamma, design.L[0]
+    for j, (A, B, C, D) in enumerate(plant.vertex_data()):
+        Ae, Be, P = A - L @ C, B[:, [1, 2]] - L @ D[:, [1, 2]], design.P[j]
+        np.testing.assert_allclose(design.lyapunov_matrix({"k": 1.0 + 3 * j}), P)
+        for rate in (-0.5, 0.5):
+            M = np.block([
+                [Ae.T @ P + P @ Ae + rate * dP, P @ Be, np.eye(2)],
+                [Be.T @ P, -np.eye(2), np.zeros((2, 2))],
+                [np.eye(2), np.zeros((2, 2)), -(g**2) * np.eye(2)],
+            ])  # fmt: skip
+            assert np.linalg.eigvalsh(M).max() < 0
+    # With a time-invariant parameter the bound is close to the worst
+    # frozen norm, and never below it.
+    frozen = lpv.observer(plant, "pos", lyapunov="affine", rate_bounds={"k": 0.0},
+                          **kwargs)  # fmt: skip
+    worst = max(ct.linfnorm(frozen.closed_loop({"k": k}))[0]
+                for k in np.linspace(1.0, 4.0, 31))  # fmt: skip
+    assert worst <= frozen.gamma <= 1.01 * worst
+
+
+def test_affine_lyapunov_refused_in_discrete_time():
+    with pytest.raises(ValueError, match="^lyapunov: 'affine' is for continuous"):
+        lpv.observer(_scheduled_plant(0.1), "pos", gains="common",
+                     lyapunov="affine", rate_bounds={"k": 0.1})  # fmt: skip
+
+
+@pytest.mark.filterwarnings("ignore::ctrl_lpv.ParameterClipWarning")
+def test_affine_estimator_converges_within_the_rate_bound():
+    plant = _scheduled_plant().scheduled("inputs")
+    design = lpv.observer(plant, "pos", u="u", w=["d", "v"], objective=lpv.Hinf(),
+                          gains="common", lyapunov="affine",
+                          rate_bounds={"k": 0.5})  # fmt: skip
+    loop = ct.interconnect([plant, design.estimator()], inplist=["u", "d", "v", "k"],
+                           outlist=["x_hat", "vel_hat"])  # fmt: skip
+    # (The plant is open-loop unstable: a long horizon would measure the
+    # integrator's relative error on growing states, not the observer.)
+    T = np.arange(0, 20.0, 0.01)
+    k = 2.5 + 1.5 * np.sin(0.3 * T)  # |dk/dt| <= 0.45
+    U = np.vstack([np.sin(T), 0 * T, 0 * T, k])
+    response = ct.input_output_response(loop, T, U, [1.0, -0.5, 0.0, 0.0])
+    error = response.states[:2] - response.states[2:]
+    assert np.linalg.norm(error[:, -1]) < 1e-3 * np.linalg.norm(error[:, 0])

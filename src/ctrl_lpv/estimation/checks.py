@@ -50,6 +50,12 @@ STATEMENT = (
     "(affine in the vertex data: hence on the whole polytope, for any "
     "parameter variation); frozen error systems at sampled points cross-check"
 )
+AFFINE_STATEMENT = (
+    "the estimation-error system with the returned gain, analysed on its own "
+    "with a Lyapunov matrix P(p) multi-affine in the box parameters for the "
+    "given rate bounds (the engine's LMIs, checked in float64); frozen error "
+    "systems at sampled points cross-check"
+)
 # Relative rounding allowed for a frozen norm against the certified bound
 # (`control.linfnorm`'s bisection, the Gramian solve).
 NORM_RTOL = 1e-6
@@ -128,7 +134,7 @@ def error_certificate(err, L, P, *, continuous, kind=None, gamma=None,
     for region in regions:
         blocks = [_region(region, A, P) for A, _, _ in loops]
         checks.append(_stack(blocks, f"pole region {region}", labels))
-    checks.extend(_frozen(err, L, continuous, kind, gamma, regions))
+    checks.extend(frozen_checks(err, L, continuous, kind, gamma, regions))
     return Certificate(tuple(checks), STATEMENT)
 
 
@@ -170,7 +176,7 @@ def _region(region: LMIRegion, A, P):
     return np.kron(region.L, P) + np.kron(region.M, PA.T) + np.kron(region.M.T, PA)
 
 
-def _frozen(err, L, continuous, kind, gamma, regions):
+def frozen_checks(err, L, continuous, kind, gamma, regions):
     """Eigenvalues and norms of the frozen error systems at sampled points."""
     N = err.A.shape[0]
     points = sample_points(N)

@@ -5,14 +5,17 @@ from __future__ import annotations
 import numpy as np
 
 from ..budget import DEFAULT_TIME_LIMIT, TimeLimitReached
-from ..exceptions import CertificationError, InfeasibleError
+from ..certificate import Certificate
+from ..exceptions import CertificationError, InfeasibleError, SynthesisError
 from ..regions import LMIRegion
 from ..stabilizability import check_detectability
 from ..synthesis.channels import require_pss
 from ..synthesis.compose import synthesize
 from ..synthesis.constraints import PoleRegion
+from ..synthesis.parametric import lyapunov_structure
 from ..synthesis.specs import H2, Hinf
-from .checks import error_certificate
+from ..systems import PolytopicStateSpace
+from .checks import AFFINE_STATEMENT, error_certificate, frozen_checks
 from .duality import (
     ErrorData,
     ObserverChannels,
@@ -79,11 +82,14 @@ def observer(
         One ``L`` per vertex, ``L(p) = sum_j delta_j(p) L_j`` (default;
         needs ``C_y``, ``D_yu``, ``D_yw`` of the measured outputs
         independent of the parameter), or one ``L`` for the polytope.
-    lyapunov : {"constant"}, optional
+    lyapunov : {"constant", "affine"}, optional
         A constant Lyapunov matrix (the bound holds for arbitrarily fast
-        parameter variation). "affine" is not implemented: a `ValueError`.
-    rate_bounds : None, optional
-        Only with ``lyapunov="affine"`` (not implemented).
+        parameter variation), or, in continuous time with one common gain
+        and no pole regions, ``P(p)`` multi-affine in the box parameters
+        with `rate_bounds`; the certificate is then the error system's own
+        analysis (`ctrl_lpv.l2_gain_bound`'s path).
+    rate_bounds : mapping of str to float, optional
+        ``{name: nu}``, ``|dp/dt| <= nu``, for ``lyapunov="affine"``.
     backoff : float or None, optional
         Relax the minimum bound by this fraction (default 0.2) and re-solve
         for a well-conditioned Lyapunov matrix; None or 0 returns the raw
@@ -126,15 +132,6 @@ def observer(
     require_pss(sys)
     if gains not in ("common", "scheduled"):
         raise ValueError(f"gains: expected 'scheduled' or 'common', got {gains!r}")
-    if lyapunov != "constant":
-        raise ValueError(
-            f"lyapunov: only 'constant' is implemented for observers, got "
-            f"{lyapunov!r} (a parameter-dependent Lyapunov function does not "
-            "transpose to the same inequality in discrete time, and its "
-            "float64 re-check on the error system is not written yet)"
-        )
-    if rate_bounds is not None:
-        raise ValueError("rate_bounds: only with lyapunov='affine' (not implemented)")
     if objective is not None:
         if not isinstance(objective, (Hinf, H2)):
             raise TypeError(
@@ -148,6 +145,10 @@ def observer(
     regions = _regions(constraints)
     ch = ObserverChannels.resolve(sys, y, u, w, z, objective is not None)
     scheduled = gains == "scheduled" and sys.nvertices > 1
+    lyapunov_structure(sys, lyapunov, rate_bounds)  # validates both
+    affine = lyapunov == "affine"
+    if affine:
+        _require_affine_fits(sys, scheduled, regions)
     if scheduled:
         require_parameter_independent(sys, ch)
     check_detectability(sys, list(ch.y))
@@ -158,8 +159,9 @@ def observer(
     try:
         design = synthesize(
             dual, du, objective=dual_objective, constraints=regions,
-            gains="scheduled" if scheduled else "common", backoff=backoff,
-            margin=margin, solvers=solvers, time_limit=time_limit,
+            gains="scheduled" if scheduled else "common", lyapunov=lyapunov,
+            rate_bounds=rate_bounds, backoff=backoff, margin=margin,
+            solvers=solvers, time_limit=time_limit,
         )  # fmt: skip
     except (InfeasibleError, CertificationError) as exc:
         if isinstance(exc, TimeLimitReached):
@@ -174,15 +176,22 @@ def observer(
             exc.farkas,
         ) from exc
     L = tuple(K.T.copy() for K in design.gains)
-    # The error's Lyapunov matrix is the engine's own variable W = P_dual^-1.
-    P = np.linalg.inv(design.P)
-    P = 0.5 * (P + P.T)
     kind = None if objective is None else type(objective).__name__
-    certificate = error_certificate(
-        ErrorData.of(sys, ch), L, P, continuous=not sys.isdtime(strict=True),
-        kind=kind, gamma=design.gamma, regions=regions,
-        labels=[f"vertex {j}" for j in range(sys.nvertices)],
-    )  # fmt: skip
+    if affine:
+        gamma, P, certificate = _affine_certificate(
+            sys, ch, L[0], objective, rate_bounds, margin
+        )
+        gamma_opt = None if gamma is None else min(design.gamma_opt, gamma)
+    else:
+        # The error's Lyapunov matrix is the engine's own variable W = P_dual^-1.
+        P = np.linalg.inv(design.P)
+        P = 0.5 * (P + P.T)
+        gamma, gamma_opt = design.gamma, design.gamma_opt
+        certificate = error_certificate(
+            ErrorData.of(sys, ch), L, P, continuous=not sys.isdtime(strict=True),
+            kind=kind, gamma=gamma, regions=regions,
+            labels=[f"vertex {j}" for j in range(sys.nvertices)],
+        )  # fmt: skip
     if not certificate.verified:
         raise CertificationError(
             "observer: the dual design certified, but the estimation-error "
@@ -195,13 +204,73 @@ def observer(
     names = sys.output_labels
     inputs = sys.physical_inputs
     return ObserverDesign(
-        system=sys, L=L, gamma=design.gamma, gamma_opt=design.gamma_opt,
-        bounds={} if objective is None else {objective: design.gamma},
-        certificate=certificate, P=P,
+        system=sys, L=L, gamma=gamma, gamma_opt=gamma_opt,
+        bounds={} if objective is None else {objective: gamma},
+        certificate=certificate, P=P, lyapunov=lyapunov,
+        rate_bounds=_finite_rates(rate_bounds) if affine else None,
         y=tuple(names[i] for i in ch.y), u=tuple(inputs[i] for i in ch.u),
         w=tuple(inputs[i] for i in ch.w), z=tuple(names[i] for i in ch.z),
         dual=design, regions=regions, channels=ch,
     )  # fmt: skip
+
+
+def _require_affine_fits(sys, scheduled, regions) -> None:
+    """``lyapunov="affine"``: continuous time, one gain, no pole regions."""
+    if sys.isdtime(strict=True):
+        raise ValueError(
+            "lyapunov: 'affine' is for continuous time only for observers: the "
+            "transpose of the discrete-time inequality pairs P(p[k]) with the "
+            "wrong sample, so the dual design would not be an observer design"
+        )
+    if scheduled:
+        raise ValueError(
+            "gains: lyapunov='affine' needs gains='common' for observers (the "
+            "dual's vertex gains are rational in p, K(p) = -Z(p) W(p)^-1, so "
+            "the error system would not be polytopic)"
+        )
+    if regions:
+        raise ValueError(
+            "constraints: pole regions need lyapunov='constant' for observers"
+        )
+
+
+def _affine_certificate(sys, ch, L, objective, rate_bounds, margin):
+    """The error system's own analysis with ``P(p)`` multi-affine.
+
+    The error system with the one gain `L` is polytopic (vertex ``j``:
+    ``(A_j - L C_y,j, B_w,j - L D_yw,j, C_z,j, 0)``); its certified
+    analysis (`ctrl_lpv.l2_gain_bound`'s path, with the rate bounds) is the
+    certificate, with the frozen error systems as cross-checks.
+    """
+    from ..analysis import _general_analysis
+
+    err = ErrorData.of(sys, ch)
+    vertices = []
+    for j in range(sys.nvertices):
+        A, B, Cz = err.at(np.eye(sys.nvertices)[j], L)
+        if not ch.w:
+            B = -L  # sensor errors; only the stability is analysed
+        vertices.append((A, B, Cz, np.zeros((Cz.shape[0], B.shape[1]))))
+    loop = PolytopicStateSpace(vertices, sys.domain, dt=sys.dt)
+    spec = None if objective is None else type(objective)()
+    try:
+        gamma, P, analysis = _general_analysis(
+            loop, spec, "affine", rate_bounds, margin
+        )
+    except SynthesisError as exc:
+        raise CertificationError(
+            "observer: the gain of the dual design (lyapunov='affine') did not "
+            f"certify on the estimation-error system: {str(exc).splitlines()[0]}"
+        ) from exc
+    gamma = None if objective is None else gamma
+    kind = None if objective is None else type(objective).__name__
+    frozen = Certificate(tuple(frozen_checks(err, (L,), True, kind, gamma, ())))
+    certificate = Certificate.combine(analysis, frozen, statement=AFFINE_STATEMENT)
+    return gamma, P, certificate
+
+
+def _finite_rates(rate_bounds) -> dict:
+    return {k: float(v) for k, v in rate_bounds.items() if float(v) != np.inf}
 
 
 def _names(sys, ch):

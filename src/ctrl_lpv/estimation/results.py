@@ -49,9 +49,11 @@ class ObserverDesign:
     certificate : `ctrl_lpv.Certificate`
         The float64 checks on the error system
         (`ctrl_lpv.estimation.checks`).
-    P : ndarray
+    P : ndarray or tuple of ndarray
         The Lyapunov matrix of the certificate, ``V(e) = e' P e`` (the
-        inverse of the dual design's ``P``).
+        inverse of the dual design's ``P``); for ``lyapunov="affine"`` the
+        vertex matrices of ``P(p) = sum_j delta_j(p) P_j`` (see
+        `lyapunov_matrix`).
     y, u, w, z : tuple of str
         Measured outputs, known inputs, exogenous inputs, and the outputs
         whose estimation error is weighted (empty: every state).
@@ -60,6 +62,14 @@ class ObserverDesign:
         certificate and the solver attempts.
     regions : tuple of `ctrl_lpv.LMIRegion`
         Pole regions of the error dynamics.
+    lyapunov : {"constant", "affine"}
+        The Lyapunov function of the certificate.
+    rate_bounds : dict or None
+        For ``lyapunov="affine"``, the rate bounds ``{name: nu}`` the
+        certificate holds for (a parameter not listed may vary arbitrarily
+        fast).
+    channels : `ctrl_lpv.estimation.duality.ObserverChannels`
+        The signal indices.
     """
 
     system: PolytopicStateSpace
@@ -75,6 +85,8 @@ class ObserverDesign:
     z: tuple[str, ...]
     dual: object = None
     regions: tuple[LMIRegion, ...] = ()
+    lyapunov: str = "constant"
+    rate_bounds: dict | None = None
     channels: ObserverChannels | None = field(default=None, repr=False)
 
     @property
@@ -90,6 +102,26 @@ class ObserverDesign:
         if p is None:
             raise ValueError("p: a scheduled observer needs the parameter value")
         return interpolated_gain(self.L, self.system.weights(p))
+
+    def lyapunov_matrix(self, p=None) -> np.ndarray:
+        """``P(p)`` of ``V(e) = e' P(p) e`` (`p` ignored for a constant one).
+
+        Parameters
+        ----------
+        p : array_like or mapping, optional
+            Parameter value, needed for ``lyapunov="affine"``.
+
+        Returns
+        -------
+        ndarray
+            ``n x n``, positive definite.
+        """
+        if self.lyapunov == "constant":
+            return self.P.copy()
+        if p is None:
+            raise ValueError("p: an affine Lyapunov function needs the parameter value")
+        delta = self.system.weights(p)
+        return sum(d * Pj for d, Pj in zip(delta, self.P))
 
     def closed_loop(self, p=None) -> StateSpace:
         """The frozen estimation-error system at parameter value `p`.
