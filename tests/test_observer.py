@@ -342,3 +342,28 @@ def test_affine_estimator_converges_within_the_rate_bound():
     response = ct.input_output_response(loop, T, U, [1.0, -0.5, 0.0, 0.0])
     error = response.states[:2] - response.states[2:]
     assert np.linalg.norm(error[:, -1]) < 1e-3 * np.linalg.norm(error[:, 0])
+
+
+def test_given_bound_is_met():
+    plant, A, G, C, y = _noisy_plant(6)
+    reference = _hinf_filter_reference(A, G, C)
+    design = lpv.observer(plant, y, objective=lpv.Hinf(bound=1.5 * reference))
+    assert design.gamma < 1.5 * reference
+    assert ct.linfnorm(design.closed_loop())[0] < 1.5 * reference
+
+
+def test_check_detectability_is_the_dual_pbh_test():
+    # Detectable although not observable: the unobserved mode is stable.
+    A = np.array([[1.0, 0.0], [0.0, -2.0]])
+    sys = lpv.PolytopicStateSpace([ct.ss(A, [[1.0], [1.0]], [[1.0, 0.0]], 0)])
+    assert lpv.check_detectability(sys, 0) == ()
+    # The same plant measuring the stable state only: the mode 1 is unseen.
+    sys = lpv.PolytopicStateSpace([ct.ss(A, [[1.0], [1.0]], [[0.0, 1.0]], 0)])
+    with pytest.raises(lpv.InfeasibleError, match=r"eigenvalue 1 \(Re\(lambda\)"):
+        lpv.check_detectability(sys, 0)
+    # A marginal mode (lambda = 0) unseen is refused too.
+    sys = lpv.PolytopicStateSpace(
+        [ct.ss([[0.0, 0.0], [0.0, -1.0]], [[1.0], [1.0]], [[0.0, 1.0]], 0)]
+    )
+    with pytest.raises(lpv.InfeasibleError, match="eigenvalue 0 "):
+        lpv.check_detectability(sys, 0)
