@@ -30,6 +30,7 @@ from .parametric import lyapunov_structure
 from .problem import Problem
 from .results import StateFeedbackDesign
 from .spec import DesignContext, Spec, with_stability
+from .specs import H2, Hinf
 
 __all__ = ["synthesize"]
 
@@ -49,9 +50,10 @@ def synthesize(
     sys: PolytopicStateSpace,
     u=None,
     *,
+    y=None,
     objective=None,
     constraints=(),
-    gains: str = "common",
+    gains: str | None = None,
     lyapunov: str = "constant",
     rate_bounds=None,
     backoff: float | None = 0.2,
@@ -68,6 +70,13 @@ def synthesize(
         True); all states are measured.
     u : str, int or list
         Control inputs.
+    y : str, int or list, optional
+        Measured outputs: a full-order dynamic output-feedback controller
+        (`ctrl_lpv.hinf_output_feedback` or `ctrl_lpv.h2_output_feedback`,
+        whose `OutputFeedbackDesign` is returned; `objective` must be an
+        `Hinf` or `H2` without a bound, `lyapunov` "constant", no
+        `constraints`). None (default):
+        every state is measured, ``u = -K x``.
     objective : `Hinf`, `H2` or `Peak`, optional
         The bound to minimise (``bound=None``) or to meet (a given
         ``bound``); None asks for stability alone (Hurwitz or Schur).
@@ -83,7 +92,7 @@ def synthesize(
         `Peak`, invariant under the bounded disturbances).
     gains : {"common", "scheduled"}, optional
         One gain for the whole polytope, or one per vertex scheduled with
-        the parameter (default "common").
+        the parameter (default "common"; with `y`, "scheduled").
     lyapunov : {"constant", "affine"}, optional
         A constant Lyapunov matrix (quadratic stability and performance,
         valid for arbitrarily fast parameters), or one multi-affine in the
@@ -146,6 +155,12 @@ def synthesize(
     True
     """
     require_pss(sys)
+    if y is not None:
+        return _output_feedback(
+            sys, u, y, objective, constraints, gains, lyapunov, rate_bounds,
+            backoff, margin, solvers, time_limit,
+        )  # fmt: skip
+    gains = "common" if gains is None else gains
     if gains not in ("common", "scheduled"):
         raise ValueError(f"gains: expected 'common' or 'scheduled', got {gains!r}")
     scheduled = gains == "scheduled"
@@ -189,6 +204,32 @@ def synthesize(
             design, objective, iu, channels, rate_bounds, margin
         )
     return design
+
+
+def _output_feedback(sys, u, y, objective, constraints, gains, lyapunov,
+                     rate_bounds, backoff, margin, solvers, time_limit):  # fmt: skip
+    """`synthesize` with measured outputs `y`: what is implemented, or why not."""
+    from ..output_feedback import h2_output_feedback, hinf_output_feedback
+
+    if not isinstance(objective, (Hinf, H2)) or objective.bound is not None:
+        raise ValueError(
+            "objective: output feedback (y given) minimises an Hinf(w, z) or "
+            f"H2(w, z) objective without a bound; got {objective!r}"
+        )
+    design = hinf_output_feedback if isinstance(objective, Hinf) else h2_output_feedback
+    if constraints not in ((), None, []):
+        raise ValueError("constraints: not implemented for output feedback (y given)")
+    if lyapunov != "constant" or rate_bounds is not None:
+        raise ValueError(
+            "lyapunov: output feedback (y given) is implemented with one "
+            "constant Lyapunov pair (valid for arbitrarily fast parameters); "
+            "parameter-dependent pairs with rate bounds are not"
+        )
+    return design(
+        sys, objective.w, u, objective.z, y,
+        gains="scheduled" if gains is None else gains,
+        backoff=backoff, margin=margin, solvers=solvers, time_limit=time_limit,
+    )  # fmt: skip
 
 
 def _with_primal_analysis(design, objective, iu, channels, rate_bounds, margin):

@@ -1,0 +1,106 @@
+"""The certificate of an output-feedback design, on the closed loop itself.
+
+The LMI checks of the solver's point (`ctrl_lpv.lmi.LMIProblem`) prove the
+transformed inequalities; what runs is the controller rebuilt from them, so
+the certificate is recomputed from the returned controller matrices: ``P``
+from ``(X, Y, M, N)``, then at every vertex the objective's closed-loop
+inequalities (`ctrl_lpv.output_feedback.objectives`) and ``P > 0``, each by
+the library's rounding-aware `ctrl_lpv.certificate.negative_definite`.
+Because the plant's ``B2, C2, D12, D21`` do not depend on the parameter and
+the controller is interpolated with the plant's convex coordinates, the
+closed loop is affine in them: the vertex inequalities with one ``P`` hold
+on the whole polytope. Frozen norms from python-control at the verification
+points cross-check the bound.
+"""
+
+from __future__ import annotations
+
+import control as ct
+import numpy as np
+from scipy.linalg import matrix_balance
+
+from ..certificate import Certificate, Check, negative_definite
+from ..lmi import LMIProblem
+from ..synthesis.frozen import verification_points
+from .reconstruct import closed_loop
+
+__all__ = ["closed_loop_certificate", "closed_loop_analysis"]
+
+
+def closed_loop_certificate(plant, objective, controllers, P, values) -> Certificate:
+    """Float64 checks that the vertex controllers meet the objective's bound.
+
+    `values` holds ``"level"`` and the objective's other variables at the
+    point (e.g. the H2 bounds ``Q_j``).
+    """
+    checks = [negative_definite(-P, what="P > 0", where="closed loop", group="LMI")]
+    for j in range(plant.nvertices):
+        checks += objective.loop_checks(
+            _vertex_loop(plant, controllers, j), P, values, j, plant.continuous
+        )
+    bound = objective.bound(values["level"])
+    checks.append(_frozen_norms(plant, objective, controllers, bound))
+    return Certificate(tuple(checks), statement=objective.statement(bound))
+
+
+def closed_loop_analysis(plant, objective, controllers, margin, chain):
+    """``(P, values)``: the closed loop's own least quadratic bound.
+
+    Used when ``P`` rebuilt from the design's ``(X, Y)`` is too ill-
+    conditioned for its float64 check: the objective's LMIs on the closed
+    loop in a fresh ``P`` (size ``2 n``), in balanced coordinates,
+    minimising its level.
+    """
+    loops, t = _balanced(
+        [_vertex_loop(plant, controllers, j) for j in range(plant.nvertices)]
+    )
+    n = loops[0][0].shape[0]
+    scale = max(np.linalg.norm(np.block([[A, B], [C, D]]), 2) for A, B, C, D in loops)
+    lmi = LMIProblem(margin=margin * max(scale, 1.0))
+    lmi.variable("P", (n, n), symmetric=True)
+    objective.declare(lmi, plant)
+    lmi.add("P > 0", lambda v: [[-v.P]])
+    for j, loop in enumerate(loops):
+        for name, blocks in objective.loop_lmis(loop, j, plant.continuous):
+            lmi.add(name, blocks)
+    sol = lmi.solve(lambda v: v.level[0, 0], solvers=chain)
+    values = {k: np.asarray(x) for k, x in sol.values.items() if k != "P"}
+    values["level"] = float(sol.level[0, 0])
+    return sol.P / t[:, None] / t[None, :], values
+
+
+def _vertex_loop(plant, controllers, j):
+    e = np.zeros(plant.nvertices)
+    e[j] = 1.0
+    return closed_loop(plant, plant.data(e), controllers[j])
+
+
+def _balanced(loops):
+    """The loops in balanced state coordinates ``x = T x~``, and ``diag T``.
+
+    A quadratic bound is invariant under a common change of state
+    coordinates (``P = T^-T P~ T^-1``), and the reconstruction scales the
+    controller's states by orders of magnitude: balancing first keeps the
+    solvers accurate.
+    """
+    _, (t, _) = matrix_balance(sum(np.abs(L[0]) for L in loops), permute=False,
+                               separate=True)  # fmt: skip
+    return [(A * (t[None, :] / t[:, None]), B / t[:, None], C * t[None, :], D)
+            for A, B, C, D in loops], t  # fmt: skip
+
+
+def _frozen_norms(plant, objective, controllers, bound) -> Check:
+    """Cross-check: the frozen closed loops' norms from python-control."""
+    worst, where = -np.inf, ""
+    dt = 0 if plant.continuous else plant.system.dt
+    for delta, p in verification_points(plant.system):
+        K = tuple(np.tensordot(delta, np.array(M), axes=1) for M in zip(*controllers))
+        loop = closed_loop(plant, plant.data(delta), K)
+        norm = objective.frozen_norm(ct.ss(*loop, dt))
+        if not norm <= worst:
+            point = delta if p is None else p
+            worst, where = norm, f"p = {np.round(point, 6).tolist()}"
+    return Check(
+        f"frozen {objective.label} norm (python-control)", worst, bound, strict=True,
+        cross_check=True, where=where, group="frozen",
+    )  # fmt: skip

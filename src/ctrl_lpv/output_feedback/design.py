@@ -1,0 +1,451 @@
+"""Output feedback for polytopic LPV plants: the design.
+
+Two stages on one `ctrl_lpv.lmi.LMIProblem` (the certified LMI layer of the
+library; every point is checked in float64 before it is used), for any
+objective of `ctrl_lpv.output_feedback.objectives`:
+
+``optimal``
+    minimise the objective's level subject to its LMIs at every vertex and
+    ``[[X, I], [I, Y]] > 0`` (`ctrl_lpv.output_feedback.lmis`);
+``center``
+    with the bound at most ``(1 + 0.9 backoff)`` times the optimum, maximise
+    ``mu`` with ``[[X, mu I], [mu I, Y]] >= 0`` and the Lyapunov part
+    tightened by a decay margin. At the optimum ``I - X Y`` is nearly
+    singular and the rebuilt controller has huge, ill-conditioned
+    matrices; this stage buys a well-conditioned ``M N' = I - X Y`` with
+    the back-off, as LPVTools' ``lpvsyn`` does with its default 1.2.
+
+The controller is then rebuilt (`ctrl_lpv.output_feedback.reconstruct`) and
+certified on the closed loop (`ctrl_lpv.output_feedback.checks`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._checks import real_number
+from ..budget import DEFAULT_TIME_LIMIT, time_budget
+from ..exceptions import CertificationError, InfeasibleError
+from ..lmi import LMIProblem, solver_chain
+from ..stabilizability import _vertex_modes, check_stabilizability
+from ..systems import PolytopicStateSpace
+from . import lmis
+from .checks import closed_loop_analysis, closed_loop_certificate
+from .objectives import H2Objective, HinfObjective
+from .plant import OutputFeedbackPlant
+from .reconstruct import closed_loop_lyapunov, controller_matrices, factor
+from .results import OutputFeedbackDesign
+
+__all__ = ["hinf_output_feedback", "h2_output_feedback"]
+
+
+@time_budget
+def hinf_output_feedback(
+    sys: PolytopicStateSpace,
+    w,
+    u,
+    z,
+    y,
+    *,
+    gains: str = "scheduled",
+    backoff: float | None = 0.2,
+    margin: float = 1e-6,
+    solvers=None,
+    time_limit: float | None = DEFAULT_TIME_LIMIT,
+) -> OutputFeedbackDesign:
+    """Certified H-infinity dynamic output feedback of a polytopic plant.
+
+    A full-order controller ``xk' = Ak(p) xk + Bk(p) y``, ``u = Ck(p) xk +
+    Dk(p) y`` (continuous or discrete time, as the plant) that minimises
+    the bound on the L2 gain (H-infinity norm) from `w` to `z` for every
+    parameter trajectory in the polytope: one Lyapunov pair ``(X, Y)``,
+    one controller per vertex interpolated with the plant's convex
+    coordinates (Apkarian, Gahinet and Becker 1995), the change of
+    variables of Scherer, Gahinet and Chilali (1997).
+
+    Parameters
+    ----------
+    sys : `PolytopicStateSpace`
+        The plant; ``B2, C2, D12, D21`` (the rows and columns of `u` and
+        `y`) must not depend on the parameter and ``D22 = 0``.
+    w, u : str, int or list
+        Exogenous and control inputs (`w` None: every other input).
+    z, y : str, int or list
+        Performance and measured outputs (`z` None: every other output).
+    gains : {"scheduled", "common"}, optional
+        One controller per vertex scheduled with the parameter (default),
+        or one LTI controller (only when ``A`` does not depend on the
+        parameter: otherwise the problem is not convex).
+    backoff : float or None, optional
+        Relax the minimum bound by this fraction (default 0.2) and maximise
+        the conditioning of the Lyapunov pair for a well-conditioned
+        controller. None or 0: the raw optimum, or if its rebuilt
+        controller does not certify (``I - X Y`` too close to singular)
+        the least of the back-offs 1e-5, 1e-4 and 1e-3 that does.
+    margin : float, optional
+        Margin of the strict LMIs relative to the data's norm (default
+        1e-6).
+    solvers : str or sequence, optional
+        A solver name, or names or ``(name, options)`` pairs tried in turn;
+        default Clarabel, then SCS (then CVXOPT and MOSEK if installed).
+    time_limit : float or None, optional
+        Wall-time budget in seconds (default 600; None for no limit).
+
+    Returns
+    -------
+    `OutputFeedbackDesign`
+        ``.gamma`` the certified bound, ``.gamma_opt`` the optimum's
+        estimate, ``.controller()`` the controller I/O system,
+        ``.closed_loop(p)`` the frozen closed loop, ``.certificate``.
+
+    Raises
+    ------
+    ValueError, TypeError
+        For arguments that do not fit the plant (named), a parameter-
+        dependent ``B2, C2, D12`` or ``D21`` or a nonzero ``D22``.
+    InfeasibleError
+        A vertex that is not stabilizable from `u` or not detectable from
+        `y` (continuous time), or a verified proof that no controller of
+        this form exists.
+    CertificationError
+        If no design passed its float64 certificate.
+
+    Examples
+    --------
+    >>> import control as ct
+    >>> import ctrl_lpv as lpv
+    >>> G = ct.ss([[0.0, 1.0], [-1.0, 0.5]], [[0.0, 0.0], [1.0, 1.0]],
+    ...           [[1.0, 0.0], [0.0, 0.0], [1.0, 0.0]],
+    ...           [[0.0, 0.0], [0.0, 1.0], [0.1, 0.0]],
+    ...           inputs=["w", "u"], outputs=["z1", "z2", "y"])
+    >>> d = lpv.hinf_output_feedback(lpv.pss([G]), "w", "u", ["z1", "z2"], "y")
+    >>> d.certificate.verified and d.gamma >= float(ct.linfnorm(d.closed_loop())[0])
+    True
+    """
+    return _output_feedback(
+        HinfObjective(), sys, w, u, z, y, gains, backoff, margin, solvers
+    )
+
+
+@time_budget
+def h2_output_feedback(
+    sys: PolytopicStateSpace,
+    w,
+    u,
+    z,
+    y,
+    *,
+    gains: str = "scheduled",
+    backoff: float | None = 0.2,
+    margin: float = 1e-6,
+    solvers=None,
+    time_limit: float | None = DEFAULT_TIME_LIMIT,
+) -> OutputFeedbackDesign:
+    """Certified H2 dynamic output feedback of a polytopic plant.
+
+    A strictly proper full-order controller ``xk' = Ak(p) xk + Bk(p) y``,
+    ``u = Ck(p) xk`` (continuous or discrete time, as the plant) that
+    minimises the bound on the H2 norm from `w` to `z` at every frozen
+    parameter value (the plant needs ``D11 = 0``): one Lyapunov pair
+    ``(X, Y)``,
+    one controller per vertex interpolated with the plant's convex
+    coordinates (Apkarian, Gahinet and Becker 1995), the change of
+    variables of Scherer, Gahinet and Chilali (1997).
+
+    Parameters
+    ----------
+    sys : `PolytopicStateSpace`
+        The plant; ``B2, C2, D12, D21`` (the rows and columns of `u` and
+        `y`) must not depend on the parameter and ``D22 = 0``.
+    w, u : str, int or list
+        Exogenous and control inputs (`w` None: every other input).
+    z, y : str, int or list
+        Performance and measured outputs (`z` None: every other output).
+    gains : {"scheduled", "common"}, optional
+        One controller per vertex scheduled with the parameter (default),
+        or one LTI controller (only when ``A`` does not depend on the
+        parameter: otherwise the problem is not convex).
+    backoff : float or None, optional
+        Relax the minimum bound by this fraction (default 0.2) and maximise
+        the conditioning of the Lyapunov pair for a well-conditioned
+        controller. None or 0: the raw optimum, or if its rebuilt
+        controller does not certify (``I - X Y`` too close to singular)
+        the least of the back-offs 1e-5, 1e-4 and 1e-3 that does.
+    margin : float, optional
+        Margin of the strict LMIs relative to the data's norm (default
+        1e-6).
+    solvers : str or sequence, optional
+        A solver name, or names or ``(name, options)`` pairs tried in turn;
+        default Clarabel, then SCS (then CVXOPT and MOSEK if installed).
+    time_limit : float or None, optional
+        Wall-time budget in seconds (default 600; None for no limit).
+
+    Returns
+    -------
+    `OutputFeedbackDesign`
+        ``.gamma`` the certified bound, ``.gamma_opt`` the optimum's
+        estimate, ``.controller()`` the controller I/O system,
+        ``.closed_loop(p)`` the frozen closed loop, ``.certificate``.
+
+    Raises
+    ------
+    ValueError, TypeError
+        For arguments that do not fit the plant (named), a parameter-
+        dependent ``B2, C2, D12`` or ``D21`` or a nonzero ``D22``.
+    InfeasibleError
+        A vertex that is not stabilizable from `u` or not detectable from
+        `y` (continuous time), or a verified proof that no controller of
+        this form exists.
+    CertificationError
+        If no design passed its float64 certificate.
+
+    Examples
+    --------
+    >>> import control as ct
+    >>> import ctrl_lpv as lpv
+    >>> G = ct.ss([[0.0, 1.0], [-1.0, 0.5]], [[0.0, 0.0], [1.0, 1.0]],
+    ...           [[1.0, 0.0], [0.0, 0.0], [1.0, 0.0]],
+    ...           [[0.0, 0.0], [0.0, 1.0], [0.1, 0.0]],
+    ...           inputs=["w", "u"], outputs=["z1", "z2", "y"])
+    >>> d = lpv.h2_output_feedback(lpv.pss([G]), "w", "u", ["z1", "z2"], "y")
+    >>> d.certificate.verified and d.gamma >= float(ct.norm(d.closed_loop(), 2))
+    True
+    """
+    return _output_feedback(
+        H2Objective(), sys, w, u, z, y, gains, backoff, margin, solvers
+    )
+
+
+def _output_feedback(objective, sys, w, u, z, y, gains, backoff, margin, solvers):
+    if gains not in ("scheduled", "common"):
+        raise ValueError(f"gains: expected 'scheduled' or 'common', got {gains!r}")
+    plant = OutputFeedbackPlant.of(sys, w, u, z, y)
+    objective.check(plant)
+    if gains == "common" and any(not np.array_equal(A, plant.A[0]) for A in plant.A):
+        raise ValueError(
+            "gains: a common (LTI) output-feedback controller of a plant whose "
+            "A depends on the parameter is not a convex problem; use "
+            "gains='scheduled'"
+        )
+    backoff = 0.0 if backoff is None else real_number(backoff, "backoff", minimum=0.0)
+    margin = real_number(margin, "margin", positive=True, below=1.0)
+    chain = solver_chain(solvers)
+    if plant.continuous:
+        _require_stabilizable_detectable(plant)
+    settings = (gains == "scheduled", backoff, margin, chain)
+    design, failure, bound_opt = _solve(plant, objective, *settings)
+    if design is None and bound_opt is not None and not 0.5 <= bound_opt <= 2.0:
+        # Renormalised so that the bound is near 1 (z scaled by s: the
+        # controllers are the same, the bound scales by s): then certified
+        # again on the plant itself.
+        scale = 1.0 / bound_opt
+        scaled, _, _ = _solve(plant.scaled(scale), objective, *settings)
+        if scaled is not None:
+            P, values = objective.rescaled(scaled.P, scaled.values, scale)
+            limit = (1.0 + backoff) * bound_opt * (1.0 + 1e-3)
+            try:
+                design = _certified(plant, objective, scaled.controllers, P, values,
+                                    scaled.gamma_opt / scale, limit,
+                                    (margin, chain), scaled.condition)  # fmt: skip
+            except CertificationError as exc:
+                failure = exc
+    if design is None:
+        raise failure
+    return design
+
+
+def _solve(plant, objective, scheduled, backoff, margin, chain):
+    """``(design, None, bound_opt)``, or ``(None, refusal, bound_opt)``."""
+    lmi, hats = _problem(plant, objective, scheduled, margin)
+    rate = max(np.linalg.norm(A, 2) for A in plant.A) if plant.continuous else 1.0
+    # A trace term far below the solver's tolerance on the level keeps X and
+    # Y bounded in the directions the bound does not constrain (there the
+    # central path drifts to 1e5 and the solve ends inaccurate).
+    try:
+        optimal = lmi.solve(
+            lambda v: v.level[0, 0] + _TRACE_WEIGHT * (np.trace(v.X) + np.trace(v.Y)),
+            stage="optimal",
+            solvers=chain,
+        )
+    except CertificationError as exc:
+        return None, exc, None
+    # The solver's point at the nominal margin, when only a larger margin
+    # certified, is the better estimate of the optimum.
+    bound_opt = objective.bound((optimal.nominal or optimal).level[0, 0])
+    # The raw optimum's I - X Y is often too close to singular for the
+    # rebuilt controller to certify: then the smallest back-off that does.
+    # When the back-off stage itself fails (badly scaled data), the same
+    # sequence, within the back-off asked for.
+    failure = None
+    for b in (backoff, *_RAW_BACKOFFS) if backoff > 0 else _RAW_BACKOFFS:
+        try:
+            if b == 0:
+                lmi.set_parameter("decay", 0.0)
+                point = optimal
+            else:
+                # Solved a little inside the bound it is certified at: the
+                # gap is the closed loop's slack after the reconstruction.
+                inside = objective.level((1.0 + _INSIDE * b) * bound_opt)
+                lmi.set_parameter("level_max", inside)
+                lmi.set_parameter("decay", _DECAY * b * rate)
+                point = lmi.solve(lambda v: -v.mu[0, 0], stage="center",
+                                  solvers=chain)  # fmt: skip
+            limit = (1.0 + max(b, backoff)) * bound_opt * (1.0 + 1e-6)
+            target = max((1.0 + b) * bound_opt, objective.bound(point.level[0, 0]))
+            design = _design(plant, objective, point, hats, bound_opt,
+                             (target, limit), (margin, chain))  # fmt: skip
+            return design, None, bound_opt
+        except CertificationError as exc:
+            failure = exc
+    return None, failure, bound_opt
+
+
+_TRACE_WEIGHT = 1e-7
+#: Beyond eig(X Y) >= 100, I - X Y is as well conditioned as X and Y.
+_MU_MAX = 10.0
+
+#: Decay margin of the back-off stage per unit back-off, relative to the
+#: data's rate (``max ||A_j||`` in continuous time, 1 in discrete time).
+_DECAY = 0.1
+
+#: The back-off stage solves at ``(1 + _INSIDE backoff)`` times the optimum.
+_INSIDE = 0.9
+
+#: Back-offs tried in turn for ``backoff=None``: the raw optimum, then the
+#: least relaxation whose controller certifies.
+_RAW_BACKOFFS = (0.0, 1e-5, 1e-4, 5e-4)
+
+
+def _problem(plant, objective, scheduled, margin):
+    n, N = plant.n, plant.nvertices
+    m, p = plant.B2.shape[1], plant.C2.shape[0]
+    scale = max(
+        np.linalg.norm(np.block([[plant.A[j], plant.B1[j]],
+                                 [plant.C1[j], plant.D11[j]]]), 2)
+        for j in range(N)
+    )  # fmt: skip
+    lmi = LMIProblem(margin=margin * max(scale, 1.0))
+    lmi.variable("X", (n, n), symmetric=True)
+    lmi.variable("Y", (n, n), symmetric=True)
+    objective.declare(lmi, plant)
+    for k in range(N if scheduled else 1):
+        lmi.variable(f"Ah{k}", (n, n))
+        lmi.variable(f"Bh{k}", (n, p))
+        lmi.variable(f"Ch{k}", (m, n))
+        if not objective.strictly_proper:
+            lmi.variable(f"Dh{k}", (m, p))
+    zero = np.zeros((m, p))
+
+    def hats(v, j):
+        k = j if scheduled else 0
+        Dh = zero if objective.strictly_proper else getattr(v, f"Dh{k}")
+        return (getattr(v, f"Ah{k}"), getattr(v, f"Bh{k}"), getattr(v, f"Ch{k}"), Dh)
+
+    lmi.add("[[X, I], [I, Y]] > 0", lmis.lyapunov_pair)
+    # The back-off stage adds a decay margin relative to P (see
+    # `ctrl_lpv.output_feedback.lmis`), so that the rebuilt loop certifies.
+    lmi.parameter("decay", value=0.0, nonneg=True)
+    for j in range(N):
+        for name, blocks in objective.transformed_lmis(plant, j, hats):
+            lmi.add(name, blocks)
+    # The back-off stage: the level within the back-off, and eig(X Y) >=
+    # mu^2 pushed up (``[[X, mu I], [mu I, Y]] >= 0``, linear in mu): I - X Y
+    # then has no eigenvalue in (1 - mu^2, 0], whatever the scale of X, Y.
+    lmi.parameter("level_max", value=1.0)
+    lmi.variable("mu", (1, 1), symmetric=True)
+    lmi.add("level <= (1 + backoff) level_opt",
+            lambda v: [[v.level - v.level_max]], strict=False,
+            stages=["center"])  # fmt: skip
+    eye = np.eye(n)
+    lmi.add("[[X, mu I], [mu I, Y]] >= 0",
+            lambda v: [[-v.X], [-v.mu * eye, -v.Y]],
+            strict=False, stages=["center"])  # fmt: skip
+    lmi.add("mu <= mu_max", lambda v: [[v.mu - _MU_MAX]], strict=False,
+            stages=["center"], normalization=True)  # fmt: skip
+    return lmi, hats
+
+
+def _design(plant, objective, point, hats, bound_opt, bounds, analysis):
+    """The controllers rebuilt from `point`, certified on the closed loop."""
+    X, Y = point.X, point.Y
+    target, limit = bounds
+    try:
+        factors = factor(X, Y)
+    except np.linalg.LinAlgError:
+        raise CertificationError(
+            "output feedback: I - X Y is singular at the solver's point; "
+            "no controller can be rebuilt (try a larger backoff)",
+            point.attempts,
+        ) from None
+    v = _Values(point.values)
+    controllers = tuple(
+        controller_matrices(plant, j, X, Y, hats(v, j), factors)
+        for j in range(plant.nvertices)
+    )
+    P = closed_loop_lyapunov(X, Y, factors)
+    values = dict(point.values, level=objective.level(target))
+    condition = float(np.linalg.cond(np.eye(plant.n) - X @ Y))
+    return _certified(plant, objective, controllers, P, values, bound_opt, limit,
+                      analysis, condition, point.attempts)  # fmt: skip
+
+
+def _certified(plant, objective, controllers, P, values, bound_opt, limit,
+               analysis, condition, attempts=()):  # fmt: skip
+    """`OutputFeedbackDesign` if the closed loop certifies within `limit`."""
+    certificate = closed_loop_certificate(plant, objective, controllers, P, values)
+    if not certificate.verified:
+        # The rebuilt P is exact but ill-conditioned (its slack scales with
+        # 1 / ||Pi1||^2): the closed loop's own Lyapunov matrix instead.
+        P, values = closed_loop_analysis(plant, objective, controllers, *analysis)
+        certificate = closed_loop_certificate(plant, objective, controllers, P, values)
+    bound = objective.bound(values["level"])
+    if bound > limit:
+        # The point's own bound (certified at a margin above the nominal
+        # one), or what the rebuilt controller keeps of it after rounding
+        # through an ill-conditioned I - X Y, exceeds the back-off.
+        raise CertificationError(
+            f"output feedback: the rebuilt controller certifies an "
+            f"{objective.name} bound of {bound:.6g}, above {limit:.6g} (I - X Y "
+            f"has condition {condition:.3g})",
+            attempts,
+        )
+    if not certificate.verified:
+        worst = certificate.worst
+        raise CertificationError(
+            f"output feedback: the rebuilt controller failed its closed-loop "
+            f"certificate at {objective.name} bound {bound:.6g}: {worst.what} at "
+            f"{worst.where} ({worst.value:.3g} against {worst.bound:.3g})",
+            attempts,
+        )
+    return OutputFeedbackDesign(
+        plant=plant,
+        objective=objective.name,
+        controllers=controllers,
+        gamma=bound,
+        gamma_opt=bound_opt,
+        P=P,
+        values=values,
+        certificate=certificate,
+        condition=condition,
+    )
+
+
+class _Values:
+    def __init__(self, values):
+        self.__dict__.update(values)
+
+
+def _require_stabilizable_detectable(plant):
+    """PBH tests at every vertex: stabilizable from u, detectable from y."""
+    sys = plant.system
+    check_stabilizability(sys, list(plant.u))
+    for j, A in enumerate(plant.A):
+        # Detectability of (C2, A) is stabilizability of (A', C2').
+        for found in _vertex_modes(A.T, plant.C2.T, sys.state_labels, j):
+            if found.uncontrollable:
+                raise InfeasibleError(
+                    f"vertex {j} is not detectable: the mode with eigenvalue "
+                    f"{found.eigenvalue:.6g} is unobservable from y = "
+                    f"{plant.names('y')} (PBH residual {found.residual:.1e}, "
+                    "relative); no controller reading y stabilizes it"
+                )

@@ -1,0 +1,173 @@
+"""The objectives of an output-feedback design: one small class each.
+
+The design (`ctrl_lpv.output_feedback.design`) and the certificate
+(`ctrl_lpv.output_feedback.checks`) read an objective only through this
+protocol: the variables it declares, its LMIs after the change of variables
+at a vertex, the same inequalities on a closed loop in float64, and the
+frozen norm that cross-checks its bound. Both minimise a "level" that is
+linear in the variables: ``gamma`` for `HinfObjective`, ``gamma^2`` for
+`H2Objective`.
+"""
+
+from __future__ import annotations
+
+import control as ct
+import numpy as np
+
+from ..certificate import Check, negative_definite, rounding_bound
+from . import lmis
+
+__all__ = ["HinfObjective", "H2Objective"]
+
+
+class HinfObjective:
+    """The L2 gain (H-infinity norm) from w to z; level ``gamma``."""
+
+    name = "Hinf"
+    label = "H-infinity"
+    strictly_proper = False
+
+    def check(self, plant) -> None:
+        """Nothing to add to the plant's own checks."""
+
+    def bound(self, level: float) -> float:
+        return float(level)
+
+    def level(self, bound: float) -> float:
+        return float(bound)
+
+    def declare(self, lmi, plant) -> None:
+        lmi.variable("level", (1, 1), symmetric=True)
+
+    def rescaled(self, P, values, s):
+        """``(P, values)`` for the plant whose z the design scaled by `s`.
+
+        The bounded-real inequality of ``s z`` with ``(P, gamma)`` is, divided
+        by ``s``, that of ``z`` with ``(P / s, gamma / s)``.
+        """
+        return P / s, dict(values, level=values["level"] / s)
+
+    def transformed_lmis(self, plant, j, hats):
+        """``(name, block function)`` of the LMIs at vertex `j`.
+
+        `hats` ``(v, j)`` gives the controller variables at vertex `j`; the
+        decay margin is the parameter ``v.decay``.
+        """
+        return [(f"bounded real vertex {j}", lambda v: lmis.bounded_real(
+            plant, j, v, hats(v, j), v.level[0, 0], v.decay[()]))]  # fmt: skip
+
+    def loop_checks(self, loop, P, values, j, continuous):
+        """Float64 checks of the closed loop at vertex `j`."""
+        g = values["level"]
+        F = lmis.bounded_real_loop(*loop, P, g, continuous)
+        F_abs = np.abs(lmis.bounded_real_loop(*_abs(*loop, P), g, continuous))
+        return [negative_definite(F, absolute=F_abs, what="bounded real (closed loop)",
+                                  where=f"vertex {j}", group="LMI")]  # fmt: skip
+
+    def loop_lmis(self, loop, j, continuous):
+        """``(name, block function)`` of the closed loop in a variable ``P``."""
+        return [(f"bounded real vertex {j}", lambda v: [[lmis.bounded_real_loop(
+            *loop, v.P, v.level[0, 0], continuous)]])]  # fmt: skip
+
+    def frozen_norm(self, sys) -> float:
+        return float(ct.linfnorm(sys)[0])
+
+    def statement(self, bound: float) -> str:
+        return (
+            f"||T_zw||_inf < {bound:.6g} for every parameter trajectory in the "
+            "polytope, with one quadratic Lyapunov function of the closed loop"
+        )
+
+
+class H2Objective:
+    """The H2 norm from w to z; level ``gamma^2``, strictly proper controller.
+
+    ``trace(C P^-1 C') < gamma^2`` with ``P^-1`` above the controllability
+    Gramian (``Q_j`` per vertex bounds ``C_j P^-1 C_j'``). For a time-
+    varying parameter the bound holds for the frozen systems and, with the
+    common ``P``, for the energy of the response to impulses (the usual LPV
+    reading of H2). Needs ``D11 = 0``; the controller has ``Dk = 0``.
+    """
+
+    name = "H2"
+    label = "H2"
+    strictly_proper = True
+
+    def check(self, plant) -> None:
+        if np.any(plant.D11 != 0):
+            raise ValueError(
+                "sys: the H2 norm needs no feedthrough from w to z (D11 = 0)"
+            )
+
+    def bound(self, level: float) -> float:
+        return float(np.sqrt(level))
+
+    def level(self, bound: float) -> float:
+        return float(bound) ** 2
+
+    def declare(self, lmi, plant) -> None:
+        lmi.variable("level", (1, 1), symmetric=True)
+        nz = plant.C1.shape[1]
+        for j in range(plant.nvertices):
+            lmi.variable(f"Q{j}", (nz, nz), symmetric=True)
+            lmi.add(
+                f"trace Q{j} <= level",
+                lambda v, j=j: [[np.trace(getattr(v, f"Q{j}")) - v.level]],
+                strict=False,
+            )
+
+    def rescaled(self, P, values, s):
+        """``(P, values)`` for the plant whose z the design scaled by `s`:
+        ``[[P, s C'], [s C, Q]] > 0`` is ``[[P, C'], [C, Q / s^2]] > 0``."""
+        out = {k: x / s**2 for k, x in values.items() if k[0] == "Q"}
+        return P, dict(values, **out, level=values["level"] / s**2)
+
+    def transformed_lmis(self, plant, j, hats):
+        return [
+            (f"H2 Gramian vertex {j}",
+             lambda v: lmis.h2_gramian(plant, j, v, hats(v, j), v.decay[()])),
+            (f"H2 output vertex {j}",
+             lambda v: lmis.h2_output(plant, j, v, hats(v, j), getattr(v, f"Q{j}"))),
+        ]  # fmt: skip
+
+    def loop_checks(self, loop, P, values, j, continuous):
+        A, B, C, D = loop
+        Q = values[f"Q{j}"]
+        F = lmis.h2_gramian_loop(A, B, P, continuous)
+        F_abs = np.abs(lmis.h2_gramian_loop(*_abs(A, B, P), continuous))
+        G = lmis.h2_output_loop(C, P, Q)
+        G_abs = np.abs(G)
+        trace = float(np.trace(Q))
+        return [
+            negative_definite(F, absolute=F_abs, what="H2 Gramian (closed loop)",
+                              where=f"vertex {j}", group="LMI"),
+            negative_definite(G, absolute=G_abs, what="H2 output (closed loop)",
+                              where=f"vertex {j}", group="LMI"),
+            Check("trace Q <= gamma^2", trace, values["level"], strict=False,
+                  rounding=rounding_bound(Q.shape[0], np.abs(Q).sum()),
+                  where=f"vertex {j}", group="LMI"),
+            Check("no feedthrough w -> z", float(np.abs(D).max(initial=0.0)), 0.0,
+                  where=f"vertex {j}", group="LMI"),
+        ]  # fmt: skip
+
+    def loop_lmis(self, loop, j, continuous):
+        A, B, C, _ = loop
+        return [
+            (f"H2 Gramian vertex {j}",
+             lambda v: [[lmis.h2_gramian_loop(A, B, v.P, continuous)]]),
+            (f"H2 output vertex {j}",
+             lambda v: [[lmis.h2_output_loop(C, v.P, getattr(v, f"Q{j}"))]]),
+        ]  # fmt: skip
+
+    def frozen_norm(self, sys) -> float:
+        return float(ct.norm(sys, p=2))
+
+    def statement(self, bound: float) -> str:
+        return (
+            f"||T_zw||_2 < {bound:.6g} at every frozen parameter value, with one "
+            "quadratic Lyapunov function of the closed loop"
+        )
+
+
+def _abs(*matrices):
+    return tuple(np.abs(M) for M in matrices)
