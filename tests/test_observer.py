@@ -186,7 +186,9 @@ def test_estimator_converges_in_simulation(dt):
     plant = _scheduled_plant(dt).scheduled("inputs")
     design = lpv.observer(plant, "pos", u="u", w=["d", "v"], objective=lpv.Hinf())
     est = design.estimator()
-    assert est.input_labels == ["pos", "u", "k"]
+    assert est.input_labels == ["pos", "u", "k"] and est.name == "estimator"
+    with pytest.raises(TypeError, match="^name:"):
+        design.estimator(name=3)
     assert est.output_labels == ["x_hat", "vel_hat"]
     loop = ct.interconnect(
         [plant, est], inplist=["u", "d", "v", "k"],

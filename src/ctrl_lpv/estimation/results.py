@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from control import StateSpace
 
+from .._checks import signal_name
 from ..certificate import Certificate
 from ..regions import LMIRegion
 from ..systems import PolytopicStateSpace
@@ -176,7 +177,13 @@ class ObserverDesign:
             0)``; exact between the vertices (a common ``L``, or ``C_y`` and
             ``D_yu`` constant, which `ctrl_lpv.observer` requires for vertex
             gains). Same timebase as the plant.
+
+        Raises
+        ------
+        TypeError
+            If `name` is not a non-empty string.
         """
+        signal_name(name, "name")
         sys, ch = self.system, self.channels
         n = sys.nstates
         iy, iu = list(ch.y), list(ch.u)
