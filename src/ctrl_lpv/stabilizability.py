@@ -29,7 +29,7 @@ from ._checks import signal_indices
 from .exceptions import InfeasibleError
 from .systems import PolytopicStateSpace
 
-__all__ = ["ModeResidual", "check_stabilizability"]
+__all__ = ["ModeResidual", "check_detectability", "check_stabilizability"]
 
 _EPS = np.finfo(float).eps
 # Relative PBH residual below which a mode is uncontrollable: rounding of
@@ -138,8 +138,67 @@ def check_stabilizability(sys: PolytopicStateSpace, u=None) -> tuple[ModeResidua
     return tuple(suspects)
 
 
-def _vertex_modes(A, B, labels, vertex):
-    """Unstable or marginal modes of one vertex with a small PBH residual."""
+def check_detectability(sys: PolytopicStateSpace, y) -> tuple[ModeResidual, ...]:
+    """Raise `InfeasibleError` if a vertex ``(C_y, A_j)`` is not detectable.
+
+    The dual of `check_stabilizability`: the PBH test of ``[A_j' - lambda I,
+    C_y']`` in balanced coordinates, for every eigenvalue with ``Re(lambda)
+    >= 0`` (continuous time) or ``|lambda| >= 1`` (discrete time), to
+    rounding. No output injection ``A - L C_y`` moves an unobservable
+    unstable or marginal eigenvalue, so no observer exists.
+
+    Parameters
+    ----------
+    sys : `PolytopicStateSpace`
+        The system.
+    y : str, int or list
+        Measured outputs.
+
+    Returns
+    -------
+    tuple of `ModeResidual`
+        The weakly observable unstable or marginal modes for which the test
+        is inconclusive.
+
+    Raises
+    ------
+    InfeasibleError
+        Naming the vertex, its parameter value, the unobservable eigenvalue
+        and the mode (the eigenvector written on the states).
+    """
+    if not isinstance(sys, PolytopicStateSpace):
+        raise TypeError(
+            f"sys: expected a PolytopicStateSpace, got {type(sys).__name__}"
+        )
+    iy = signal_indices(y, sys.output_labels, "y")
+    discrete = sys.isdtime(strict=True)
+    suspects = []
+    for j, (A, _, C, _) in enumerate(sys.vertex_data()):
+        for found in _vertex_modes(A.T, C[iy].T, sys.state_labels, j, discrete):
+            if found.uncontrollable:
+                point = dict(zip(sys.domain.names, sys.domain.points[j].tolist()))
+                region = "|lambda| >= 1" if discrete else "Re(lambda) >= 0"
+                raise InfeasibleError(
+                    f"vertex {j} (p = {point}) is not detectable from y = "
+                    f"{[sys.output_labels[i] for i in iy]}: the mode with "
+                    f"eigenvalue {_fmt_complex(found.eigenvalue)} ({region}) is "
+                    f"unobservable (PBH residual {found.residual:.1e} in balanced "
+                    f"coordinates, relative; rounding level "
+                    f"{UNCONTROLLABLE_RTOL:.1e}); the combination {found.mode} of "
+                    "the states does not reach the measurements. No output "
+                    "injection moves this eigenvalue, so no observer converges; "
+                    "measure another output or shrink the parameter domain."
+                )
+            suspects.append(found)
+    return tuple(suspects)
+
+
+def _vertex_modes(A, B, labels, vertex, discrete=False):
+    """Unstable or marginal modes of one vertex with a small PBH residual.
+
+    Continuous time: ``Re(lambda) >= 0``; discrete time (`discrete`):
+    ``|lambda| >= 1`` (both to rounding).
+    """
     n = A.shape[0]
     _, (t, _) = matrix_balance(A, permute=False, separate=True)
     At = A * (t[None, :] / t[:, None])
@@ -149,7 +208,9 @@ def _vertex_modes(A, B, labels, vertex):
     Bt = Bt[:, norms > 0] * (scale / norms[norms > 0])
     marginal = 1e3 * n * _EPS * scale
     for lam in np.linalg.eigvals(At):
-        if lam.real < -marginal:
+        if discrete and abs(lam) < 1.0 - 1e3 * n * _EPS * max(scale, 1.0):
+            continue
+        if not discrete and lam.real < -marginal:
             continue
         M = np.hstack([At - lam * np.eye(n), Bt])
         U, s, _ = np.linalg.svd(M)

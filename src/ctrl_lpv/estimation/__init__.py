@@ -1,0 +1,12 @@
+"""Certified LPV observers: the dual of state feedback, re-checked on the
+estimation-error system.
+
+`duality` builds the transposed plant and specs, `design` the `observer`
+call, `checks` the float64 certificate of the error dynamics, `results`
+the `ObserverDesign` and its estimator I/O system.
+"""
+
+from .design import observer
+from .results import ObserverDesign
+
+__all__ = ["observer", "ObserverDesign"]
