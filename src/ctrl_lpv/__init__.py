@@ -38,6 +38,8 @@ _EXPORTS = {
     "Peak": "synthesis",
     "observer": "estimation",
     "ObserverDesign": "estimation",
+    "observer_based": "estimation",
+    "ObserverBasedController": "estimation",
     "check_stabilizability": "stabilizability",
     "check_detectability": "stabilizability",
     "ModeResidual": "stabilizability",
