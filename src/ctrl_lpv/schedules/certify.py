@@ -1,0 +1,445 @@
+"""Is a gain schedule stable, and for how fast a parameter?
+
+`certify` takes a scheduled state feedback as python-control builds it (or a
+table of gains at points) and a polytopic plant, and answers with a
+`ScheduleCertificate`:
+
+1. **frozen**: the closed loop at every point and at seeded samples inside
+   every cell; an unstable one is the counterexample (cell, point,
+   eigenvalue), and nothing more is claimed;
+2. **arbitrary rates**: one quadratic Lyapunov function for the closed loops
+   at the points (`ctrl_lpv.quadratic_stability`). On a cell the closed loop
+   ``A(p) - B_u K(p)`` is affine in ``p`` (checked: ``B_u`` constant, ``A``
+   affine on the cell), so the points' closed loops span it exactly;
+3. **rate-bounded** (continuous time): a Lyapunov matrix ``P(p)`` affine on
+   each cell, continuous across cells, with ``|dp_k/dt| <= nu_k``; on a
+   cell ``dV/dt`` is a quadratic form in the convex coordinates, negative
+   when its diagonal and pairwise terms are (the sufficient condition of
+   Tuan, Apkarian and Nguyen, and of Oliveira and Peres for polynomial
+   parameter dependence). The largest certified ``nu`` (the same scale on
+   every parameter's given rate, 1 per time unit by default) is found by
+   bisection, each step a certified LMI solve; above it nothing is claimed,
+   and `ctrl_lpv.schedules.counterexample` looks for a periodic parameter
+   trajectory that destabilises the loop.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .._checks import real_number
+from ..certificate import Certificate, Check
+from ..exceptions import SynthesisError
+from ..lmi import LMIProblem
+from ..systems import PolytopicStateSpace
+from .schedule import GainSchedule, schedule_of
+
+__all__ = ["certify", "ScheduleCertificate", "FrozenCounterexample"]
+
+
+@dataclass(frozen=True)
+class FrozenCounterexample:
+    """A frozen parameter value whose closed loop is unstable.
+
+    Attributes
+    ----------
+    point : dict
+        The parameter value.
+    cell : int
+        The schedule's cell containing it.
+    eigenvalue : complex
+        The closed loop's eigenvalue with the largest real part (modulus in
+        discrete time).
+    """
+
+    point: dict
+    cell: int
+    eigenvalue: complex
+
+
+@dataclass(frozen=True)
+class ScheduleCertificate:
+    """The verdict of `certify`.
+
+    Attributes
+    ----------
+    certified : bool
+        Stable for every parameter trajectory in the points' convex hull
+        with the rates asked for (``rate_bounds``; arbitrary rates if None).
+    rate_bound : dict
+        ``{parameter: rate}`` certified; ``inf`` for arbitrary rates, ``0``
+        when only frozen stability (or nothing) is established.
+    counterexample : `FrozenCounterexample`, `ParameterTrajectory` or None
+        Where it fails: an unstable frozen point, or a parameter trajectory
+        (above the certified rate) whose simulated state grows.
+    certificate : `ctrl_lpv.Certificate`
+        The float64 checks of what is certified.
+    tried : tuple of str
+        What was tried, in order.
+    """
+
+    certified: bool
+    rate_bound: dict
+    counterexample: object
+    certificate: Certificate
+    tried: tuple[str, ...] = field(default=())
+
+    def __str__(self) -> str:
+        rates = ", ".join(f"|d{k}/dt| <= {v:.4g}" for k, v in self.rate_bound.items())
+        head = "certified" if self.certified else "not certified"
+        lines = [f"{head}; rate bound: {rates or 'none'}"]
+        if self.counterexample is not None:
+            lines.append(f"counterexample: {self.counterexample}")
+        lines += [f"tried: {t}" for t in self.tried]
+        return "\n".join(lines)
+
+
+def certify(
+    controller,
+    plant: PolytopicStateSpace,
+    *,
+    parameters=None,
+    rate_bounds=None,
+    margin: float = 1e-6,
+    samples: int = 20,
+    counterexample: bool = True,
+) -> ScheduleCertificate:
+    """Certify a gain schedule on a polytopic plant, and find its rate bound.
+
+    Parameters
+    ----------
+    controller : NonlinearIOSystem, tuple or `GainSchedule`
+        A scheduled state feedback ``u = -K(p) x`` from
+        `control.create_statefbk_iosystem` (``gain=(gains, points)``,
+        ``gainsched_method="linear"``), a table ``(gains, points)``, or a
+        `GainSchedule`. Its outputs (for a table: ``u``, the plant's inputs
+        in order) are plant inputs; ``K`` acts on the plant's states.
+    plant : `PolytopicStateSpace`
+        The plant over a box of named parameters.
+    parameters : mapping of str to str, optional
+        ``{scheduling variable: plant parameter}``; default: the same names,
+        or else in order.
+    rate_bounds : mapping of str to float, optional
+        Rates to certify, ``{parameter: nu}``; default: find the largest
+        ``nu`` for every parameter (per time unit).
+    margin : float, optional
+        Relative margin of the strict LMIs.
+    samples : int, optional
+        Frozen samples per cell besides its vertices (seeded).
+    counterexample : bool, optional
+        Search a destabilising parameter trajectory above the certified rate.
+
+    Returns
+    -------
+    `ScheduleCertificate`
+
+    Raises
+    ------
+    ValueError, TypeError
+        A controller that is not a linear gain schedule, parameters that do
+        not match, points outside the plant's domain, or a closed loop that
+        is not affine on a cell (``B_u`` varying with scheduled gains, or
+        ``A`` not affine in the parameters).
+
+    Examples
+    --------
+    >>> import control as ct, numpy as np
+    >>> import ctrl_lpv as lpv
+    >>> G = lpv.PolytopicStateSpace.from_affine(
+    ...     ct.ss([[0.0, 1.0], [-1.0, 0.0]], [[0.0], [1.0]], np.eye(2), 0),
+    ...     {"a": ([[0.0, 0.0], [-1.0, 0.0]], 0, 0, 0)}, {"a": (0.0, 2.0)})
+    >>> gains = [np.array([[1.0, 2.0]]), np.array([[0.5, 2.0]])]
+    >>> lpv.certify((gains, [0.0, 2.0]), G).rate_bound
+    {'a': inf}
+    """
+    if isinstance(controller, GainSchedule):
+        schedule = controller
+    else:
+        # A table's variables are the plant's parameters, in order.
+        names = None
+        if isinstance(controller, tuple) and hasattr(plant, "param_names"):
+            k = np.asarray(controller[1], float).reshape(len(controller[1]), -1)
+            names = plant.param_names[: k.shape[1]]
+        schedule = schedule_of(controller, names=names)
+    margin = real_number(margin, "margin", positive=True, below=1.0)
+    loops = _ClosedLoops.of(schedule, plant, controller, parameters)
+    tried = []
+    frozen = loops.frozen_counterexample(samples)
+    tried.append(f"frozen closed loops at {len(schedule.points)} points and "
+                 f"{samples} samples per cell")  # fmt: skip
+    if frozen is not None:
+        return ScheduleCertificate(False, {n: 0.0 for n in loops.names}, frozen,
+                                   Certificate(()), tuple(tried))  # fmt: skip
+    quadratic = loops.quadratic(margin)
+    tried.append("one quadratic Lyapunov function (arbitrary rates)")
+    if quadratic is not None:
+        rates = {n: math.inf for n in loops.names}
+        return ScheduleCertificate(True, rates, None, quadratic, tuple(tried))
+    if not loops.continuous:
+        tried.append("rate-bounded analysis: not implemented in discrete time")
+        return ScheduleCertificate(False, {n: 0.0 for n in loops.names},
+                                   None, Certificate(()), tuple(tried))  # fmt: skip
+    if rate_bounds is not None:
+        nu = np.array([real_number(rate_bounds.get(n, math.inf), f"rate_bounds[{n!r}]",
+                                   minimum=0.0) for n in loops.names])  # fmt: skip
+        found = loops.rate_bounded(nu, margin)
+        tried.append(f"parameter-dependent P(p), rates {nu.tolist()}")
+        certificate = Certificate(()) if found is None else found
+        rates = dict(zip(loops.names, nu if found is not None else 0 * nu))
+        return ScheduleCertificate(found is not None, rates, None, certificate,
+                                   tuple(tried))  # fmt: skip
+    scale, certificate = loops.largest_rate(margin)
+    tried.append("parameter-dependent P(p), bisection on the rate")
+    rates = {n: float(scale) for n in loops.names}
+    example = None
+    if counterexample and scale < math.inf:
+        from .counterexample import destabilising_trajectory
+
+        example = destabilising_trajectory(loops, max(scale, 1e-6))
+        tried.append("periodic parameter trajectories above the certified rate")
+    certificate = certificate or Certificate(())
+    return ScheduleCertificate(False, rates, example, certificate, tuple(tried))
+
+
+@dataclass(frozen=True)
+class _ClosedLoops:
+    """The closed loops at the schedule's points, in the plant's parameters."""
+
+    schedule: GainSchedule
+    points: np.ndarray  # (M, k) in plant parameter order
+    Acl: np.ndarray  # (M, n, n)
+    names: tuple
+    continuous: bool
+    plant: object
+    K_of: object
+
+    @classmethod
+    def of(cls, schedule, plant, controller, parameters):
+        if not isinstance(plant, PolytopicStateSpace) or not hasattr(
+            plant.domain, "lower"
+        ):
+            raise TypeError("plant: expected a PolytopicStateSpace over a box")
+        names = list(plant.param_names)
+        if schedule.nvars != len(names):
+            raise ValueError(
+                f"parameters: the schedule has {schedule.nvars} variables "
+                f"{list(schedule.names)}, the plant {len(names)} {names}"
+            )
+        if parameters is None:
+            mapping = (
+                dict(zip(schedule.names, schedule.names))
+                if set(schedule.names) == set(names)
+                else dict(zip(schedule.names, names))
+            )
+        else:
+            mapping = dict(parameters)
+            if sorted(mapping) != sorted(schedule.names) or sorted(
+                mapping.values()
+            ) != sorted(names):
+                raise ValueError(
+                    f"parameters: expected {{scheduling variable: plant "
+                    f"parameter}} for {list(schedule.names)} -> {names}, got "
+                    f"{mapping}"
+                )
+        order = [list(schedule.names).index(s) for s in
+                 sorted(mapping, key=lambda s: names.index(mapping[s]))]  # fmt: skip
+        points = schedule.points[:, order]
+        lo, hi = plant.domain.lower, plant.domain.upper
+        outside = [
+            p.tolist()
+            for p in points
+            if np.any(p < lo - 1e-12) or np.any(p > hi + 1e-12)
+        ]
+        if outside:
+            raise ValueError(
+                f"controller: points {outside} are outside the plant's domain"
+            )
+        u = _control_inputs(controller, plant, schedule)
+        Acl, Bu, As = [], [], []
+        for p, K in zip(points, schedule.gains):
+            A, B, _, _ = (np.asarray(M) for M in _frozen(plant, p))
+            if K.shape != (len(u), A.shape[0]):
+                raise ValueError(
+                    f"controller: gains of shape {K.shape}; expected "
+                    f"{(len(u), A.shape[0])} (inputs {u}, the plant's states)"
+                )
+            Bu.append(B[:, u])
+            As.append(A)
+            Acl.append(A - B[:, u] @ K)
+        varying = any(not np.array_equal(schedule.gains[0], K) for K in schedule.gains)
+        if varying and any(not np.allclose(Bu[0], B, rtol=1e-12, atol=0) for B in Bu):
+            raise ValueError(
+                "plant: the input matrix of u depends on the parameter while the "
+                "gains are scheduled: B_u(p) K(p) is not affine on a cell"
+            )
+        for c, cell in enumerate(schedule.cells):
+            centre = points[cell].mean(axis=0)
+            A_mid = np.asarray(_frozen(plant, centre)[0])
+            mean = np.mean([As[i] for i in cell], axis=0)
+            tol = 1e-12 * max(1.0, np.abs(A_mid).max())
+            if not np.allclose(A_mid, mean, rtol=1e-10, atol=tol):
+                raise ValueError(
+                    f"plant: A is not affine in the parameters on cell {c} "
+                    f"(points {points[cell].tolist()}): refine the schedule's points"
+                )
+        return cls(schedule, points, np.array(Acl), tuple(names),
+                   not plant.isdtime(strict=True), plant, None)  # fmt: skip
+
+    def unstable(self, A) -> complex | None:
+        eig = np.linalg.eigvals(A)
+        worst = eig[np.argmax(eig.real if self.continuous else np.abs(eig))]
+        bad = worst.real >= 0 if self.continuous else abs(worst) >= 1
+        return complex(worst) if bad else None
+
+    def at(self, cell, lam) -> np.ndarray:
+        return np.tensordot(lam, self.Acl[self.schedule.cells[cell]], axes=1)
+
+    def frozen_counterexample(self, samples):
+        rng = np.random.default_rng(0)
+        k1 = self.points.shape[1] + 1
+        for c, cell in enumerate(self.schedule.cells):
+            lams = np.vstack([np.eye(k1), np.full((1, k1), 1.0 / k1),
+                              rng.dirichlet(np.ones(k1), size=samples)])  # fmt: skip
+            for lam in lams:
+                bad = self.unstable(self.at(c, lam))
+                if bad is not None:
+                    p = lam @ self.points[cell]
+                    return FrozenCounterexample(
+                        dict(zip(self.names, p.tolist())), c, bad
+                    )
+        return None
+
+    def quadratic(self, margin):
+        from ..analysis import quadratic_stability
+
+        loop = PolytopicStateSpace(
+            [(A, np.zeros((A.shape[0], 0)), np.zeros((0, A.shape[0])), np.zeros((0, 0)))
+             for A in self.Acl],
+            dt=self.plant.dt,
+        )  # fmt: skip
+        try:
+            result = quadratic_stability(loop, margin)
+        except SynthesisError:
+            return None
+        checks = tuple(
+            Check.from_lmi_check(c, group="quadratic") for c in result.checks
+        )
+        return Certificate(
+            checks,
+            statement=(
+                "stable for arbitrarily fast parameters in the points' convex hull "
+                "(one quadratic Lyapunov function of the closed loops at the points)"
+            ),
+        )
+
+    def rate_bounded(self, nu, margin, lmi=None):
+        """The certificate with rates `nu` (one per parameter), or None.
+
+        `lmi` is the problem of `_rate_problem` to re-solve (``nu`` is a
+        parameter of it: the bisection builds it once).
+        """
+        lmi = self._rate_problem(margin) if lmi is None else lmi
+        lmi.set_parameter("nu", nu)
+        try:
+            sol = lmi.solve()
+        except SynthesisError:
+            return None
+        checks = tuple(
+            Check.from_lmi_check(c, group="rate-bounded") for c in sol.checks
+        )
+        rates = ", ".join(f"|d{n}/dt| <= {v:.4g}" for n, v in zip(self.names, nu))
+        return Certificate(
+            checks,
+            statement=(
+                f"stable for parameter trajectories in the points' convex hull with "
+                f"{rates} (P(p) affine on each cell, continuous)"
+            ),
+        )
+
+    def largest_rate(self, margin):
+        """``(nu, certificate)``: the largest uniform rate certified."""
+        width = float(np.max(self.plant.domain.upper - self.plant.domain.lower))
+        rate = 1e-3 * width * max(1.0, float(np.abs(self.Acl).max()))
+        ones = np.ones(len(self.names))
+        lmi = self._rate_problem(margin)
+        best, certificate = 0.0, self.rate_bounded(0.0 * ones, margin, lmi)
+        if certificate is None:
+            return 0.0, None
+        lo, hi = 0.0, None
+        for _ in range(40):  # expand, then bisect to 5 %
+            trial = rate if hi is None else 0.5 * (lo + hi)
+            found = self.rate_bounded(trial * ones, margin, lmi)
+            if found is not None:
+                lo, best, certificate = trial, trial, found
+                rate *= 4.0
+                if hi is None and rate > 1e9:
+                    return math.inf, certificate
+            else:
+                hi = trial
+            if hi is not None and hi - lo <= 0.05 * hi:
+                break
+        return best, certificate
+
+    def _rate_problem(self, margin):
+        n = self.Acl.shape[1]
+        M, k = self.points.shape
+        scale = max(1.0, float(max(np.linalg.norm(A, 2) for A in self.Acl)))
+        lmi = LMIProblem(margin=margin * scale)
+        for i in range(M):
+            lmi.variable(f"P{i}", (n, n), symmetric=True)
+            lmi.add(f"P{i} > 0", lambda v, i=i: [[-getattr(v, f"P{i}")]])
+            lmi.add(f"P{i} <= I", lambda v, i=i: [[getattr(v, f"P{i}") - np.eye(n)]],
+                    strict=False, normalization=True)  # fmt: skip
+        lmi.parameter("nu", (k,), value=np.zeros(k), nonneg=True)
+        A = self.Acl
+        for c, cell in enumerate(self.schedule.cells):
+            grad = _gradients(self.points[cell])  # (k, k+1): dlambda_i/dp
+            for signs in itertools.product((-1.0, 1.0), repeat=k):
+
+                def G(v, cell=cell, grad=grad, signs=signs):
+                    """dP/dt at the rate vertex `signs` on this cell."""
+                    Ps = [getattr(v, f"P{i}") for i in cell]
+                    dP = [sum(g * P for g, P in zip(grad[d], Ps)) for d in range(k)]
+                    return sum(s * v.nu[d] * dP[d] for d, s in enumerate(signs))
+
+                for i in cell:
+                    lmi.add(f"cell {c} vertex {i} rates {signs}",
+                            lambda v, i=i, G=G: [[2 * (A[i].T @ getattr(v, f"P{i}"))
+                                                  + G(v)]])  # fmt: skip
+                for a, b in itertools.combinations(range(len(cell)), 2):
+                    i, j = cell[a], cell[b]
+                    lmi.add(
+                        f"cell {c} pair {i},{j} rates {signs}",
+                        lambda v, i=i, j=j, G=G: [[
+                            2 * (A[i].T @ getattr(v, f"P{j}"))
+                            + 2 * (A[j].T @ getattr(v, f"P{i}")) + 2 * G(v)]],
+                    )  # fmt: skip
+        return lmi
+
+
+def _gradients(V):
+    """``d lambda_i / d p_d`` of the convex coordinates on the simplex `V`."""
+    M = (V[1:] - V[0]).T  # k x k
+    inv = np.linalg.inv(M)  # lambda[1:] = inv @ (p - V0)
+    return np.vstack([-inv.sum(axis=0), inv]).T  # (k, k+1)
+
+
+def _frozen(plant, p):
+    delta = plant.domain._weights(np.asarray(p, float))
+    return plant._combine(delta)
+
+
+def _control_inputs(controller, plant, schedule):
+    inputs = list(plant.physical_inputs)
+    labels = getattr(controller, "output_labels", None)
+    if labels is None:
+        m = schedule.gains.shape[1]
+        return list(range(m))
+    missing = [s for s in labels if s not in inputs]
+    if missing:
+        raise ValueError(f"controller: outputs {missing} are not inputs of the plant")
+    return [inputs.index(s) for s in labels]

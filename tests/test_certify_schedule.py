@@ -1,0 +1,170 @@
+"""`certify` on gain schedules, against independent facts.
+
+Frozen closed-loop eigenvalues from numpy; trajectories simulated with
+scipy (a destabilising one grows, rate-bounded random ones decay); the
+python-control controller object and the same gains as a table agree.
+"""
+
+import control as ct
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+import ctrl_lpv as lpv
+from ctrl_lpv.schedules import FrozenCounterexample, ParameterTrajectory, schedule_of
+
+# A switched pair of stable matrices without a common Lyapunov function:
+# every convex combination is stable (eigenvalues -0.1 +- j w), switching
+# between them is not.
+A1 = np.array([[-0.1, 1.0], [-2.0, -0.1]])
+A2 = np.array([[-0.1, 2.0], [-1.0, -0.1]])
+
+
+def switched_plant():
+    """x' = u (B = I): with K(0) = -A1, K(1) = -A2 the closed loop is
+    (1 - p) A1 + p A2."""
+    base = ct.ss(np.zeros((2, 2)), np.eye(2), np.eye(2), 0, inputs=["u0", "u1"])
+    return lpv.PolytopicStateSpace.from_affine(
+        base, {"p": (np.zeros((2, 2)), 0, 0, 0)}, {"p": (0.0, 1.0)}
+    )
+
+
+def closed_loop(p):
+    return (1 - p) * A1 + p * A2
+
+
+def simulate(p_of_t, T, x0=(1.0, 0.0)):
+    sol = solve_ivp(lambda t, x: closed_loop(float(p_of_t(t))) @ x, (0.0, T), x0,
+                    rtol=1e-9, atol=1e-12, max_step=0.01)  # fmt: skip
+    return sol.y
+
+
+@pytest.fixture(scope="module")
+def switched():
+    return lpv.certify(([-A1, -A2], [0.0, 1.0]), switched_plant())
+
+
+def test_frozen_stable_everywhere():
+    for p in np.linspace(0, 1, 101):
+        assert np.linalg.eigvals(closed_loop(p)).real.max() < 0
+
+
+def test_switched_pair_has_a_finite_certified_rate(switched):
+    assert not switched.certified
+    assert 0.0 < switched.rate_bound["p"] < np.inf
+    assert "quadratic" in " ".join(switched.tried)
+
+
+def test_counterexample_diverges_in_simulation(switched):
+    traj = switched.counterexample
+    assert isinstance(traj, ParameterTrajectory)
+    assert traj.rate > switched.rate_bound["p"]
+    periods = 12
+    x = simulate(lambda t: traj([t])[0, 0], periods * traj.period)
+    growth = np.linalg.norm(x[:, -1]) / np.linalg.norm(x[:, 0])
+    assert traj.growth > 1
+    assert growth > 0.5 * traj.growth**periods > 1
+
+
+def test_rate_bounded_trajectories_below_the_bound_decay(switched):
+    nu = 0.9 * switched.rate_bound["p"]
+    rng = np.random.default_rng(1)
+    for _ in range(5):
+        # p(t) = 0.5 + sum a_i sin(w_i t + phi_i), sum a_i = 0.5 (in [0, 1]),
+        # |dp/dt| <= sum a_i w_i = nu.
+        r, w, phase = rng.uniform(0.2, 1.0, (3, 3))
+        a = 0.5 * r / r.sum()
+        w = w * nu / np.sum(a * w)
+
+        def p(t, a=a, w=w, phase=2 * np.pi * phase):
+            return 0.5 + np.sum(a * np.sin(w * t + phase))
+
+        x = simulate(p, 150.0)
+        assert np.linalg.norm(x[:, -1]) < 1e-2 * np.linalg.norm(x[:, 0])
+
+
+def test_the_certificate_below_the_rate_is_verified():
+    c = lpv.certify(([-A1, -A2], [0.0, 1.0]), switched_plant(),
+                    rate_bounds={"p": 0.1})  # fmt: skip
+    assert c.certified and c.certificate.verified and c.rate_bound == {"p": 0.1}
+
+
+# ------------------------------------------------------- python-control
+
+
+def spring(a):
+    return ct.ss([[0.0, 1.0], [-a, -0.5]], [[0.0], [1.0]], np.eye(2), 0,
+                 inputs="u", states=["x0", "x1"], outputs=["x0", "x1"])  # fmt: skip
+
+
+def spring_plant():
+    return lpv.PolytopicStateSpace.from_affine(
+        spring(0.0), {"a": ([[0.0, 0.0], [-1.0, 0.0]], 0, 0, 0)}, {"a": (1.0, 3.0)}
+    )
+
+
+def test_python_control_schedule_is_read_from_the_controller():
+    points = [1.0, 2.0, 3.0]
+    gains = [ct.lqr(spring(a), np.eye(2), 1.0)[0] for a in points]
+    ctrl, _ = ct.create_statefbk_iosystem(spring(2.0), (gains, points),
+                                          gainsched_indices=["xd[0]"])  # fmt: skip
+    from_object = lpv.certify(ctrl, spring_plant())
+    from_table = lpv.certify((gains, points), spring_plant())
+    assert from_object.certified and from_table.certified
+    assert from_object.rate_bound == from_table.rate_bound == {"a": np.inf}
+    assert from_object.certificate.verified
+
+
+def test_two_variable_schedule_uses_the_delaunay_cells():
+    def plant2(a, b):
+        return ct.ss([[0.0, 1.0], [-a, -b]], [[0.0], [1.0]], np.eye(2), 0,
+                     inputs="u", states=["x0", "x1"])  # fmt: skip
+
+    G = lpv.PolytopicStateSpace.from_affine(
+        plant2(0.0, 0.0),
+        {"a": ([[0, 0], [-1.0, 0]], 0, 0, 0), "b": ([[0, 0], [0, -1.0]], 0, 0, 0)},
+        {"a": (1.0, 3.0), "b": (0.1, 1.0)},
+    )
+    grid = [(a, b) for a in (1.0, 2.0, 3.0) for b in (0.1, 0.55, 1.0)]
+    gains = [ct.lqr(plant2(a, b), np.eye(2), 1.0)[0] for a, b in grid]
+    ctrl, _ = ct.create_statefbk_iosystem(
+        plant2(2.0, 0.5), (gains, grid), gainsched_indices=["xd[0]", "xd[1]"]
+    )
+    schedule = schedule_of(ctrl)
+    assert len(schedule.cells) == 8  # two triangles per grid square
+    c = lpv.certify(ctrl, G)
+    assert c.certified and c.certificate.verified
+    assert c.rate_bound == lpv.certify((gains, np.array(grid)), G).rate_bound
+
+
+def test_frozen_unstable_schedule_is_refused_with_cell_and_eigenvalue():
+    points = [1.0, 2.0, 3.0]
+    gains = [ct.lqr(spring(a), np.eye(2), 1.0)[0] for a in points]
+    gains[1] = np.array([[-5.0, 0.0]])  # destabilising at a = 2
+    c = lpv.certify((gains, points), spring_plant())
+    assert not c.certified
+    ce = c.counterexample
+    assert isinstance(ce, FrozenCounterexample)
+    a = ce.point["a"]
+    K = np.array([[np.interp(a, points, [g[0, i] for g in gains]) for i in (0, 1)]])
+    A = spring(a).A - spring(a).B @ K
+    assert ce.eigenvalue.real >= 0
+    assert np.isclose(np.linalg.eigvals(A).real.max(), ce.eigenvalue.real)
+    assert ce.cell in (0, 1)
+
+
+def test_cubic_schedule_is_refused():
+    points = [1.0, 2.0, 3.0, 2.5]
+    gains = [ct.lqr(spring(a), np.eye(2), 1.0)[0] for a in points]
+    ctrl, _ = ct.create_statefbk_iosystem(
+        spring(2.0), (gains, [[p, 0.0] for p in points[:3]] + [[2.5, 1.0]]),
+        gainsched_indices=["xd[0]", "xd[1]"], gainsched_method="nearest",
+    )  # fmt: skip
+    with pytest.raises(ValueError, match="gainsched_method must be 'linear'"):
+        schedule_of(ctrl)
+
+
+def test_points_outside_the_domain_are_refused():
+    gains = [ct.lqr(spring(a), np.eye(2), 1.0)[0] for a in (1.0, 4.0)]
+    with pytest.raises(ValueError, match="outside the plant's domain"):
+        lpv.certify((gains, [1.0, 4.0]), spring_plant())
