@@ -69,7 +69,7 @@ def main(argv=None):
         ctrl = controller(m)
         verdict, wall, cpu = timed(lambda ctrl=ctrl: lpv.certify(ctrl, G))
         loops = _ClosedLoops.of(schedule_of(ctrl), G, ctrl, None)
-        found, wall_r, cpu_r = timed(lambda: loops.rate_bounded(np.ones(2), 1e-6))
+        found, wall_r, cpu_r = timed(lambda L=loops: L.rate_bounded(np.ones(2), 1e-6))
         print(f"{m:>3}x{m:<3} {len(loops.schedule.cells):>6} "
               f"{wall:>8.2f} ({cpu:6.2f}) {wall_r:>10.2f} ({cpu_r:7.2f})  "
               f"{verdict.rate_bound}, rate 1: {found is not None}")  # fmt: skip
