@@ -142,8 +142,8 @@ def test_uncontrollable_unstable_mode_is_refused_as_such():
 # ----------------------------------------------------------------------
 # The fuzz
 # ----------------------------------------------------------------------
-# 2026:14 (settled in exact rational arithmetic by
-# benchmarks/study_disputed_brl.py): the library used to verify and return
+# 2026:14 (settled in exact rational arithmetic by a study of the paper
+# engine, removed with it): the library used to verify and return
 # P = inv(W) unsymmetrised (4.9e-17 relative), for which P A + A' P' passed
 # (-4.64e-9) while sym(P), the storage function x'Px, fails the
 # bounded-real inequality (+3.98e-4). The library now symmetrises P
