@@ -8,10 +8,11 @@ table of gains at points) and a polytopic plant, and answers with a
    every cell; an unstable one is the counterexample (cell, point,
    eigenvalue), and nothing more is claimed;
 2. **arbitrary rates**: one quadratic Lyapunov function for the closed loops
-   at the points (`ctrl_lpv.quadratic_stability`). On a cell the closed loop
-   ``A(p) - B_u K(p)`` is affine in ``p`` (checked: ``B_u`` constant, ``A``
-   affine on the cell), so the points' closed loops span it exactly;
-3. **rate-bounded** (continuous time): a Lyapunov matrix ``P(p)`` affine on
+   at the points (`ctrl_lpv.quadratic_stability`). On a cell ``A`` and
+   ``B_u`` are affine in ``p`` (checked), so the closed loop is a convex
+   combination of the points' closed loops and, when ``B_u`` and ``K`` both
+   vary, of the cell's pairwise terms (`_ClosedLoops.spanning`);
+3. **rate-bounded** (continuous time, ``B_u`` or ``K`` constant): a Lyapunov matrix ``P(p)`` affine on
    each cell, continuous across cells, with ``|dp_k/dt| <= nu_k``; on a
    cell ``dV/dt`` is a quadratic form in the convex coordinates, negative
    when its diagonal and pairwise terms are (the sufficient condition of
@@ -142,8 +143,7 @@ def certify(
     ValueError, TypeError
         A controller that is not a linear gain schedule, parameters that do
         not match, points outside the plant's domain, or a closed loop that
-        is not affine on a cell (``B_u`` varying with scheduled gains, or
-        ``A`` not affine in the parameters).
+        whose ``A`` or ``B_u`` is not affine in the parameters on a cell.
 
     Examples
     --------
@@ -179,8 +179,12 @@ def certify(
     if quadratic is not None:
         rates = {n: math.inf for n in loops.names}
         return ScheduleCertificate(True, rates, None, quadratic, tuple(tried))
-    if not loops.continuous:
-        tried.append("rate-bounded analysis: not implemented in discrete time")
+    if not loops.continuous or loops.bilinear:
+        tried.append(
+            "rate-bounded analysis: not implemented "
+            + ("in discrete time" if not loops.continuous else
+               "when B_u and the gains both vary")
+        )  # fmt: skip
         return ScheduleCertificate(False, {n: 0.0 for n in loops.names},
                                    None, Certificate(()), tuple(tried))  # fmt: skip
     if rate_bounds is not None:
@@ -211,11 +215,25 @@ class _ClosedLoops:
 
     schedule: GainSchedule
     points: np.ndarray  # (M, k) in plant parameter order
-    Acl: np.ndarray  # (M, n, n)
+    A: np.ndarray  # (M, n, n): the plant at the points
+    B: np.ndarray  # (M, n, m): its input matrix of u
     names: tuple
     continuous: bool
     plant: object
-    K_of: object
+
+    @property
+    def K(self) -> np.ndarray:
+        return self.schedule.gains
+
+    @property
+    def Acl(self) -> np.ndarray:
+        """The closed loops at the points."""
+        return self.A - self.B @ self.K
+
+    @property
+    def bilinear(self) -> bool:
+        """Whether ``B_u(p) K(p)`` is quadratic on a cell (both vary)."""
+        return _varies(self.K) and _varies(self.B)
 
     @classmethod
     def of(cls, schedule, plant, controller, parameters):
@@ -259,7 +277,7 @@ class _ClosedLoops:
                 f"controller: points {outside} are outside the plant's domain"
             )
         u = _control_inputs(controller, plant, schedule)
-        Acl, Bu, As = [], [], []
+        As, Bs = [], []
         for p, K in zip(points, schedule.gains):
             A, B, _, _ = (np.asarray(M) for M in _frozen(plant, p))
             if K.shape != (len(u), A.shape[0]):
@@ -267,27 +285,21 @@ class _ClosedLoops:
                     f"controller: gains of shape {K.shape}; expected "
                     f"{(len(u), A.shape[0])} (inputs {u}, the plant's states)"
                 )
-            Bu.append(B[:, u])
             As.append(A)
-            Acl.append(A - B[:, u] @ K)
-        varying = any(not np.array_equal(schedule.gains[0], K) for K in schedule.gains)
-        if varying and any(not np.allclose(Bu[0], B, rtol=1e-12, atol=0) for B in Bu):
-            raise ValueError(
-                "plant: the input matrix of u depends on the parameter while the "
-                "gains are scheduled: B_u(p) K(p) is not affine on a cell"
-            )
+            Bs.append(B[:, u])
         for c, cell in enumerate(schedule.cells):
-            centre = points[cell].mean(axis=0)
-            A_mid = np.asarray(_frozen(plant, centre)[0])
-            mean = np.mean([As[i] for i in cell], axis=0)
-            tol = 1e-12 * max(1.0, np.abs(A_mid).max())
-            if not np.allclose(A_mid, mean, rtol=1e-10, atol=tol):
-                raise ValueError(
-                    f"plant: A is not affine in the parameters on cell {c} "
-                    f"(points {points[cell].tolist()}): refine the schedule's points"
-                )
-        return cls(schedule, points, np.array(Acl), tuple(names),
-                   not plant.isdtime(strict=True), plant, None)  # fmt: skip
+            mid = _frozen(plant, points[cell].mean(axis=0))
+            for name, M, at_points in (("A", mid[0], As), ("B", mid[1][:, u], Bs)):
+                mean = np.mean([at_points[i] for i in cell], axis=0)
+                tol = 1e-12 * max(1.0, np.abs(M).max())
+                if not np.allclose(M, mean, rtol=1e-10, atol=tol):
+                    raise ValueError(
+                        f"plant: {name} is not affine in the parameters on cell "
+                        f"{c} (points {points[cell].tolist()}): refine the "
+                        "schedule's points"
+                    )
+        return cls(schedule, points, np.array(As), np.array(Bs), tuple(names),
+                   not plant.isdtime(strict=True), plant)  # fmt: skip
 
     def unstable(self, A) -> complex | None:
         eig = np.linalg.eigvals(A)
@@ -296,7 +308,27 @@ class _ClosedLoops:
         return complex(worst) if bad else None
 
     def at(self, cell, lam) -> np.ndarray:
-        return np.tensordot(lam, self.Acl[self.schedule.cells[cell]], axes=1)
+        """The frozen closed loop ``A(p) - B_u(p) K(p)`` in `cell`."""
+        idx = self.schedule.cells[cell]
+        A, B, K = (np.tensordot(lam, M[idx], axes=1) for M in (self.A, self.B, self.K))
+        return A - B @ K
+
+    def spanning(self) -> np.ndarray:
+        """Matrices whose convex hull holds every frozen closed loop.
+
+        On a cell ``A(p) - B_u(p) K(p) = sum_ij l_i l_j (A_i - B_i K_j)``
+        in the convex coordinates ``l``: a convex combination of the
+        ``M_ii`` (the closed loops at the points) and, when ``B_u`` and
+        ``K`` both vary, of the ``(M_ij + M_ji) / 2`` of the cell's pairs.
+        """
+        out = list(self.Acl)
+        if self.bilinear:
+            for cell in self.schedule.cells:
+                for i, j in itertools.combinations(cell, 2):
+                    Mij = self.A[i] - self.B[i] @ self.K[j]
+                    Mji = self.A[j] - self.B[j] @ self.K[i]
+                    out.append(0.5 * (Mij + Mji))
+        return np.array(out)
 
     def frozen_counterexample(self, samples):
         rng = np.random.default_rng(0)
@@ -318,7 +350,7 @@ class _ClosedLoops:
 
         loop = PolytopicStateSpace(
             [(A, np.zeros((A.shape[0], 0)), np.zeros((0, A.shape[0])), np.zeros((0, 0)))
-             for A in self.Acl],
+             for A in self.spanning()],
             dt=self.plant.dt,
         )  # fmt: skip
         try:
@@ -443,3 +475,7 @@ def _control_inputs(controller, plant, schedule):
     if missing:
         raise ValueError(f"controller: outputs {missing} are not inputs of the plant")
     return [inputs.index(s) for s in labels]
+
+
+def _varies(M) -> bool:
+    return any(not np.array_equal(M[0], X) for X in M)
