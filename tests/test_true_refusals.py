@@ -186,12 +186,8 @@ def test_quadratic_stability_is_infeasible(seed):
     As = issue_polytope(seed) if seed in NO_CQLF_ISSUE else random_pair(seed)
     with pytest.raises(lpv.InfeasibleError) as info:
         lpv.quadratic_stability(autonomous(As))
-    message = str(info.value)
-    assert "no certifiable common Lyapunov matrix exists" in message
-    number = r"([0-9][0-9.]*(?:e[+-]?[0-9]+)?)"
-    bound = float(re.search(rf"margin of at most {number} \|\|x\|\|", message)[1])
-    needed = float(re.search(rf"relative margin of at least {number}", message)[1])
-    assert 0 < bound < needed
+    # The analysis is the engine's stabilize stage: the same proof.
+    check_statement(info.value)
 
 
 def test_discrete_time_analysis_is_infeasible():

@@ -10,8 +10,8 @@ import numpy as np
 
 from ._checks import real_number, signal_indices
 from .budget import DEFAULT_TIME_LIMIT, time_budget
-from .exceptions import CertificationError, InfeasibleError
-from .lmi import LMICheck, LMIProblem, symmetric_norm_bound
+from .exceptions import InfeasibleError
+from .lmi import LMICheck, LMIProblem
 from .systems import PolytopicStateSpace
 
 __all__ = [
@@ -243,45 +243,10 @@ def quadratic_stability(
         raise TypeError(f"sys: expected a PolytopicStateSpace, got {type(sys)!r}")
     As = [d[0] for d in sys.vertex_data()]
     _require_stable_vertices(sys, As)
-    if lyapunov != "constant" or rate_bounds is not None or sys.isdtime(strict=True):
-        cl = _autonomous(sys, As)
-        _, P, cert = _general_analysis(cl, None, lyapunov, rate_bounds, margin)
-        checks = cert.lmi_checks
-        return QuadraticStability(P, checks, sys)
-    scale = max(1.0, max(np.linalg.norm(A, 2) for A in As))
-    As = [A / scale for A in As]
-    n = sys.nstates
-    lmi = LMIProblem(margin=margin)
-    lmi.variable("P", (n, n), symmetric=True)
-    lmi.variable("t", (1, 1), symmetric=True)
-    lmi.add("P > 0", lambda v: [[-v.P]])
-    for j, A in enumerate(As):
-        lmi.add(f"Lyapunov vertex {j}", lambda v, A=A: [[A.T @ v.P + v.P @ A]])
-    lmi.add("P <= I", lambda v: [[v.P - np.eye(n)]], strict=False, normalization=True)
-    lmi.add(
-        "P >= t I",
-        lambda v: [[v.t[0, 0] * np.eye(n) - v.P]],
-        strict=False,
-        normalization=True,
-    )
-    try:
-        sol = lmi.solve(lambda v: -v.t[0, 0])
-    except CertificationError as exc:
-        # Every point the certificate accepts has P <= I (to the tolerance
-        # of the check): a dual that bounds the relative margin below what
-        # such a point needs proves that none exists.
-        bounds = {"P": symmetric_norm_bound(1.0, n)}
-        if exc.farkas is None or not exc.farkas.excludes(margin, bounds):
-            raise
-        raise InfeasibleError(
-            f"no certifiable common Lyapunov matrix exists: "
-            f"{exc.farkas.exclusion(margin, bounds)} (P <= I, the matrices "
-            f"A_j divided by {scale:.6g}). A P with a smaller relative margin "
-            f"is not excluded, but none could pass the certificate",
-            exc.attempts,
-            exc.farkas,
-        ) from None
-    return QuadraticStability(sol.P, sol.checks)
+    # The one engine with no input and no objective: its stability stage.
+    _, P, cert = _general_analysis(_autonomous(sys, As), None, lyapunov,
+                                   rate_bounds, margin)  # fmt: skip
+    return QuadraticStability(P, cert.lmi_checks, sys)
 
 
 @time_budget

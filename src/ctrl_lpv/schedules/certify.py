@@ -12,11 +12,12 @@ table of gains at points) and a polytopic plant, and answers with a
    ``B_u`` are affine in ``p`` (checked), so the closed loop is a convex
    combination of the points' closed loops and, when ``B_u`` and ``K`` both
    vary, of the cell's pairwise terms (`_ClosedLoops.spanning`);
-3. **rate-bounded** (continuous time, ``B_u`` or ``K`` constant): a Lyapunov matrix ``P(p)`` affine on
-   each cell, continuous across cells, with ``|dp_k/dt| <= nu_k``; on a
-   cell ``dV/dt`` is a quadratic form in the convex coordinates, negative
-   when its diagonal and pairwise terms are (the sufficient condition of
-   Tuan, Apkarian and Nguyen, and of Oliveira and Peres for polynomial
+3. **rate-bounded** (continuous time, ``B_u`` or ``K`` constant): a
+   Lyapunov matrix ``P(p)`` affine on each cell, continuous across cells,
+   with ``|dp_k/dt| <= nu_k``; on a cell ``dV/dt`` is a quadratic form in
+   the convex coordinates, negative when its diagonal and pairwise terms
+   are (the sufficient condition of Tuan, Apkarian and Nguyen, and of
+   Oliveira and Peres for polynomial
    parameter dependence). The largest certified ``nu`` (the same scale on
    every parameter's given rate, 1 per time unit by default) is found by
    bisection, each step a certified LMI solve; above it nothing is claimed,
