@@ -11,7 +11,7 @@ import numpy as np
 from ._checks import real_number, signal_indices
 from .budget import DEFAULT_TIME_LIMIT, time_budget
 from .exceptions import InfeasibleError
-from .lmi import LMICheck, LMIProblem
+from .lmi import LMICheck
 from .systems import PolytopicStateSpace
 
 __all__ = [
@@ -303,52 +303,11 @@ def l2_gain_bound(
     gains, iu = _as_closed_loop_data(sys, gains, u)
     iw = signal_indices(w, sys.physical_inputs, "w")
     iz = signal_indices(z, sys.output_labels, "z")
-    if lyapunov != "constant" or rate_bounds is not None or sys.isdtime(strict=True):
-        from .synthesis import Hinf
+    from .synthesis import Hinf
 
-        cl = _closed_loop(sys, gains, iw, iu, iz, lyapunov)
-        gamma, P, cert = _general_analysis(cl, Hinf(), lyapunov, rate_bounds, margin)
-        checks = cert.lmi_checks
-        return L2GainBound(gamma, P, checks, sys)
-    data = []
-    for A, B, C, D in sys.vertex_data():
-        data.append(
-            (A, B[:, iw], B[:, iu], C[iz], D[np.ix_(iz, iw)], D[np.ix_(iz, iu)])
-        )
-    N = len(data)
-    nw, nz = len(iw), len(iz)
-    n = sys.nstates
-    # Cross terms (j, k) use the gain of vertex k; a common gain is K_k = K.
-    pairs = [(j, j) for j in range(N)]
-    if len(gains) > 1:
-        pairs += list(itertools.combinations(range(N), 2))
-
-    def K(k):
-        return gains[k if len(gains) > 1 else 0]
-
-    lmi = LMIProblem(margin=margin)
-    lmi.variable("P", (n, n), symmetric=True)
-    lmi.variable("g", (1, 1), symmetric=True)
-    lmi.add("P > 0", lambda v: [[-v.P]])
-    for j, k in pairs:
-        terms = [(j, k)] if j == k else [(j, k), (k, j)]
-
-        def blocks(v, terms=terms):
-            twice = len(terms)
-            acl = sum(data[a][0] - data[a][2] @ K(b) for a, b in terms)
-            ccl = sum(data[a][3] - data[a][5] @ K(b) for a, b in terms)
-            b1 = sum(data[a][1] for a, _ in terms)
-            d1 = sum(data[a][4] for a, _ in terms)
-            return [
-                [acl.T @ v.P + v.P @ acl],
-                [b1.T @ v.P, -twice * v.g[0, 0] * np.eye(nw)],
-                [ccl, d1, -twice * np.eye(nz)],
-            ]
-
-        label = f"vertex {j}" if j == k else f"pair ({j}, {k})"
-        lmi.add(f"bounded real {label}", blocks)
-    sol = lmi.solve(lambda v: v.g[0, 0])
-    return L2GainBound(float(np.sqrt(sol.g[0, 0])), sol.P, sol.checks)
+    cl = _closed_loop(sys, gains, iw, iu, iz, lyapunov)
+    gamma, P, cert = _general_analysis(cl, Hinf(), lyapunov, rate_bounds, margin)
+    return L2GainBound(gamma, P, cert.lmi_checks, sys)
 
 
 @time_budget
@@ -439,30 +398,43 @@ def _autonomous(sys, As):
 
 
 def _closed_loop(sys, gains, iw, iu, iz, lyapunov):
-    """The closed loop's vertices from `w` to `z` (exact for the relaxation)."""
+    """The closed loop from `w` to `z` as a polytope (exact for the relaxation).
+
+    With vertex gains and an input matrix of ``u`` (``B_u`` or ``D_zu``) that
+    depends on the parameter, ``B_u(p) K(p)`` is quadratic in the convex
+    coordinates ``d``: the closed loop ``sum_jk d_j d_k M_jk`` (``M_jk`` the
+    loop of vertex ``j`` under gain ``k``) is a convex combination of the
+    ``M_jj`` and the ``(M_jk + M_kj) / 2``, which are then its vertices
+    (one constant Lyapunov matrix only: an affine one would need the convex
+    coordinates themselves).
+    """
     data = list(sys.vertex_data())
-    if len(gains) > 1 and lyapunov != "constant":
-        B2 = [B[:, iu] for _, B, _, _ in data]
-        D2 = [D[np.ix_(iz, iu)] for _, _, _, D in data]
-        if any(not np.array_equal(B2[0], b) for b in B2) or any(
-            not np.array_equal(D2[0], d) for d in D2
-        ):
-            raise ValueError(
-                "gains: vertex gains with lyapunov='affine' need an input matrix "
-                "of u that does not depend on the parameter (the closed loop is "
-                "then affine in it)"
-            )
-    vertices = []
-    for j, (A, B, C, D) in enumerate(data):
-        K = gains[j if len(gains) > 1 else 0]
-        vertices.append((
-            A - B[:, iu] @ K,
-            B[:, iw],
-            C[iz] - D[np.ix_(iz, iu)] @ K,
-            D[np.ix_(iz, iw)],
-        ))  # fmt: skip
+    B2 = [B[:, iu] for _, B, _, _ in data]
+    D2 = [D[np.ix_(iz, iu)] for _, _, _, D in data]
+    bilinear = len(gains) > 1 and (
+        any(not np.array_equal(B2[0], b) for b in B2)
+        or any(not np.array_equal(D2[0], d) for d in D2)
+    )
+    if bilinear and lyapunov != "constant":
+        raise ValueError(
+            "gains: vertex gains with lyapunov='affine' need an input matrix "
+            "of u that does not depend on the parameter (the closed loop is "
+            "then affine in it)"
+        )
+
+    def loop(j, k):
+        A, B, C, D = data[j]
+        K = gains[k if len(gains) > 1 else 0]
+        return (A - B[:, iu] @ K, B[:, iw], C[iz] - D[np.ix_(iz, iu)] @ K,
+                D[np.ix_(iz, iw)])  # fmt: skip
+
+    vertices = [loop(j, j) for j in range(len(data))]
     _require_stable_vertices(sys, [v[0] for v in vertices])
-    return PolytopicStateSpace(vertices, domain=sys.domain, dt=sys.dt)
+    if not bilinear:
+        return PolytopicStateSpace(vertices, domain=sys.domain, dt=sys.dt)
+    for j, k in itertools.combinations(range(len(data)), 2):
+        vertices.append(tuple(0.5 * (a + b) for a, b in zip(loop(j, k), loop(k, j))))
+    return PolytopicStateSpace(vertices, dt=sys.dt)
 
 
 def _general_analysis(cl, spec, lyapunov, rate_bounds, margin):
