@@ -67,7 +67,11 @@ def bilinear(sys):
                  np.sqrt(2) * C @ M, D - C @ M @ B)  # fmt: skip
 
 
-def test_lti_optimum_against_the_riccati_conditions():
+@pytest.mark.parametrize(
+    ("seeds", "least"),
+    [(range(0, 12, 3), 3), pytest.param(range(20), 15, marks=pytest.mark.slow)],
+)
+def test_lti_optimum_against_the_riccati_conditions(seeds, least):
     """The raw optimum (``backoff=None``) against the DGKF bisection.
 
     A certified gamma can never be below the true optimum; it must be
@@ -77,7 +81,7 @@ def test_lti_optimum_against_the_riccati_conditions():
     has its H-infinity norm at most gamma.
     """
     certified = 0
-    for seed in range(12):
+    for seed in seeds:
         sys = random_plant(seed)
         G = sys.vertices[0]
         gamma_ref = reference_gamma(G)
@@ -91,7 +95,8 @@ def test_lti_optimum_against_the_riccati_conditions():
         cl = loop_by_name(G, d.controller().at([1.0]))
         assert np.linalg.eigvals(cl.A).real.max() < 0
         assert float(ct.linfnorm(cl)[0]) <= d.gamma * (1 + 1e-9)
-    assert certified >= 7
+    # Measured: 16 of 20 certify (docs/output_feedback.rst).
+    assert certified >= least
 
 
 def test_hinfsyn_gamma_is_not_always_achieved():
