@@ -53,75 +53,7 @@ def hinf_output_feedback(
     solvers=None,
     time_limit: float | None = DEFAULT_TIME_LIMIT,
 ) -> OutputFeedbackDesign:
-    """Certified H-infinity dynamic output feedback of a polytopic plant.
-
-    A full-order controller ``xk' = Ak(p) xk + Bk(p) y``, ``u = Ck(p) xk +
-    Dk(p) y`` (continuous or discrete time, as the plant) that minimises
-    the bound on the L2 gain (H-infinity norm) from `w` to `z` for every
-    parameter trajectory in the polytope: one Lyapunov pair ``(X, Y)``,
-    one controller per vertex interpolated with the plant's convex
-    coordinates (Apkarian, Gahinet and Becker 1995), the change of
-    variables of Scherer, Gahinet and Chilali (1997).
-
-    Parameters
-    ----------
-    sys : `PolytopicStateSpace`
-        The plant; ``B2, C2, D12, D21`` (the rows and columns of `u` and
-        `y`) must not depend on the parameter and ``D22 = 0``.
-    w, u : str, int or list
-        Exogenous and control inputs (`w` None: every other input).
-    z, y : str, int or list
-        Performance and measured outputs (`z` None: every other output).
-    gains : {"scheduled", "common"}, optional
-        One controller per vertex scheduled with the parameter (default),
-        or one LTI controller (only when ``A`` does not depend on the
-        parameter: otherwise the problem is not convex).
-    backoff : float or None, optional
-        Relax the minimum bound by this fraction (default 0.2) and maximise
-        the conditioning of the Lyapunov pair for a well-conditioned
-        controller. None or 0: the raw optimum, or if its rebuilt
-        controller does not certify (``I - X Y`` too close to singular)
-        the least of the back-offs 1e-5, 1e-4 and 1e-3 that does.
-    margin : float, optional
-        Margin of the strict LMIs relative to the data's norm (default
-        1e-6).
-    solvers : str or sequence, optional
-        A solver name, or names or ``(name, options)`` pairs tried in turn;
-        default Clarabel, then SCS (then CVXOPT and MOSEK if installed).
-    time_limit : float or None, optional
-        Wall-time budget in seconds (default 600; None for no limit).
-
-    Returns
-    -------
-    `OutputFeedbackDesign`
-        ``.gamma`` the certified bound, ``.gamma_opt`` the optimum's
-        estimate, ``.controller()`` the controller I/O system,
-        ``.closed_loop(p)`` the frozen closed loop, ``.certificate``.
-
-    Raises
-    ------
-    ValueError, TypeError
-        For arguments that do not fit the plant (named), a parameter-
-        dependent ``B2, C2, D12`` or ``D21`` or a nonzero ``D22``.
-    InfeasibleError
-        A vertex that is not stabilizable from `u` or not detectable from
-        `y` (continuous time), or a verified proof that no controller of
-        this form exists.
-    CertificationError
-        If no design passed its float64 certificate.
-
-    Examples
-    --------
-    >>> import control as ct
-    >>> import ctrl_lpv as lpv
-    >>> G = ct.ss([[0.0, 1.0], [-1.0, 0.5]], [[0.0, 0.0], [1.0, 1.0]],
-    ...           [[1.0, 0.0], [0.0, 0.0], [1.0, 0.0]],
-    ...           [[0.0, 0.0], [0.0, 1.0], [0.1, 0.0]],
-    ...           inputs=["w", "u"], outputs=["z1", "z2", "y"])
-    >>> d = lpv.hinf_output_feedback(lpv.pss([G]), "w", "u", ["z1", "z2"], "y")
-    >>> d.certificate.verified and d.gamma >= float(ct.linfnorm(d.closed_loop())[0])
-    True
-    """
+    """Certified H-infinity dynamic output feedback of a polytopic plant."""
     return _output_feedback(
         HinfObjective(), sys, w, u, z, y, gains, backoff, margin, solvers
     )
@@ -141,17 +73,14 @@ def h2_output_feedback(
     solvers=None,
     time_limit: float | None = DEFAULT_TIME_LIMIT,
 ) -> OutputFeedbackDesign:
-    """Certified H2 dynamic output feedback of a polytopic plant.
+    """Certified H2 dynamic output feedback of a polytopic plant."""
+    return _output_feedback(
+        H2Objective(), sys, w, u, z, y, gains, backoff, margin, solvers
+    )
 
-    A strictly proper full-order controller ``xk' = Ak(p) xk + Bk(p) y``,
-    ``u = Ck(p) xk`` (continuous or discrete time, as the plant) that
-    minimises the bound on the H2 norm from `w` to `z` at every frozen
-    parameter value (the plant needs ``D11 = 0``): one Lyapunov pair
-    ``(X, Y)``,
-    one controller per vertex interpolated with the plant's convex
-    coordinates (Apkarian, Gahinet and Becker 1995), the change of
-    variables of Scherer, Gahinet and Chilali (1997).
 
+# One parameter description for both objectives (numpydoc, as rendered).
+_PARAMETERS = """\
     Parameters
     ----------
     sys : `PolytopicStateSpace`
@@ -199,7 +128,50 @@ def h2_output_feedback(
     CertificationError
         If no design passed its float64 certificate.
 
-    Examples
+"""
+hinf_output_feedback.__doc__ = (
+    """\
+Certified H-infinity dynamic output feedback of a polytopic plant.
+
+    A full-order controller ``xk' = Ak(p) xk + Bk(p) y``, ``u = Ck(p) xk +
+    Dk(p) y`` (continuous or discrete time, as the plant) that minimises
+    the bound on the L2 gain (H-infinity norm) from `w` to `z` for every
+    parameter trajectory in the polytope: one Lyapunov pair ``(X, Y)``,
+    one controller per vertex interpolated with the plant's convex
+    coordinates (Apkarian, Gahinet and Becker 1995), the change of
+    variables of Scherer, Gahinet and Chilali (1997).
+
+"""
+    + _PARAMETERS
+    + """    Examples
+    --------
+    >>> import control as ct
+    >>> import ctrl_lpv as lpv
+    >>> G = ct.ss([[0.0, 1.0], [-1.0, 0.5]], [[0.0, 0.0], [1.0, 1.0]],
+    ...           [[1.0, 0.0], [0.0, 0.0], [1.0, 0.0]],
+    ...           [[0.0, 0.0], [0.0, 1.0], [0.1, 0.0]],
+    ...           inputs=["w", "u"], outputs=["z1", "z2", "y"])
+    >>> d = lpv.hinf_output_feedback(lpv.pss([G]), "w", "u", ["z1", "z2"], "y")
+    >>> d.certificate.verified and d.gamma >= float(ct.linfnorm(d.closed_loop())[0])
+    True
+"""
+)
+h2_output_feedback.__doc__ = (
+    """\
+Certified H2 dynamic output feedback of a polytopic plant.
+
+    A strictly proper full-order controller ``xk' = Ak(p) xk + Bk(p) y``,
+    ``u = Ck(p) xk`` (continuous or discrete time, as the plant) that
+    minimises the bound on the H2 norm from `w` to `z` at every frozen
+    parameter value (the plant needs ``D11 = 0``): one Lyapunov pair
+    ``(X, Y)``,
+    one controller per vertex interpolated with the plant's convex
+    coordinates (Apkarian, Gahinet and Becker 1995), the change of
+    variables of Scherer, Gahinet and Chilali (1997).
+
+"""
+    + _PARAMETERS
+    + """    Examples
     --------
     >>> import control as ct
     >>> import ctrl_lpv as lpv
@@ -210,10 +182,8 @@ def h2_output_feedback(
     >>> d = lpv.h2_output_feedback(lpv.pss([G]), "w", "u", ["z1", "z2"], "y")
     >>> d.certificate.verified and d.gamma >= float(ct.norm(d.closed_loop(), 2))
     True
-    """
-    return _output_feedback(
-        H2Objective(), sys, w, u, z, y, gains, backoff, margin, solvers
-    )
+"""
+)
 
 
 def _output_feedback(objective, sys, w, u, z, y, gains, backoff, margin, solvers):
