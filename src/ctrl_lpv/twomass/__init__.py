@@ -38,6 +38,7 @@ _EXPORTS = {
     "metrics": "scenarios",
     "alpha_step": "scenarios",
     "design": "designs",
+    "output_feedback_design": "designs",
     "save_gains": "gain_files",
     "load_gains": "gain_reader",
     "GainFile": "gain_files",
