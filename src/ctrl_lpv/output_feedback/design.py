@@ -163,9 +163,8 @@ Certified H2 dynamic output feedback of a polytopic plant.
     A strictly proper full-order controller ``xk' = Ak(p) xk + Bk(p) y``,
     ``u = Ck(p) xk`` (continuous or discrete time, as the plant) that
     minimises the bound on the H2 norm from `w` to `z` at every frozen
-    parameter value (the plant needs ``D11 = 0``): one Lyapunov pair
-    ``(X, Y)``,
-    one controller per vertex interpolated with the plant's convex
+    parameter value (the plant needs ``D11 = 0``): one Lyapunov pair ``(X,
+    Y)``, one controller per vertex interpolated with the plant's convex
     coordinates (Apkarian, Gahinet and Becker 1995), the change of
     variables of Scherer, Gahinet and Chilali (1997).
 
@@ -405,7 +404,7 @@ def _certified(plant, objective, controllers, P, values, bound_opt, limit,
         )
     return OutputFeedbackDesign(
         plant=plant,
-        objective=objective.name,
+        objective=objective.spec(plant),
         controllers=controllers,
         gamma=bound,
         gamma_opt=bound_opt,

@@ -27,6 +27,12 @@ class HinfObjective:
     label = "H-infinity"
     strictly_proper = False
 
+    def spec(self, plant):
+        """The `ctrl_lpv.Hinf` spec of this channel (the key of ``bounds``)."""
+        from ..synthesis import Hinf
+
+        return Hinf(w=plant.names("w"), z=plant.names("z"))
+
     def check(self, plant) -> None:
         """Nothing to add to the plant's own checks."""
 
@@ -92,6 +98,12 @@ class H2Objective:
     name = "H2"
     label = "H2"
     strictly_proper = True
+
+    def spec(self, plant):
+        """The `ctrl_lpv.H2` spec of this channel (the key of ``bounds``)."""
+        from ..synthesis import H2
+
+        return H2(w=plant.names("w"), z=plant.names("z"))
 
     def check(self, plant) -> None:
         if np.any(plant.D11 != 0):

@@ -23,15 +23,15 @@ class OutputFeedbackDesign:
     ----------
     plant : `ctrl_lpv.output_feedback.OutputFeedbackPlant`
         The plant with its w/u/z/y partition.
-    objective : {"Hinf", "H2"}
-        The norm from w to z that `gamma` bounds.
+    objective : `ctrl_lpv.Hinf` or `ctrl_lpv.H2`
+        The norm from w to z that `gamma` bounds (with the plant's names).
     controllers : tuple of (Ak, Bk, Ck, Dk)
         The controller at each vertex: ``xk' = Ak xk + Bk y``, ``u = Ck xk
         + Dk y``; interpolated with the plant's convex coordinates.
     gamma : float
         The certified bound of the objective: the L2 gain from w to z for
-        every parameter trajectory in the polytope ("Hinf"), or the H2 norm
-        at every frozen parameter value ("H2").
+        every parameter trajectory in the polytope (`ctrl_lpv.Hinf`), or the
+        H2 norm at every frozen parameter value (`ctrl_lpv.H2`).
     gamma_opt : float
         The minimum bound the LMIs reached (an estimate from above of the
         optimum of the formulation); ``gamma / gamma_opt - 1`` is the
@@ -48,7 +48,7 @@ class OutputFeedbackDesign:
     """
 
     plant: OutputFeedbackPlant
-    objective: str
+    objective: object
     controllers: tuple
     gamma: float
     gamma_opt: float
@@ -59,7 +59,7 @@ class OutputFeedbackDesign:
 
     @property
     def bounds(self) -> dict:
-        """``{objective: gamma}``: the certified bound of each objective."""
+        """``{objective: gamma}``, as `ctrl_lpv.StateFeedbackDesign.bounds`."""
         return {self.objective: self.gamma}
 
     def controller(self, name: str = "controller") -> PolytopicStateSpace:
