@@ -334,3 +334,15 @@ def test_two_inputs_with_different_levels():
             V = np.einsum("it,ij,jt->t", sol.y, P, sol.y)
             assert np.all(V <= 1.0 + 1e-6)
             assert np.all(V <= np.exp(-2 * d.decay * sol.t) * (1 + 1e-6))
+
+
+def test_discrete_time_plant_is_refused():
+    # The certificate's LMIs are continuous-time ones: a sampled plant must
+    # be refused, naming the argument, not certified with them.
+    dt_plant = lpv.PolytopicStateSpace(
+        [ct.ss([[1.1]], [[1.0]], [[1.0]], 0, dt=0.1)], inputs="u"
+    )
+    with pytest.raises(ValueError, match="^sys: discrete-time"):
+        saturated_state_feedback(dt_plant, "u", 1.0)
+    with pytest.raises(ValueError, match="^sys: discrete-time"):
+        saturation_region(dt_plant, [[0.5]], "u", 1.0)
