@@ -26,7 +26,7 @@ import numpy as np
 from .._checks import real_number
 from ..budget import DEFAULT_TIME_LIMIT, time_budget
 from ..exceptions import CertificationError, InfeasibleError
-from ..lmi import LMIProblem, solver_chain
+from ..lmi import LMIProblem, default_solvers, solver_chain
 from ..stabilizability import _vertex_modes, check_stabilizability
 from ..systems import PolytopicStateSpace
 from . import lmis
@@ -198,7 +198,7 @@ def _output_feedback(objective, sys, w, u, z, y, gains, backoff, margin, solvers
         )
     backoff = 0.0 if backoff is None else real_number(backoff, "backoff", minimum=0.0)
     margin = real_number(margin, "margin", positive=True, below=1.0)
-    chain = solver_chain(solvers)
+    chain = solver_chain(solvers) or default_solvers()
     if plant.continuous:
         _require_stabilizable_detectable(plant)
     settings = (gains == "scheduled", backoff, margin, chain)
@@ -215,7 +215,7 @@ def _output_feedback(objective, sys, w, u, z, y, gains, backoff, margin, solvers
             try:
                 design = _certified(plant, objective, scaled.controllers, P, values,
                                     scaled.gamma_opt / scale, limit,
-                                    (margin, chain), scaled.condition)  # fmt: skip
+                                    (margin, chain[:1]), scaled.condition)  # fmt: skip
             except CertificationError as exc:
                 failure = exc
     if design is None:
@@ -256,7 +256,7 @@ def _solve(plant, objective, scheduled, backoff, margin, chain):
                 target = max((1.0 + b) * bound_opt,
                              objective.bound(point.level[0, 0]))  # fmt: skip
                 design = _design(plant, objective, point, hats, bound_opt,
-                                 (target, limit), (margin, chain))  # fmt: skip
+                                 (target, limit), (margin, chain[:1]))  # fmt: skip
                 return design, None, bound_opt
             except CertificationError as exc:
                 failure = exc
@@ -277,7 +277,10 @@ def _point(lmi, objective, optimal, b, bound_opt, decay, chain):
     lmi.set_parameter("level_max", objective.level((1.0 + _INSIDE * b) * bound_opt))
     lmi.set_parameter("decay", decay)
     try:
-        return lmi.solve(lambda v: -v.mu[0, 0], stage="center", solvers=chain)
+        # The first solver only: this stage chooses a better point, and the
+        # fallbacks (SCS to 1e-9) cost minutes at n = 8 for a point that the
+        # next back-off or the optimal point may give as well.
+        return lmi.solve(lambda v: -v.mu[0, 0], stage="center", solvers=chain[:1])
     except InfeasibleError as exc:
         raise CertificationError(
             f"output feedback: the back-off stage at {b:g} is infeasible ({exc})",
