@@ -198,3 +198,22 @@ def test_input_matrix_varying_with_scheduled_gains():
 
     x = solve_ivp(rhs, (0.0, 30.0), [1.0, 0.0], max_step=0.01).y
     assert np.linalg.norm(x[:, -1]) < 1e-3
+
+
+def test_a_design_is_certified_on_another_plant():
+    """A scheduled design of the nominal model, certified on a plant whose
+    damping is lower than the model's: the frozen loops are stable, and the
+    design's own gains are read."""
+    design = lpv.synthesize(spring_plant(), "u", gains="scheduled")
+    lighter = ct.ss([[0.0, 1.0], [0.0, -0.2]], [[0.0], [1.0]], np.eye(2), 0,
+                    inputs="u", states=["x0", "x1"], outputs=["x0", "x1"])  # fmt: skip
+    true = lpv.PolytopicStateSpace.from_affine(
+        lighter, {"a": ([[0.0, 0.0], [-1.0, 0.0]], 0, 0, 0)}, {"a": (1.0, 3.0)}
+    )
+    for a in np.linspace(1.0, 3.0, 21):
+        K = np.tensordot(true.weights({"a": a}), np.array(design.gains), axes=1)
+        frozen = true.at({"a": a})
+        assert np.linalg.eigvals(frozen.A - frozen.B @ K).real.max() < 0
+    c = lpv.certify(design, true)
+    np.testing.assert_array_equal(schedule_of(design).gains, np.array(design.gains))
+    assert c.certified and c.rate_bound == {"a": np.inf}

@@ -114,11 +114,12 @@ def certify(
 
     Parameters
     ----------
-    controller : NonlinearIOSystem, tuple or `GainSchedule`
+    controller : NonlinearIOSystem, tuple, `StateFeedbackDesign` or `GainSchedule`
         A scheduled state feedback ``u = -K(p) x`` from
         `control.create_statefbk_iosystem` (``gain=(gains, points)``,
-        ``gainsched_method="linear"``), a table ``(gains, points)``, or a
-        `GainSchedule`. Its outputs (for a table: ``u``, the plant's inputs
+        ``gainsched_method="linear"``), a table ``(gains, points)``, a
+        design of this library (certified on another plant, e.g. the true
+        one), or a `GainSchedule`. Its outputs (for a table: ``u``, the plant's inputs
         in order) are plant inputs; ``K`` acts on the plant's states.
     plant : `PolytopicStateSpace`
         The plant over a box of named parameters.
@@ -469,6 +470,8 @@ def _frozen(plant, p):
 def _control_inputs(controller, plant, schedule):
     inputs = list(plant.physical_inputs)
     labels = getattr(controller, "output_labels", None)
+    if hasattr(controller, "gains") and hasattr(controller, "u"):
+        labels = list(controller.u)  # a StateFeedbackDesign
     if labels is None:
         m = schedule.gains.shape[1]
         return list(range(m))

@@ -74,10 +74,13 @@ def schedule_of(controller, names=None) -> GainSchedule:
 
     Parameters
     ----------
-    controller : NonlinearIOSystem or tuple
+    controller : NonlinearIOSystem, tuple or `ctrl_lpv.StateFeedbackDesign`
         A gain-scheduled controller from `control.create_statefbk_iosystem`
         (``gain=(gains, points)``, ``gainsched_method="linear"``, without
-        integral action), or a table ``(gains, points)`` as passed to it.
+        integral action), a table ``(gains, points)`` as passed to it, or
+        a design: a common gain (at the corners of its domain), or vertex
+        gains over one parameter (interpolated linearly, as the design's
+        controller does).
     names : sequence of str, optional
         Names of the scheduling variables of a table (default ``p[i]``).
 
@@ -89,8 +92,13 @@ def schedule_of(controller, names=None) -> GainSchedule:
     ------
     ValueError, TypeError
         A controller that is not a linear gain schedule of
-        `create_statefbk_iosystem` (named), or a malformed table.
+        `create_statefbk_iosystem` (named), a malformed table, or a design
+        whose gain is not piecewise affine (vertex gains over several
+        parameters interpolate multilinearly; a parameter-dependent
+        Lyapunov design's gain is rational).
     """
+    if hasattr(controller, "gains") and hasattr(controller, "system"):
+        return _from_design(controller)
     if isinstance(controller, tuple):
         gains, points = controller
         return _table(np.asarray(gains, float), np.asarray(points, float), names)
@@ -117,6 +125,23 @@ def _table(gains, points, names):
 
         cells = Delaunay(points).simplices
     return GainSchedule(points, gains, np.asarray(cells, int), names)
+
+
+def _from_design(design):
+    domain = design.system.domain
+    if not hasattr(domain, "lower"):
+        raise TypeError("controller: a design over a box of named parameters")
+    points = np.asarray(domain.points, float)
+    gains = np.asarray(design.gains, float)
+    if len(gains) == 1:
+        gains = np.repeat(gains, len(points), axis=0)
+    elif getattr(design, "rational", None) is not None or points.shape[1] > 1:
+        raise ValueError(
+            "controller: vertex gains over several parameters (multilinear) or "
+            "of a parameter-dependent Lyapunov design (rational) are not "
+            "piecewise affine; certify a table of gains at points instead"
+        )
+    return _table(gains, points, domain.names)
 
 
 def _from_control(ctrl):
