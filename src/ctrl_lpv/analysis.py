@@ -452,8 +452,7 @@ def _general_analysis(cl, spec, lyapunov, rate_bounds, margin):
     covers. So ``P(p)`` itself is multi-affine, the parametrization of
     Gahinet, Apkarian and Chilali (1996) and of the literature's examples.
     """
-    from .lmi import solver_chain
-    from .synthesis.general import run_general
+    from .synthesis.general import run_analysis
     from .synthesis.parametric import lyapunov_structure
     from .synthesis.specs import Hinf
 
@@ -462,13 +461,7 @@ def _general_analysis(cl, spec, lyapunov, rate_bounds, margin):
     if primal:
         vertices = [(A.T, C.T, B.T, D.T) for A, B, C, D in cl.vertex_data()]
         cl = PolytopicStateSpace(vertices, domain=cl.domain, dt=cl.dt)
-    specs = [] if spec is None else [spec]
-    channels = [(list(range(cl.ninputs)), [], list(range(cl.noutputs)))] * len(specs)
-    design = run_general(
-        cl, [], specs, channels, spec, (), False, lyap,
-        not cl.isdtime(strict=True), None, margin, solver_chain(None), None,
-        "analysis", (),
-    )  # fmt: skip
+    design = run_analysis(cl, spec, lyap, margin)
     P = design.P
     if primal:
         # The transposed loop's dual bounded-real inequality in W is the

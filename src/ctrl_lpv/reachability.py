@@ -47,7 +47,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.linalg as sla
@@ -563,8 +563,15 @@ def ultimate_bound(
     >>> round(float(res.bounds[0]), 3)
     0.5
     """
+    data = _prepare(sys, w, w_max, output, weights, decay, margin)
+    return _ultimate_bound_lmi(*data, solvers)
+
+
+def _prepare(sys, w, w_max, output, weights, decay, margin):
+    """The checked arguments of `ultimate_bound`: ``(As, Es, C, Dw, names,
+    wmax, omega, decay, margin)``; refuses a vertex that is not Hurwitz."""
     As, Es, Cs, Ds, names = _resolve_data(sys, w, output)
-    n, nw = As[0].shape[0], Es[0].shape[1]
+    nw = Es[0].shape[1]
     wmax = per_input(positive_levels(np.ravel(w_max), "w_max"), nw, "w_max", "inputs")
     for j in range(1, len(Cs)):
         if not (np.allclose(Cs[j], Cs[0]) and np.allclose(Ds[j], Ds[0])):
@@ -581,6 +588,13 @@ def ultimate_bound(
     decay = real_number(decay, "decay", allow_none=True, positive=True)
     margin = real_number(margin, "margin", positive=True, below=1.0)
     _hurwitz_or_raise(As, "sys: vertex")
+    return As, Es, C, Dw, names, wmax, omega, decay, margin
+
+
+def _ultimate_bound_lmi(As, Es, C, Dw, names, wmax, omega, decay, margin, solvers):
+    """The hand-built LMI problem of `ultimate_bound` (its own prescaling,
+    line search and checks)."""
+    n, nw = As[0].shape[0], Es[0].shape[1]
 
     # Prescaling: x = T x~, w = D w^ (|w^_i| <= 1), tau = a t.
     Ed = [E * wmax for E in Es]
@@ -712,4 +726,67 @@ def ultimate_bound(
         certificate=certificate,
         search=tuple(search),
         attempts=tuple(sol.attempts),
+    )
+
+
+def _ultimate_bound_engine(As, Es, C, Dw, names, wmax, omega, decay, margin,
+                           solvers):  # fmt: skip
+    """`ultimate_bound` on the one engine: an `OutputPeaks` analysis.
+
+    The closed loop ``(A_j, E_j, C_w)`` with the output rows ``C_w``
+    weighted (``sqrt(omega_i) / ||c_i T||``, ``T`` the reachability-Gramian
+    state scaling, so that the bounds are compared in the states' natural
+    units), the decays searched from ``2e-3`` to ``1.96`` times the slowest
+    vertex's decay rate (``lambda`` below twice it), or the given one.
+    """
+    from .synthesis.general import run_analysis
+    from .synthesis.parametric import lyapunov_structure
+    from .synthesis.ultimate import OutputPeaks
+    from .systems import PolytopicStateSpace
+
+    n, nw = As[0].shape[0], Es[0].shape[1]
+    sigma = _decay_margin_or_raise(As, 1.0)
+    T = _gramian_scaling(As, [E * wmax for E in Es])
+    row = np.einsum("ij,ij->i", C * T, C * T)
+    keep = row > 0
+    if np.any(keep):
+        Cw = C[keep] * np.sqrt(omega[keep] / row[keep])[:, None]
+    else:
+        Cw = np.eye(n)  # no output to bound: any certified ellipsoid
+    if decay is not None:
+        lambdas = (decay,)
+    else:
+        lambdas = tuple(np.geomspace(2e-3 * sigma, 1.96 * sigma, _GRID))
+    zero = np.zeros((Cw.shape[0], nw))
+    loop = PolytopicStateSpace([(A, E, Cw, zero) for A, E in zip(As, Es)])
+    spec = OutputPeaks(w_max=tuple(wmax), lambdas=lambdas)
+    design = run_analysis(
+        loop, spec, lyapunov_structure(loop, "constant", None), margin,
+        solver_chain(solvers), "ultimate_bound",
+    )  # fmt: skip
+    values = design.values[spec]
+    P, lam, mu, rho = design.P, values["decay"], values["mu"], values["level"]
+    ell = Ellipsoid(P, rho)
+    certificate = replace(
+        design.certificate,
+        statement=(
+            "for every delta(t) in the polytope and every input with "
+            "|w_i(t)| <= w_max_i: d(x'Px)/dt <= -lambda (x'Px - rho); "
+            + design.certificate.statement
+        ),
+    )
+    return UltimateBound(
+        ellipsoid=ell,
+        P=P,
+        rho=rho,
+        decay=lam,
+        mu=mu,
+        w_max=wmax,
+        outputs=names,
+        C=C,
+        Dw=Dw,
+        bounds=ell.support(C) + np.abs(Dw) @ wmax,
+        certificate=certificate,
+        search=((lam, float(design.gamma)),),
+        attempts=design.attempts,
     )

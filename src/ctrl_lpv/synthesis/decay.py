@@ -111,7 +111,8 @@ def search_decay(
             best = grid.index(order[0])
             lo, hi = grid[max(best - 1, 0)], grid[min(best + 1, len(grid) - 1)]
             penalty = 2 * max(v for v in values if np.isfinite(v))
-            order.insert(0, _refine(search, raw, lo, hi, penalty))
+            if lo < hi:  # (not for a grid of one decay: nothing to refine)
+                order.insert(0, _refine(search, raw, lo, hi, penalty))
     for lam in order:
         _announce(search, lam)
         found, more = stages(lam, True)

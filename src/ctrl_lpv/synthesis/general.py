@@ -54,6 +54,24 @@ def run_general(
     return run(problem, time_limit)
 
 
+def run_analysis(loop, spec, lyap, margin, chain=None, method="analysis"):
+    """The engine on a closed loop without control inputs (an analysis).
+
+    `loop` is a `PolytopicStateSpace` whose inputs are the channel's
+    ``w`` and outputs its ``z``; `spec` the one channel spec (its bound
+    minimised), or None for stability alone.
+    """
+    from ..lmi import solver_chain
+
+    specs = [] if spec is None else [spec]
+    channels = [(list(range(loop.ninputs)), [], list(range(loop.noutputs)))]
+    return run_general(
+        loop, [], specs, channels * len(specs), spec, (), False, lyap,
+        not loop.isdtime(strict=True), None, margin, chain or solver_chain(None),
+        None, method, (),
+    )  # fmt: skip
+
+
 def run(problem: Problem, time_limit=None) -> StateFeedbackDesign:
     """Run the ladder; a certified `StateFeedbackDesign` or an exception."""
     start = time.perf_counter()
@@ -209,6 +227,7 @@ def _design(problem, point, gamma_opt, attempts, timing, record):
         lyapunov="constant" if problem.lyap.constant else "affine",
         bounds=bounds,
         rational=point.rational,
+        values={problem.specs[q]: v for q, v in point.values.items()},
     )
 
 

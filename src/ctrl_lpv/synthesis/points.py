@@ -9,12 +9,13 @@ the frozen closed loops checked there
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from .frozen import verify_frozen
 from .results import Certificate
+from .terms import names
 
 
 @dataclass(frozen=True)
@@ -29,6 +30,7 @@ class Point:
     P: object
     rational: tuple | None
     reported: dict  # spec position -> reported value (`Spec.reported`)
+    values: dict = field(default_factory=dict)  # `Spec.model_values` by position
 
     @property
     def value(self) -> float:
@@ -75,13 +77,21 @@ def check_point(problem, shape, frame, sol, settings, margin, final):
             tuple(sc.w_factor * (sc.Su[:, None] * (Z @ sc.matrix.T)) for Z in Zs),
             tuple(sc.unscale_W(Wl[lyap.index[j]]) for j in range(len(Zs))),
         )
+    solved = dict(sol.values) | settings
     certificate, reported = verify_frozen(
-        problem, shape, frame, dict(sol.values) | settings, gains, bounds, margin,
-        sol.checks, final,
+        problem, shape, frame, solved, gains, bounds, margin, sol.checks, final,
     )  # fmt: skip
     if not certificate.verified:
         return None, f"closed-loop verification failed ({certificate.summary})"
     Ps = tuple(sc.unscale_P(np.linalg.inv(W)) for W in Wl)
     N = problem.plant.N
     P = Ps[0] if lyap.constant else tuple(Ps[lyap.index[j]] for j in range(N))
-    return Point(sol, frame, gains, certificate, bounds, P, rational, reported), None
+    values = {}
+    for q, spec in enumerate(problem.specs):
+        own = spec.model_values(frame, lambda name, q=q: solved[names.local(q, name)])
+        if own:
+            values[q] = own
+    return (
+        Point(sol, frame, gains, certificate, bounds, P, rational, reported, values),
+        None,
+    )

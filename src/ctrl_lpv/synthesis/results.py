@@ -210,6 +210,10 @@ class StateFeedbackDesign:
         Whether an affine ``P(p)`` is multi-affine itself (the certificate of
         a common gain's analysis, see `ctrl_lpv.synthesize`) rather than its
         inverse.
+    values : dict
+        A spec's own values at the design's point in the model's units,
+        keyed by the spec (`ctrl_lpv.synthesis.spec.Spec.model_values`;
+        e.g. the decay and multipliers of an ultimate bound).
     """
 
     system: PolytopicStateSpace
@@ -232,6 +236,7 @@ class StateFeedbackDesign:
     rational: tuple | None = None
     rate_bounds: dict | None = None
     primal: bool = False
+    values: dict = field(default_factory=dict)
 
     @property
     def scheduled(self) -> bool:

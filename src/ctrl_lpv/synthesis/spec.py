@@ -161,8 +161,16 @@ class Spec(ABC):
         return None
 
     def decays(self, continuous):
-        """The grid of a decay to search (prescaled units), or None."""
+        """The grid of a decay to search (in the spec's units), or None."""
         return None
+
+    def decay_grid(self, continuous, frame):
+        """`decays` in `frame`'s prescaled units (what a rung searches).
+
+        Default: `decays` as it is (a grid written in prescaled units); a
+        spec whose grid is in the model's units divides it by ``frame.a``.
+        """
+        return self.decays(continuous)
 
     # -- reading a point back ------------------------------------------------
     def to_model(self, g: float, frame, i: int) -> float:
@@ -191,6 +199,15 @@ class Spec(ABC):
     def reported(self, P):
         """A value the design reports for this spec at ``P`` (or None)."""
         return None
+
+    def model_values(self, frame, read) -> dict:
+        """The spec's own values at a point, in the model's units.
+
+        `read(name)` gives a variable or parameter the spec declared in
+        `variables` (prescaled, as solved); the design reports the dict
+        as ``values[spec]`` (`StateFeedbackDesign.values`). Default none.
+        """
+        return {}
 
     # -- what the engine adapts to ---------------------------------------------
     @property

@@ -416,7 +416,16 @@ class Peak(_Performance):
         relative excess of ``sum(mu) <= lambda`` and of ``Cz W Cz' <=
         bound^2 I``.
         """
-        A, Bw, Cz, P, lam = loop.Acl, loop.Bd, loop.Cz, loop.P, loop.lam
+        Cz, lam = loop.Cz, loop.lam
+        mu = loop.mu_w / self.weights(loop.Bd.shape[1])
+        peak = np.linalg.eigvalsh(Cz @ loop.W @ Cz.T)[-1] / loop.bound**2 - 1
+        return max(self.invariance(loop, continuous), float(mu.sum() / lam - 1), peak)
+
+    @staticmethod
+    def invariance(loop, continuous) -> float:
+        """Largest normalised eigenvalue of the primal invariance inequality
+        (with ``P``, the model-unit ``lam`` and ``mu_w``) at a frozen loop."""
+        A, Bw, P, lam = loop.Acl, loop.Bd, loop.P, loop.lam
         Mw = np.diag(loop.mu_w)
         if continuous:
             M = np.block([
@@ -429,9 +438,7 @@ class Peak(_Performance):
                 [A.T @ Pn @ A - (1 - lam) * P, A.T @ Pn @ Bw],
                 [Bw.T @ Pn @ A, Bw.T @ Pn @ Bw - Mw],
             ])  # fmt: skip
-        mu = loop.mu_w / self.weights(Bw.shape[1])
-        peak = np.linalg.eigvalsh(Cz @ loop.W @ Cz.T)[-1] / loop.bound**2 - 1
-        return max(normalized_max_eig(M[None]), float(mu.sum() / lam - 1), peak)
+        return normalized_max_eig(M[None])
 
 
 def _pair_names(channel, row, col) -> tuple[str, str]:

@@ -154,6 +154,8 @@ class Rung(GainSteps):
         return objective is not None and objective.bound is None
 
     def _search(self, q, name, grid):
+        # The spec's grid in this rung's units (`Spec.decay_grid`).
+        grid = self.problem.specs[q].decay_grid(self.problem.continuous, self.frame)
         first = (self.chain or default_solvers())[:1]
         chain = self.chain
 
