@@ -564,7 +564,7 @@ def ultimate_bound(
     0.5
     """
     data = _prepare(sys, w, w_max, output, weights, decay, margin)
-    return _ultimate_bound_lmi(*data, solvers)
+    return _ultimate_bound_engine(*data, solvers)
 
 
 def _prepare(sys, w, w_max, output, weights, decay, margin):
