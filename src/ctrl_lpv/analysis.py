@@ -10,6 +10,7 @@ import numpy as np
 
 from ._checks import real_number, signal_indices
 from .budget import DEFAULT_TIME_LIMIT, time_budget
+from .certificate import Certificate
 from .exceptions import InfeasibleError
 from .lmi import LMICheck
 from .systems import PolytopicStateSpace
@@ -72,11 +73,16 @@ class QuadraticStability(_LyapunovResult):
         Float64 checks of the LMIs at ``P``.
     system : `PolytopicStateSpace` or None
         The analysed system (for `lyapunov_matrix`).
+    certificate : `ctrl_lpv.synthesis.results.DesignCertificate` or None
+        The engine's whole certificate (`checks` are its ``"LMI"`` group;
+        the ``"closed loop"`` group checks the frozen loops in the model's
+        units); ``print`` shows it as a table.
     """
 
     P: np.ndarray
     checks: tuple[LMICheck, ...]
     system: PolytopicStateSpace | None = None
+    certificate: Certificate | None = None
 
 
 @dataclass(frozen=True)
@@ -95,12 +101,17 @@ class L2GainBound(_LyapunovResult):
         Float64 checks of the LMIs.
     system : `PolytopicStateSpace` or None
         The analysed system (for `lyapunov_matrix`).
+    certificate : `ctrl_lpv.synthesis.results.DesignCertificate` or None
+        The engine's whole certificate (`checks` are its ``"LMI"`` group;
+        the ``"closed loop"`` group checks the frozen loops in the model's
+        units); ``print`` shows it as a table.
     """
 
     gamma: float
     P: np.ndarray
     checks: tuple[LMICheck, ...]
     system: PolytopicStateSpace | None = None
+    certificate: Certificate | None = None
 
 
 @dataclass(frozen=True)
@@ -118,12 +129,17 @@ class H2Bound(_LyapunovResult):
         Float64 checks of the LMIs.
     system : `PolytopicStateSpace` or None
         The analysed system (for `lyapunov_matrix`).
+    certificate : `ctrl_lpv.synthesis.results.DesignCertificate` or None
+        The engine's whole certificate (`checks` are its ``"LMI"`` group;
+        the ``"closed loop"`` group checks the frozen loops in the model's
+        units); ``print`` shows it as a table.
     """
 
     gamma: float
     P: object
     checks: tuple[LMICheck, ...]
     system: PolytopicStateSpace | None = None
+    certificate: Certificate | None = None
 
 
 @dataclass(frozen=True)
@@ -246,7 +262,7 @@ def quadratic_stability(
     # The one engine with no input and no objective: its stability stage.
     _, P, cert = _general_analysis(_autonomous(sys, As), None, lyapunov,
                                    rate_bounds, margin)  # fmt: skip
-    return QuadraticStability(P, cert.lmi_checks, sys)
+    return QuadraticStability(P, cert.lmi_checks, sys, cert)
 
 
 @time_budget
@@ -307,7 +323,7 @@ def l2_gain_bound(
 
     cl = _closed_loop(sys, gains, iw, iu, iz, lyapunov)
     gamma, P, cert = _general_analysis(cl, Hinf(), lyapunov, rate_bounds, margin)
-    return L2GainBound(gamma, P, cert.lmi_checks, sys)
+    return L2GainBound(gamma, P, cert.lmi_checks, sys, cert)
 
 
 @time_budget
@@ -372,8 +388,7 @@ def h2_bound(
     iz = signal_indices(z, sys.output_labels, "z")
     cl = _closed_loop(sys, gains, iw, iu, iz, lyapunov)
     gamma, P, cert = _general_analysis(cl, H2(), lyapunov, rate_bounds, margin)
-    checks = cert.lmi_checks
-    return H2Bound(gamma, P, checks, sys)
+    return H2Bound(gamma, P, cert.lmi_checks, sys, cert)
 
 
 def _require_stable_vertices(sys, As) -> None:

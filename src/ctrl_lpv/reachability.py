@@ -16,9 +16,14 @@ trajectory. With ``rho = sum(mu) / lambda`` the ellipsoid
 ``{x : x' P x <= rho}`` is invariant and attractive:
 ``V(t) - rho <= (V(0) - rho) exp(-lambda t)``, and every output
 ``y = C x + D_w w`` ends up within ``sqrt(rho c_i' P^-1 c_i) + sum_k |D_ik|
-w_max_k``. The LMIs are posed in ``W = P^-1`` (congruence), the size along
-the chosen outputs is minimised (linear in ``W``) and ``lambda`` is found by
-a line search (the LMIs are bilinear in ``lambda`` and ``W``).
+w_max_k``.
+
+It is an analysis of the one engine (`ctrl_lpv.synthesize`'s): the spec
+`ctrl_lpv.synthesis.ultimate.OutputPeaks` (`Peak`'s invariance LMIs, in
+``W = P^-1``, with the size of the ellipsoid along each output row) on
+the loop without control inputs, its decay found by the engine's decay
+search, the prescalings, margins and solvers of its ladder, and the
+engine's certificate (LMIs as posed, frozen loops in the model's units).
 
 Public names
 ------------
@@ -33,14 +38,8 @@ the peak-bounded inputs, ``output`` the outputs to bound, default all), or
 a pair ``(A_list, E_list)`` of vertex matrices (``output`` then a matrix
 ``C`` whose rows are bounded, default the states).
 
-Numerical policy (see the design notes): the data are prescaled by powers of
-two (states by the square root of the largest reachability Gramian
-diagonal over the vertices, time by ``max ||A_j||``), strict LMIs get a
-margin in those units, and the returned result is re-verified in float64 in
-the original units (each vertex matrix after Jacobi normalisation, against a
-bound on its rounding error); a point that fails is never returned.
-`InfeasibleError` only when a vertex is not Hurwitz (then no ``P``
-exists); otherwise `CertificationError`.
+`InfeasibleError` when a vertex is not Hurwitz (then no ``P`` exists);
+otherwise `CertificationError` (the engine's refusal).
 """
 
 from __future__ import annotations
@@ -60,11 +59,20 @@ from ._checks import (
     real_number,
     signal_indices,
 )
+
+# The helpers `ctrl_lpv.saturation` reads from here.
+from ._invariant_checks import (  # noqa: F401
+    EllipsoidCertificate,
+    EllipsoidCheck,
+    _line_search,
+    _positive_check,
+    _pow2,
+    _strict_check,
+)
 from .budget import DEFAULT_TIME_LIMIT, time_budget
-from .certificate import Certificate, Check, negative_definite
-from .exceptions import CertificationError, InfeasibleError, SynthesisError
-from .lmi import LMIProblem, SolveAttempt, default_solvers, solver_chain
-from .lmi.blocks import diagonal, quadratic_rows, total
+from .certificate import Certificate
+from .exceptions import CertificationError, InfeasibleError
+from .lmi import SolveAttempt, solver_chain
 
 __all__ = [
     "Ellipsoid",
@@ -74,9 +82,9 @@ __all__ = [
     "ultimate_bound",
 ]
 
-# Line search: coarse grid points, then golden-section iterations.
-_GRID = 9
-_GOLDEN_ITERS = 8
+# Decays searched (a geometric grid below twice the slowest vertex's decay
+# rate, refined by the engine's search).
+_DECAYS = 9
 
 
 # ----------------------------------------------------------------------
@@ -138,46 +146,6 @@ class Ellipsoid:
         return Ellipsoid(self.P, self.level * factor**2)
 
 
-#: One float64 check in original units: ``EllipsoidCheck(name, value,
-#: bound)`` passes when ``value <= bound`` (see `ctrl_lpv.certificate.Check`).
-EllipsoidCheck = Check
-
-
-class EllipsoidCertificate(Certificate):
-    """All float64 checks of an invariant-ellipsoid result, with numpy.
-
-    A `ctrl_lpv.Certificate` (see `ctrl_lpv.certificate`): the checks in
-    original units the statement rests on, and (group ``"LMI"``) the LMIs
-    as posed (scaled units) at the returned point.
-
-    Parameters
-    ----------
-    checks : sequence of `ctrl_lpv.certificate.Check`
-        The checks in original units.
-    lmi_checks : sequence of `ctrl_lpv.lmi.LMICheck` or `Check`, optional
-        The LMIs as posed, at the returned point.
-    statement : str, optional
-        What the checks prove, in words.
-
-    Attributes
-    ----------
-    checks : tuple of `ctrl_lpv.certificate.Check`
-        Every check (those in original units first).
-    lmi_checks : tuple of `ctrl_lpv.certificate.Check`
-        The group ``"LMI"``.
-    statement : str
-    """
-
-    def __init__(self, checks=(), lmi_checks=(), statement=""):
-        lmi = tuple(c if isinstance(c, Check) else Check.from_lmi_check(c)
-                    for c in lmi_checks)  # fmt: skip
-        super().__init__(tuple(checks) + lmi, statement)
-
-    @property
-    def lmi_checks(self) -> tuple[Check, ...]:
-        return self.group("LMI")
-
-
 @dataclass(frozen=True)
 class UltimateBound:
     """Certified invariant ellipsoid for peak-bounded inputs.
@@ -205,13 +173,20 @@ class UltimateBound:
         Direct feedthrough of the inputs to those outputs.
     bounds : ndarray
         Ultimate bound on each output: ``support(C) + |Dw| w_max``.
-    certificate : `EllipsoidCertificate`
-        The float64 checks.
+    certificate : `ctrl_lpv.synthesis.results.DesignCertificate`
+        The engine's float64 checks (a `ctrl_lpv.Certificate` of named
+        checks: the LMIs as posed, and the frozen loops in the model's
+        units, among them the invariance inequality with `P`, `decay` and
+        `mu`); ``print`` shows them as a table.
     search : tuple of (float, float)
-        The line search: ``(lambda, objective)`` pairs tried (``inf`` where
-        no certified point was found).
+        ``(lambda, objective)`` of the certified point (the objective the
+        largest weighted output bound); the engine's decay search is in
+        `ladder`.
     attempts : tuple of `ctrl_lpv.lmi.SolveAttempt`
-        Solver attempts of the final solve.
+        Every solver attempt.
+    ladder : tuple of str
+        What the engine tried before the point certified (see
+        `ctrl_lpv.StateFeedbackDesign.ladder`).
     """
 
     ellipsoid: Ellipsoid
@@ -224,9 +199,10 @@ class UltimateBound:
     C: np.ndarray
     Dw: np.ndarray
     bounds: np.ndarray
-    certificate: EllipsoidCertificate
+    certificate: Certificate
     search: tuple = ()
     attempts: tuple[SolveAttempt, ...] = field(default_factory=tuple)
+    ladder: tuple[str, ...] = ()
 
     def bound(self, output) -> float:
         """Ultimate bound of one output, by name or index."""
@@ -247,25 +223,8 @@ class UltimateBound:
 
 
 # ----------------------------------------------------------------------
-# Shared helpers (also used by ctrl_lpv.saturation)
+# Data and refusals
 # ----------------------------------------------------------------------
-def _pow2(x: float) -> float:
-    """Nearest power of two (exact scaling in floating point)."""
-    return float(2.0 ** np.round(np.log2(x))) if x > 0 and np.isfinite(x) else 1.0
-
-
-def _strict_check(name: str, M: np.ndarray, M_abs: np.ndarray) -> Check:
-    """``M < 0`` in original units (`ctrl_lpv.certificate.negative_definite`:
-    Jacobi-normalised; ``M_abs``, the same expression in absolute values,
-    bounds the rounding of forming ``M``)."""
-    return negative_definite(M, absolute=M_abs, what=name)
-
-
-def _positive_check(name: str, P: np.ndarray) -> Check:
-    """``P > 0`` (``-P < 0``, see `_strict_check`)."""
-    return negative_definite(-P, what=name)
-
-
 def _hurwitz_or_raise(As, what: str = "vertex") -> None:
     """`InfeasibleError` if some ``A_j`` is provably not Hurwitz.
 
@@ -303,19 +262,18 @@ def _hurwitz_or_raise(As, what: str = "vertex") -> None:
             )
 
 
-def _decay_margin_or_raise(At, a: float) -> float:
-    """The smallest decay rate ``min_j -max Re eig(A~_j)``, which must be > 0.
+def _decay_margin_or_raise(As) -> float:
+    """The smallest decay rate ``min_j -max Re eig(A_j)``, which must be > 0.
 
-    On the prescaled ``A~_j = A_j / a`` (up to a diagonal similarity). Past
-    `_hurwitz_or_raise` it can still be ``<= 0`` for an eigenvalue within
-    rounding of the imaginary axis: no rate can be certified then.
+    Past `_hurwitz_or_raise` it can still be ``<= 0`` for an eigenvalue
+    within rounding of the imaginary axis: no rate can be certified then.
     """
-    rates = [-np.linalg.eigvals(A).real.max() for A in At]
+    rates = [-np.linalg.eigvals(A).real.max() for A in As]
     j = int(np.argmin(rates))
     if not rates[j] > 0:
         raise CertificationError(
             f"ultimate_bound: vertex {j} has an eigenvalue with real part "
-            f"{-rates[j] * a:.3g} 1/s, on the imaginary axis up to rounding, so no "
+            f"{-rates[j]:.3g} 1/s, on the imaginary axis up to rounding, so no "
             "decay rate (and no ultimate bound) can be certified"
         )
     return float(rates[j])
@@ -404,55 +362,6 @@ def _resolve_data(sys, w, output):
     )
 
 
-def _line_search(f, grid):
-    """Minimise ``f(x) -> (value, payload)`` over a grid, then golden section.
-
-    The golden-section refinement works on ``log x`` in the bracket of the
-    best grid point. Returns ``(x, value, payload, [(x, value), ...])``;
-    ``payload`` is None when every value is infinite.
-    """
-    grid = np.asarray(grid, float)
-    search, best = [], (np.inf, None, None)
-    values = []
-    for x in grid:
-        val, payload = f(x)
-        values.append(val)
-        search.append((float(x), val))
-        if val < best[0]:
-            best = (val, payload, float(x))
-    if best[1] is None:
-        return float(grid[0]), np.inf, None, search
-    k = int(np.argmin(values))
-    lo = np.log(grid[max(k - 1, 0)])
-    hi = np.log(grid[min(k + 1, len(grid) - 1)])
-    g = (np.sqrt(5) - 1) / 2
-
-    def at(y):
-        val, payload = f(np.exp(y))
-        search.append((float(np.exp(y)), val))
-        return val, payload
-
-    x1, x2 = hi - g * (hi - lo), lo + g * (hi - lo)
-    (f1, s1), (f2, s2) = at(x1), at(x2)
-    for y, fy, sy in ((x1, f1, s1), (x2, f2, s2)):
-        if fy < best[0]:
-            best = (fy, sy, float(np.exp(y)))
-    for _ in range(_GOLDEN_ITERS):
-        if f1 <= f2:
-            hi, x2, f2, s2 = x2, x1, f1, s1
-            x1 = hi - g * (hi - lo)
-            f1, s1 = at(x1)
-            y, fy, sy = x1, f1, s1
-        else:
-            lo, x1, f1, s1 = x1, x2, f2, s2
-            x2 = lo + g * (hi - lo)
-            f2, s2 = at(x2)
-            y, fy, sy = x2, f2, s2
-        if fy < best[0]:
-            best = (fy, sy, float(np.exp(y)))
-    return best[2], best[0], best[1], search
-
-
 def _as_list(M):
     """A single matrix (nested lists or array) as a one-element list."""
     try:
@@ -519,19 +428,22 @@ def ultimate_bound(
         for vertex lists).
     weights : array_like, optional
         Positive weights ``omega_i``: minimises ``max_i omega_i c_i' W
-        c_i / ||c_i||^2`` (default all 1: the largest bound relative to
-        each row's norm).
+        c_i / ||c_i T||^2`` (default all 1: the largest bound relative to
+        each row's norm in the states' natural units, ``T`` the diagonal
+        power-of-two scaling by the reachability Gramians' diagonals).
     decay : float, optional
-        Fix the rate ``lambda`` (1/s) instead of the line search.
+        Fix the rate ``lambda`` (1/s) instead of searching it (the engine's
+        decay search over 9 rates up to ``1.96`` times the slowest
+        vertex's decay rate, refined around the best).
     margin : float, optional
-        Margin of the strict LMIs in the prescaled units.
+        Margin of the strict LMIs in the prescaled units (the engine's
+        ladder also tries ``1e-3`` of it).
     solvers : str or sequence, optional
-        A cvxpy solver name (e.g. ``"CLARABEL"``, ``"SCS"``), or names or
+        A solver name (e.g. ``"CLARABEL"``, ``"SCS"``), or names or
         ``(name, options)`` pairs tried in turn. Default: Clarabel, then
-        SCS, then CVXOPT and
-        MOSEK if installed. The line search over ``lambda`` uses the first
-        solver only (the whole list if it finds nothing); a fixed `decay`
-        uses the whole list.
+        SCS, then CVXOPT and MOSEK if installed. The decay search uses the
+        first solver only (the whole list once, at the best decay, if it
+        finds nothing).
     time_limit : float or None, optional
         Wall-time budget of the call in seconds (default 600,
         `ctrl_lpv.budget.DEFAULT_TIME_LIMIT`; None for no limit). Solvers
@@ -563,15 +475,13 @@ def ultimate_bound(
     >>> round(float(res.bounds[0]), 3)
     0.5
     """
-    data = _prepare(sys, w, w_max, output, weights, decay, margin)
-    return _ultimate_bound_engine(*data, solvers)
+    from .synthesis.general import run_analysis
+    from .synthesis.parametric import lyapunov_structure
+    from .synthesis.ultimate import OutputPeaks
+    from .systems import PolytopicStateSpace
 
-
-def _prepare(sys, w, w_max, output, weights, decay, margin):
-    """The checked arguments of `ultimate_bound`: ``(As, Es, C, Dw, names,
-    wmax, omega, decay, margin)``; refuses a vertex that is not Hurwitz."""
     As, Es, Cs, Ds, names = _resolve_data(sys, w, output)
-    nw = Es[0].shape[1]
+    n, nw = As[0].shape[0], Es[0].shape[1]
     wmax = per_input(positive_levels(np.ravel(w_max), "w_max"), nw, "w_max", "inputs")
     for j in range(1, len(Cs)):
         if not (np.allclose(Cs[j], Cs[0]) and np.allclose(Ds[j], Ds[0])):
@@ -587,165 +497,12 @@ def _prepare(sys, w, w_max, output, weights, decay, margin):
         omega = per_input(positive_levels(weights, "weights"), ny, "weights", "outputs")
     decay = real_number(decay, "decay", allow_none=True, positive=True)
     margin = real_number(margin, "margin", positive=True, below=1.0)
+    chain = solver_chain(solvers)
     _hurwitz_or_raise(As, "sys: vertex")
-    return As, Es, C, Dw, names, wmax, omega, decay, margin
+    sigma = _decay_margin_or_raise(As)
 
-
-def _ultimate_bound_lmi(As, Es, C, Dw, names, wmax, omega, decay, margin, solvers):
-    """The hand-built LMI problem of `ultimate_bound` (its own prescaling,
-    line search and checks)."""
-    n, nw = As[0].shape[0], Es[0].shape[1]
-
-    # Prescaling: x = T x~, w = D w^ (|w^_i| <= 1), tau = a t.
-    Ed = [E * wmax for E in Es]
-    T = _gramian_scaling(As, Ed)
-    At = [A * T / T[:, None] for A in As]
-    a = _pow2(max(np.linalg.norm(A, 2) for A in At))
-    At = [A / a for A in At]
-    Et = [E / T[:, None] / a for E in Ed]
-    Ct = C * T
-    row = np.einsum("ij,ij->i", Ct, Ct)
-    keep = row > 0
-    sigma = _decay_margin_or_raise(At, a)
-
-    lmi = LMIProblem(margin=margin)
-    lmi.variable("W", (n, n), symmetric=True)
-    lmi.variable("mu", (nw,))
-    lmi.variable("t", (1, 1))
-    lmi.parameter("lam", (), value=sigma, nonneg=True)
-    lmi.add("W > 0", lambda v: [[-v.W]])
-    for j, (A, E) in enumerate(zip(At, Et)):
-        lmi.add(
-            f"decay vertex {j}",
-            lambda v, A=A, E=E: [
-                [2 * (A @ v.W) + v.lam * v.W],
-                [E.T, -diagonal(v.mu)],
-            ],
-        )
-    lmi.add(
-        "sum(mu) <= lambda",
-        lambda v: [[total(v.mu) - v.lam * np.eye(1)]],
-        strict=False,
-    )
-    if np.any(keep):
-        scale = omega[keep] / row[keep]
-        Ck = Ct[keep]
-        lmi.add(
-            "output size <= t",
-            lambda v: [
-                [
-                    diagonal(scale) @ quadratic_rows(Ck, v.W)
-                    - v.t[0, 0] * np.eye(len(scale))
-                ]
-            ],
-            strict=False,
-        )
-
-        def objective(v):
-            return v.t[0, 0]
-    else:
-
-        def objective(v):
-            return np.trace(v.W)
-
-    chain = solver_chain(solvers) or default_solvers()
-
-    def solve_at(lam, use=chain[:1]):
-        lmi.set_parameter("lam", lam)
-        try:
-            sol = lmi.solve(objective, solvers=use)
-        except SynthesisError:
-            return np.inf, None
-        return float(sol.objective), sol
-
-    if decay is not None:
-        lam, value, sol = decay / a, *solve_at(decay / a, chain)
-        search = [(decay, value)]
-    else:
-        grid = np.geomspace(2e-3 * sigma, 1.96 * sigma, _GRID)
-        lam, value, sol, search = _line_search(solve_at, grid)
-        if sol is None and len(chain) > 1:
-            # The search used the first solver only: try the whole chain.
-            lam, value, sol, search = _line_search(lambda x: solve_at(x, chain), grid)
-        search = [(x * a, f) for x, f in search]
-    if sol is None:
-        raise CertificationError(
-            "ultimate_bound: no certified invariant ellipsoid for any rate tried "
-            f"(lambda in [{search[0][0]:.3g}, {search[-1][0]:.3g}] 1/s)"
-        )
-    lam = float(lam)
-    lmi.set_parameter("lam", lam)
-    lmi_checks = lmi.check(sol.values)
-
-    # Back to original units and independent float64 checks.
-    W = T[:, None] * sol.W * T
-    W = 0.5 * (W + W.T)
-    P = np.linalg.inv(W)
-    P = 0.5 * (P + P.T)
-    lam_o = lam * a
-    mu = np.asarray(sol.mu, float).reshape(-1) * a
-    mu = np.maximum(mu, 0.0)
-    checks = [_positive_check("P > 0", P)]
-    aP = np.abs(P)
-    for j, (A, E) in enumerate(zip(As, Ed)):
-        M = np.block([[A.T @ P + P @ A + lam_o * P, P @ E], [E.T @ P, -np.diag(mu)]])
-        aA, aPE = np.abs(A), aP @ np.abs(E)
-        M_abs = np.block(
-            [[aA.T @ aP + aP @ aA + lam_o * aP, aPE], [aPE.T, np.diag(mu)]]
-        )
-        checks.append(_strict_check(f"decay vertex {j}", M, M_abs))
-    rho = float(mu.sum() / lam_o)
-    checks.append(EllipsoidCheck("rho = sum(mu)/lambda", rho, 1.0 + 1e-6))
-    certificate = EllipsoidCertificate(
-        tuple(checks),
-        lmi_checks,
-        statement=(
-            "for every delta(t) in the polytope and every input with "
-            "|w_i(t)| <= w_max_i: d(x'Px)/dt <= -lambda (x'Px - rho)"
-        ),
-    )
-    if not certificate.verified:
-        raise CertificationError(
-            "ultimate_bound: the returned point failed its float64 checks "
-            f"({certificate.summary})",
-            sol.attempts,
-        )
-    ell = Ellipsoid(P, rho)
-    bounds = ell.support(C) + np.abs(Dw) @ wmax
-    return UltimateBound(
-        ellipsoid=ell,
-        P=P,
-        rho=rho,
-        decay=lam_o,
-        mu=mu,
-        w_max=wmax,
-        outputs=names,
-        C=C,
-        Dw=Dw,
-        bounds=bounds,
-        certificate=certificate,
-        search=tuple(search),
-        attempts=tuple(sol.attempts),
-    )
-
-
-def _ultimate_bound_engine(As, Es, C, Dw, names, wmax, omega, decay, margin,
-                           solvers):  # fmt: skip
-    """`ultimate_bound` on the one engine: an `OutputPeaks` analysis.
-
-    The closed loop ``(A_j, E_j, C_w)`` with the output rows ``C_w``
-    weighted (``sqrt(omega_i) / ||c_i T||``, ``T`` the reachability-Gramian
-    state scaling, so that the bounds are compared in the states' natural
-    units), the decays searched from ``2e-3`` to ``1.96`` times the slowest
-    vertex's decay rate (``lambda`` below twice it), or the given one.
-    """
-    from .synthesis.general import run_analysis
-    from .synthesis.parametric import lyapunov_structure
-    from .synthesis.ultimate import OutputPeaks
-    from .systems import PolytopicStateSpace
-
-    n, nw = As[0].shape[0], Es[0].shape[1]
-    sigma = _decay_margin_or_raise(As, 1.0)
+    # The rows bounded, weighted: the largest bound relative to each row's
+    # norm in the states' natural units (the reachability-Gramian scaling).
     T = _gramian_scaling(As, [E * wmax for E in Es])
     row = np.einsum("ij,ij->i", C * T, C * T)
     keep = row > 0
@@ -753,19 +510,18 @@ def _ultimate_bound_engine(As, Es, C, Dw, names, wmax, omega, decay, margin,
         Cw = C[keep] * np.sqrt(omega[keep] / row[keep])[:, None]
     else:
         Cw = np.eye(n)  # no output to bound: any certified ellipsoid
-    if decay is not None:
-        lambdas = (decay,)
-    else:
-        lambdas = tuple(np.geomspace(2e-3 * sigma, 1.96 * sigma, _GRID))
+    # lambda < 2 sigma: A_j + lambda / 2 I must be Hurwitz.
+    lambdas = (decay,) if decay is not None else tuple(
+        np.geomspace(2e-3 * sigma, 1.96 * sigma, _DECAYS))  # fmt: skip
     zero = np.zeros((Cw.shape[0], nw))
     loop = PolytopicStateSpace([(A, E, Cw, zero) for A, E in zip(As, Es)])
     spec = OutputPeaks(w_max=tuple(wmax), lambdas=lambdas)
     design = run_analysis(
-        loop, spec, lyapunov_structure(loop, "constant", None), margin,
-        solver_chain(solvers), "ultimate_bound",
+        loop, spec, lyapunov_structure(loop, "constant", None), margin, chain,
+        "ultimate_bound",
     )  # fmt: skip
     values = design.values[spec]
-    P, lam, mu, rho = design.P, values["decay"], values["mu"], values["level"]
+    P, rho = design.P, values["level"]
     ell = Ellipsoid(P, rho)
     certificate = replace(
         design.certificate,
@@ -779,14 +535,15 @@ def _ultimate_bound_engine(As, Es, C, Dw, names, wmax, omega, decay, margin,
         ellipsoid=ell,
         P=P,
         rho=rho,
-        decay=lam,
-        mu=mu,
+        decay=values["decay"],
+        mu=values["mu"],
         w_max=wmax,
         outputs=names,
         C=C,
         Dw=Dw,
         bounds=ell.support(C) + np.abs(Dw) @ wmax,
         certificate=certificate,
-        search=((lam, float(design.gamma)),),
+        search=((values["decay"], float(design.gamma)),),
         attempts=design.attempts,
+        ladder=design.ladder,
     )
