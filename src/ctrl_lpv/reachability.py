@@ -1,6 +1,7 @@
 """Invariant ellipsoids and ultimate bounds for peak-bounded inputs.
 
-For a polytopic system ``dx/dt = A(delta) x + E(delta) w`` with
+For a polytopic system ``dx/dt = A(delta) x + E(delta) w`` (or its
+discrete-time counterpart ``x[k+1] = A(delta) x[k] + E(delta) w[k]``) with
 ``|w_i(t)| <= w_max_i`` and any (time-varying) ``delta(t)`` in the simplex,
 `ultimate_bound` finds a common ``P > 0``, a rate ``lambda > 0`` and
 multipliers ``mu_i >= 0`` with (S-procedure with decay)
@@ -44,6 +45,7 @@ otherwise `CertificationError` (the engine's refusal).
 
 from __future__ import annotations
 
+import math
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
@@ -159,8 +161,10 @@ class UltimateBound:
     rho : float
         Level ``sum(mu) / decay`` (at most about 1).
     decay : float
-        The S-procedure rate ``lambda``: ``V(t) - rho <= (V(0) - rho)
-        exp(-decay t)`` with ``V = x' P x``.
+        The S-procedure rate ``lambda``, 1/s: ``V(t) - rho <= (V(0) - rho)
+        exp(-decay t)`` with ``V = x' P x`` (in discrete time at the
+        sampling instants, ``decay = -ln(1 - lambda) / dt`` for the
+        contraction ``lambda`` per sample).
     mu : ndarray
         Multipliers of the input bounds (original time units).
     w_max : ndarray
@@ -279,18 +283,43 @@ def _decay_margin_or_raise(As) -> float:
     return float(rates[j])
 
 
+def _schur_margin_or_raise(As) -> float:
+    """``1 - max_j rho(A_j)^2`` (discrete time), which must be > 0.
+
+    It bounds the contraction per sample of any ``V = x' P x`` common to
+    the vertices: ``A' P A <= (1 - lambda) P`` needs ``lambda <= 1 -
+    rho(A_j)^2``. `InfeasibleError` for a spectral radius above rounding
+    (no such ``P``), `CertificationError` on the unit circle up to rounding.
+    """
+    radii = [np.abs(np.linalg.eigvals(A)).max() for A in As]
+    j = int(np.argmax(radii))
+    if radii[j] >= 1.0 + 1e-9:
+        raise InfeasibleError(
+            f"sys: vertex {j} is not Schur (spectral radius {radii[j]:.6g} > 1): "
+            "no quadratic Lyapunov function decreases there, so no invariant "
+            "attractive ellipsoid exists"
+        )
+    margin = 1.0 - radii[j] ** 2
+    if not margin > 0:
+        raise CertificationError(
+            f"ultimate_bound: vertex {j} has spectral radius {radii[j]:.12g}, on "
+            "the unit circle up to rounding, so no contraction (and no ultimate "
+            "bound) can be certified"
+        )
+    return float(margin)
+
+
 def _resolve_data(sys, w, output):
-    """Vertex ``A_j``, ``E_j``, output ``C_j``, ``Dw_j`` and the output names."""
+    """Vertex ``A_j``, ``E_j``, output ``C_j``, ``Dw_j``, the output names and
+    the sample time (0 in continuous time)."""
     from .systems import PolytopicStateSpace
 
     if isinstance(sys, StateSpace):
-        if not sys.isctime():
+        dt = 0.0 if sys.isctime() else sys.dt
+        if dt is True or dt is None:
             raise ValueError(
-                f"sys: discrete-time system (dt = {sys.dt!r}); ultimate_bound "
-                "certifies continuous-time systems only (dx/dt = A x + E w), the "
-                "discrete-time bound is not implemented: bound the continuous-time "
-                "model, or use synthesize with a Peak objective, which has a "
-                "discrete-time form"
+                f"sys: discrete-time system without a numeric sample time (dt = "
+                f"{sys.dt!r}); give dt in seconds, the decay is a rate in 1/s"
             )
         if isinstance(sys, PolytopicStateSpace):
             data = sys.vertex_data()
@@ -320,7 +349,7 @@ def _resolve_data(sys, w, output):
             Cs = [C] * len(As)
             Ds = [np.zeros((C.shape[0], len(iw)))] * len(As)
             names = tuple(f"y[{i}]" for i in range(C.shape[0]))
-        return As, Es, Cs, Ds, names
+        return As, Es, Cs, Ds, names, float(dt)
     if not (isinstance(sys, (tuple, list)) and len(sys) == 2):
         raise TypeError(
             "sys: expected a PolytopicStateSpace, a control.StateSpace or a pair "
@@ -359,6 +388,7 @@ def _resolve_data(sys, w, output):
         [C] * len(As),
         [np.zeros((C.shape[0], Es[0].shape[1]))] * len(As),
         names,
+        0.0,
     )
 
 
@@ -372,7 +402,7 @@ def _as_list(M):
     return list(M)
 
 
-def _gramian_scaling(As, Es) -> np.ndarray:
+def _gramian_scaling(As, Es, continuous=True) -> np.ndarray:
     """Power-of-two state scaling from the reachability Gramians' diagonals."""
     diag = np.zeros(As[0].shape[0])
     for A, E in zip(As, Es):
@@ -380,7 +410,10 @@ def _gramian_scaling(As, Es) -> np.ndarray:
             with warnings.catch_warnings():
                 # Only a scaling heuristic: an inaccurate Gramian is harmless.
                 warnings.simplefilter("ignore", RuntimeWarning)
-                X = sla.solve_continuous_lyapunov(A, -E @ E.T)
+                if continuous:
+                    X = sla.solve_continuous_lyapunov(A, -E @ E.T)
+                else:
+                    X = sla.solve_discrete_lyapunov(A, E @ E.T)
         except (np.linalg.LinAlgError, ValueError):
             continue
         if not np.all(np.isfinite(X)):
@@ -412,8 +445,12 @@ def ultimate_bound(
     Parameters
     ----------
     sys : `PolytopicStateSpace`, `control.StateSpace` or (A_list, E_list)
-        The (closed-loop) system ``dx/dt = A(delta) x + E(delta) w``; with
-        vertex lists, ``E_list`` may hold a single matrix for all vertices.
+        The (closed-loop) system ``dx/dt = A(delta) x + E(delta) w``, or
+        ``x[k+1] = A(delta) x[k] + E(delta) w[k]`` for a discrete-time
+        system (``dt > 0``: the invariance inequality ``V(x+) <= (1 -
+        lambda) V(x) + sum_i mu_i (w_i / w_max_i)^2`` per sample); with
+        vertex lists (continuous time), ``E_list`` may hold a single
+        matrix for all vertices.
         ``delta(t)`` may vary arbitrarily in time (a common ``P``).
     w : str, int or list, optional
         The peak-bounded inputs (default all inputs). Other inputs are
@@ -434,7 +471,8 @@ def ultimate_bound(
     decay : float, optional
         Fix the rate ``lambda`` (1/s) instead of searching it (the engine's
         decay search over 9 rates up to ``1.96`` times the slowest
-        vertex's decay rate, refined around the best).
+        vertex's decay rate, refined around the best; in discrete time 9
+        contractions per sample up to ``0.98 (1 - max_j rho(A_j)^2)``).
     margin : float, optional
         Margin of the strict LMIs in the prescaled units (the engine's
         ladder also tries ``1e-3`` of it).
@@ -464,8 +502,8 @@ def ultimate_bound(
         If no certified point was found for any rate tried, or a vertex has
         an eigenvalue on the imaginary axis up to rounding.
     ValueError, TypeError
-        For bad arguments (naming them), and a discrete-time `sys` (the
-        discrete-time bound is not implemented).
+        For bad arguments (naming them), and a discrete-time `sys` without
+        a numeric sample time.
 
     Examples
     --------
@@ -480,7 +518,8 @@ def ultimate_bound(
     from .synthesis.ultimate import OutputPeaks
     from .systems import PolytopicStateSpace
 
-    As, Es, Cs, Ds, names = _resolve_data(sys, w, output)
+    As, Es, Cs, Ds, names, dt = _resolve_data(sys, w, output)
+    continuous = dt == 0.0
     n, nw = As[0].shape[0], Es[0].shape[1]
     wmax = per_input(positive_levels(np.ravel(w_max), "w_max"), nw, "w_max", "inputs")
     for j in range(1, len(Cs)):
@@ -498,23 +537,39 @@ def ultimate_bound(
     decay = real_number(decay, "decay", allow_none=True, positive=True)
     margin = real_number(margin, "margin", positive=True, below=1.0)
     chain = solver_chain(solvers)
-    _hurwitz_or_raise(As, "sys: vertex")
-    sigma = _decay_margin_or_raise(As)
+    if continuous:
+        _hurwitz_or_raise(As, "sys: vertex")
+        sigma = _decay_margin_or_raise(As)
+    else:
+        sigma = _schur_margin_or_raise(As)
 
     # The rows bounded, weighted: the largest bound relative to each row's
     # norm in the states' natural units (the reachability-Gramian scaling).
-    T = _gramian_scaling(As, [E * wmax for E in Es])
+    T = _gramian_scaling(As, [E * wmax for E in Es], continuous)
     row = np.einsum("ij,ij->i", C * T, C * T)
     keep = row > 0
     if np.any(keep):
         Cw = C[keep] * np.sqrt(omega[keep] / row[keep])[:, None]
     else:
         Cw = np.eye(n)  # no output to bound: any certified ellipsoid
-    # lambda < 2 sigma: A_j + lambda / 2 I must be Hurwitz.
-    lambdas = (decay,) if decay is not None else tuple(
-        np.geomspace(2e-3 * sigma, 1.96 * sigma, _DECAYS))  # fmt: skip
+    # Continuous time lambda < 2 sigma (A_j + lambda / 2 I Hurwitz); discrete
+    # time the contraction per sample lambda < sigma = 1 - max rho(A_j)^2.
+    top = 1.96 * sigma if continuous else 0.98 * sigma
+    if decay is None:
+        lambdas = tuple(np.geomspace(2e-3 * sigma, top, _DECAYS))
+    elif continuous:
+        lambdas = (decay,)
+    else:
+        lambdas = (-math.expm1(-decay * dt),)
+        if not lambdas[0] < sigma:
+            raise ValueError(
+                f"decay: {decay:g}/s is a contraction of {lambdas[0]:.4g} per sample, "
+                f"beyond what the slowest vertex allows ({sigma:.4g})"
+            )
     zero = np.zeros((Cw.shape[0], nw))
-    loop = PolytopicStateSpace([(A, E, Cw, zero) for A, E in zip(As, Es)])
+    loop = PolytopicStateSpace(
+        [(A, E, Cw, zero) for A, E in zip(As, Es)], **({} if continuous else {"dt": dt})
+    )
     spec = OutputPeaks(w_max=tuple(wmax), lambdas=lambdas)
     design = run_analysis(
         loop, spec, lyapunov_structure(loop, "constant", None), margin, chain,
@@ -535,7 +590,7 @@ def ultimate_bound(
         ellipsoid=ell,
         P=P,
         rho=rho,
-        decay=values["decay"],
+        decay=values["decay"] if continuous else -math.log1p(-values["decay"]) / dt,
         mu=values["mu"],
         w_max=wmax,
         outputs=names,
