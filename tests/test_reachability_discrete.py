@@ -57,7 +57,9 @@ def test_polytope_bound_holds_along_switching_trajectories():
         for k in range(1500):
             d = rng.uniform()
             A = d * As[0] + (1 - d) * As[1]
-            w = w_max * (np.sign(rng.normal(size=2)) if trial < 10 else rng.uniform(-1, 1, 2))
+            extreme = trial < 10
+            w = np.sign(rng.normal(size=2)) if extreme else rng.uniform(-1, 1, 2)
+            w = w_max * w
             xn = A @ x + E @ w
             # The certificate's decrease, recomputed.
             bound = (1 - lam) * (x @ P @ x) + mu @ (w / w_max) ** 2
