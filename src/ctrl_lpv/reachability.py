@@ -413,7 +413,7 @@ def _gramian_scaling(As, Es, continuous=True) -> np.ndarray:
                 if continuous:
                     X = sla.solve_continuous_lyapunov(A, -E @ E.T)
                 else:
-                    X = sla.solve_discrete_lyapunov(A, E @ E.T)
+                    X = sla.solve_discrete_lyapunov(A, E @ E.T, method="bilinear")
         except (np.linalg.LinAlgError, ValueError):
             continue
         if not np.all(np.isfinite(X)):

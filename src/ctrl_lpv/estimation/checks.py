@@ -218,5 +218,7 @@ def _h2_norm(A, B, C, continuous) -> float:
     if continuous:
         W = solve_continuous_lyapunov(A, -B @ B.T)
     else:
-        W = solve_discrete_lyapunov(A, B @ B.T)
+        # The bilinear method: the direct (Kronecker) solve loses accuracy
+        # with eigenvalues near the unit circle (slow sampled modes).
+        W = solve_discrete_lyapunov(A, B @ B.T, method="bilinear")
     return float(np.sqrt(max(np.trace(C @ W @ C.T), 0.0)))

@@ -12,6 +12,8 @@
   their gain files (validated and re-checked on load);
 * `compare`, `reproduce`: the LPV vs backstepping comparison and the whole
   reproduction of the paper (``ctrl-lpv reproduce``);
+* `drive_observer`, `drive_estimator`: a certified estimator of the speeds
+  and torques from the encoders, the gap handled as a scheduled contact;
 * `servo_design`: the torque-limited position servo (planner, feedforward,
   certified feedback, no hunting), its settings (`ServoPlanner`,
   `ServoSynthesis`, `ServoAntiHunting`, `ServoEstimator`) and its comparison
@@ -52,6 +54,9 @@ _EXPORTS = {
     "lpv_spec": "batch",
     "backstepping_spec": "batch",
     "comparison_specs": "batch",
+    "drive_model": "drive_observer",
+    "drive_observer": "drive_observer",
+    "drive_estimator": "drive_observer",
     "servo_design": "servo",
     "ServoDesign": "servo",
     "servo_polytope": "servo",
