@@ -44,7 +44,10 @@ from ..synthesis import H2
 from ..systems import PolytopicStateSpace
 from .parameters import Parameters
 
-__all__ = ["DRIVE_STATES", "drive_model", "drive_observer", "drive_estimator"]
+__all__ = [
+    "DRIVE_STATES", "drive_model", "drive_observer", "drive_estimator",
+    "observer_matrices",
+]  # fmt: skip
 
 #: States of the estimation model, in order.
 DRIVE_STATES = ["theta_m", "omega_m", "Ts", "theta_l", "omega_l", "Td"]
@@ -215,12 +218,7 @@ def drive_estimator(
     if not isinstance(design, ObserverDesign):
         raise TypeError(f"design: expected an ObserverDesign, got {type(design)!r}")
     tc = real_number(contact_torque, "contact_torque", positive=True)
-    sys = design.system
-    frozen = [sys.at([c]) for c in (0.0, 1.0)]  # the gap, contact
-    Phi = [f.A for f in frozen]
-    Gam = [f.B[:, 0] for f in frozen]
-    L = [design.gain([c]) for c in (0.0, 1.0)]
-    M = [np.linalg.solve(P, Lj) for P, Lj in zip(Phi, L)]
+    Phi, Gam, M = observer_matrices(design)
     rows = [DRIVE_STATES.index(s) for s in design.y]
 
     def blend(pair, c):
@@ -242,8 +240,19 @@ def drive_estimator(
     inputs = [s for s in ("theta_m", "theta_l") if s in design.y] + ["Tm"]
     return ct.NonlinearIOSystem(
         update, output, inputs=inputs, outputs=hats, states=hats,
-        dt=sys.dt, name=name,
+        dt=design.system.dt, name=name,
     )  # fmt: skip
+
+
+def observer_matrices(design: ObserverDesign):
+    """``(Phi, Gamma, M)`` at the gap and in contact: the sampled model, its
+    torque column and the filter gain ``M = Phi^-1 L`` of the current
+    estimate ``x_hat[k|k] = x_hat[k|k-1] + M (y[k] - C x_hat[k|k-1])``."""
+    frozen = [design.system.at([c]) for c in (0.0, 1.0)]
+    Phi = tuple(f.A for f in frozen)
+    Gamma = tuple(f.B[:, 0] for f in frozen)
+    M = tuple(np.linalg.solve(P, design.gain([c])) for P, c in zip(Phi, (0.0, 1.0)))
+    return Phi, Gamma, M
 
 
 def _encoder_steps(counts) -> np.ndarray:
