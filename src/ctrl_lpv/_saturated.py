@@ -17,6 +17,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.linalg import eigh
 
+from . import budget
 from ._checks import as_matrix, per_input, positive_levels, real_number, signal_indices
 from ._sector_checks import sector_statement
 from .exceptions import InfeasibleError, SynthesisError
@@ -174,9 +175,12 @@ def given_gains(call: Call, gain):
     return tuple(Ks)
 
 
-def _engine(call: Call, scheduled, fixed, sigma, bound, backoff, chain, method):
+def _engine(call: Call, scheduled, fixed, sigma, bound, backoff, chain, method,
+            lambdas=None):  # fmt: skip
     """One engine call at the decay `sigma` (1/s); the objective minimised
-    (`bound` None) or met. Returns the engine's design and the two specs."""
+    (`bound` None) or met, the disturbance's decay searched on `lambdas`
+    (model units; None: the grid). Returns the engine's design and the two
+    specs."""
     from .stabilizability import check_stabilizability
     from .synthesis.general import run_general
     from .synthesis.parametric import lyapunov_structure
@@ -188,6 +192,7 @@ def _engine(call: Call, scheduled, fixed, sigma, bound, backoff, chain, method):
     region = RegionSize(
         shape=call.shape, points=call.points, rows=call.rows,
         beta_min=call.beta_min, w_max=tuple(call.w_max), bound=bound,
+        lambdas=lambdas,
     )  # fmt: skip
     suspects = ()
     if fixed is None and call.continuous:
@@ -217,6 +222,8 @@ def design(call: Call, scheduled, backoff, chain):
     engine's back-off under that bound, at the rate halfway between the
     requested one and ``sigma_max``): a gain minimised at the requested
     rate alone drifts to the edge of linear stability when that rate is 0.
+    Once the call's time budget has run out the certified raw optimum is
+    returned.
     """
     method = "saturated_state_feedback"
     sigma0 = call.decay
@@ -225,14 +232,20 @@ def design(call: Call, scheduled, backoff, chain):
     if not backoff:
         return _result(call, *raw, sigma0, optimum)
     target = raw[0].gamma * (1 + backoff)
+    # The disturbance's decay stays the optimum's (one solve per trial).
+    lambdas = (raw[0].values[raw[1]]["decay"],) if call.iw else None
 
     # The search asks the first solver only (a fallback such as SCS takes
     # tens of seconds to refuse a decay that is out of reach).
     first = (chain or default_solvers())[:1]
 
     def within(sigma):
+        if budget.remaining() <= 0:
+            return False  # out of time: the certified optimum stands
         try:
-            found = _engine(call, scheduled, None, sigma, None, None, first, method)
+            found = _engine(
+                call, scheduled, None, sigma, None, None, first, method, lambdas
+            )
         except SynthesisError:
             return False
         return found[0].gamma <= target
@@ -245,9 +258,11 @@ def design(call: Call, scheduled, backoff, chain):
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if within(mid) else (lo, mid)
     for sigma in dict.fromkeys((sigma0 + 0.5 * (lo - sigma0), sigma0)):
+        if budget.remaining() <= 0:
+            break
         try:
             found = _engine(
-                call, scheduled, None, sigma, target, backoff, chain, method
+                call, scheduled, None, sigma, target, backoff, chain, method, lambdas
             )
         except SynthesisError:
             continue

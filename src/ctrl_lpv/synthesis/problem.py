@@ -149,7 +149,6 @@ class Structure:
     m: int
     N: int
     nZ: int
-    ngains: int
     scheduled: bool
     continuous: bool
     slack: bool
@@ -157,6 +156,8 @@ class Structure:
     coefficients: tuple
     lyapunov: tuple
     specs: tuple
+    # Gains, designed (nZ of them) or given (an analysis with inputs).
+    ngains: int = 0
     entries: int = field(default=0, compare=False)
     nlmis: int = field(default=0, compare=False)
     largest: int = field(default=0, compare=False)

@@ -64,6 +64,9 @@ class RegionSize(Spec):
         none kept).
     w_max : sequence of float, optional
         Peaks of the channel's disturbance inputs (empty: no disturbance).
+    lambdas : sequence of float, optional
+        With a disturbance: the decays ``lambda`` searched, in the model's
+        units (1/s, or per sample); default `Peak`'s grid.
     cap : float, optional
         ``W <= cap W_ref`` (``W_ref`` the reference set's ``R^-1``, or
         ``diag`` of the points' squared sizes): ``E`` stays within
@@ -80,6 +83,7 @@ class RegionSize(Spec):
     beta_min: float | None = None
     w_max: tuple = ()
     bound: float | None = None
+    lambdas: tuple | None = None
     cap: float = 1e4
 
     def __str__(self) -> str:
@@ -122,8 +126,16 @@ class RegionSize(Spec):
         return 1.0 / per_input(self.w_max, nw, "w_max", "inputs w") ** 2
 
     def decays(self, continuous):
-        """`Peak`'s grid of ``lambda`` with a disturbance; else None."""
-        return LAMBDAS[continuous] if self.w_max else None
+        """`lambdas` or `Peak`'s grid with a disturbance; else None."""
+        if not self.w_max:
+            return None
+        return self.lambdas if self.lambdas is not None else LAMBDAS[continuous]
+
+    def decay_grid(self, continuous, frame):
+        """`lambdas` in the frame's time units (``lambda~ = lambda / a``)."""
+        if self.lambdas is None or not self.w_max:
+            return self.decays(continuous)
+        return tuple(lam / frame.a for lam in self.lambdas)
 
     def disturbance(self, t):
         """``(lambda, Bw, -diag(mu / w_max^2))`` (prescaled), or None."""
