@@ -14,7 +14,8 @@ tests/test_saturation.py:
   the reference set inside the ellipsoid, the inclusions ``(K - G) W (K -
   G)' <= u_max^2``, the sector inequality at every vertex (continuous:
   ``V' + 2 sigma V - 2 psi' T (psi + G x) < 0``; discrete: ``V(x+) - r
-  V(x) - ...``);
+  V(x) - ...``), and for vertex gains at random frozen parameters inside
+  the polytope (``K(delta)``, ``G(delta)``);
 * the saturated loop simulated from the ellipsoid's boundary (frozen
   vertices; in discrete time a random parameter sequence) stays inside
   and converges;
@@ -107,9 +108,17 @@ def _numpy_checks(d, sys):
         assert ratio.max() <= 1 + 1e-7
     continuous = not sys.isdtime(strict=True)
     iu = [sys.physical_inputs.index(name) for name in d.u]
-    for j, (A, B, _, _) in enumerate(sys.vertex_data()):
-        k = j if d.scheduled else 0
-        K, G, Bu = d.gains[k], d.G[k], B[:, iu]
+    data = sys.vertex_data()
+    frozen = [np.eye(len(data))[j] for j in range(len(data))]
+    if d.scheduled:
+        # Vertex gains: the loop is quadratic in delta; frozen points inside
+        # the polytope too (the relaxation's pairs are the engine's).
+        frozen += list(np.random.default_rng(3).dirichlet(np.ones(len(data)), 40))
+    for j, delta in enumerate(frozen):
+        A = sum(w * v[0] for w, v in zip(delta, data))
+        Bu = sum(w * v[1] for w, v in zip(delta, data))[:, iu]
+        K = np.tensordot(delta, np.stack(d.gains), 1) if d.scheduled else d.gains[0]
+        G = np.tensordot(delta, np.stack(d.G), 1) if d.scheduled else d.G[0]
         Acl = A - Bu @ K
         if continuous:
             top = Acl.T @ P + P @ Acl + 2 * d.decay * P
