@@ -290,9 +290,15 @@ def test_region_and_ultimate_bound_certificates():
     region = lpv.saturation_region(plant, [[2.0]], "u", 1.0)
     cert = region.certificate
     assert isinstance(cert, Certificate) and cert.verified
-    P = region.P
-    positive = next(c for c in cert if c.what == "P > 0")
-    assert positive.value == pytest.approx(-1.0) and P[0, 0] > 0
+    # The engine's certificate: its closed-loop row of the sector condition,
+    # recomputed here (x' = -x - psi, psi' T (psi + G x) <= 0).
+    P, G, T = region.P, region.G[0], region.T
+    sector = next(c for c in cert.group("closed loop")
+                  if c.what.startswith("Saturation"))  # fmt: skip
+    M = np.block([[-2 * P, -(P + G.T @ T)], [-(P + T @ G), -2 * T]])
+    assert numpy_normalised_max_eig(M) < 0
+    assert numpy_normalised_max_eig(M) <= sector.value + 1e-12
+    assert ((2.0 - G) @ np.linalg.inv(P) @ (2.0 - G).T).item() <= 1.0
     # The ultimate bound of x' = -x + w, |w| <= 1: the engine's certificate,
     # whose closed-loop row covers the invariance inequality, recomputed here.
     ub = lpv.reachability.ultimate_bound(([[-1.0]], [[1.0]]), w_max=1.0)

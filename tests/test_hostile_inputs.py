@@ -108,9 +108,6 @@ CASES = [
      lambda: lpv.saturation_region(
          unstable_plant(), [[2.0]], u=0, u_max=1, margin="1e-6"),
      TypeError, r"^margin: expected a real number"),
-    ("saturated discrete plant",
-     lambda: lpv.saturated_state_feedback(unstable_plant(0.1), u=0, u_max=1),
-     ValueError, r"^sys: discrete-time plant"),
     # analysis: the margin is a number
     ("quadratic_stability string margin",
      lambda: lpv.quadratic_stability(
@@ -259,27 +256,37 @@ def test_hostile_input(call, error, pattern):
 
 
 @pytest.mark.parametrize("decay", [0.0, 5.0])
-def test_saturation_certificate_refuses_discrete_time_plants(decay):
-    """The sector LMIs are continuous-time ones: a sampled plant is refused.
+def test_saturation_certificate_of_discrete_time_plants(decay):
+    """A sampled plant gets the discrete-time sector LMIs.
 
-    Before, ``x[k+1] = 0.9 x[k] + sat(u)`` with ``decay=5`` got ``K = 6.17``
+    Before the refusal that preceded them, ``x[k+1] = 0.9 x[k] + sat(u)``
+    with ``decay=5`` got ``K = 6.17`` from the continuous-time LMIs
     (``0.9 - K = -5.27``: an unstable sampled loop) and an "invariant"
     ellipsoid ``|x| <= 0.154`` from whose inside the saturated loop went to
-    0.526 and stayed there; the double integrator got a solver error.
+    0.526 and stayed there. Now the sampled loop is what is certified: from
+    the boundary of the ellipsoid (at random parameters) ``V(x+) <=
+    exp(-2 decay dt) V(x)`` at every sample, and the linear loop is Schur.
     """
+    rng = np.random.default_rng(5)
     scalar = lpv.PolytopicStateSpace([ct.ss([[0.9]], [[1.0]], [[1.0]], 0, dt=0.1)])
     for plant in (scalar, unstable_plant(dt=0.1)):
         assert plant.isdtime(strict=True)
-        gain = np.ones((1, plant.nstates))
-        for function, args in (
-            (lpv.saturated_state_feedback, ()),
-            (lpv.saturation_region, (gain,)),
-        ):
-            with pytest.raises(ValueError, match=r"^sys: discrete-time plant") as info:
-                function(plant, *args, u=0, u_max=1.0, decay=decay)
-            message = str(info.value)
-            assert "not" in message and "continuous-time model" in message
-            assert "synthesize" in message and "sample" in message
+        data = plant.vertex_data()
+        design = lpv.saturated_state_feedback(plant, u=0, u_max=1.0, decay=decay)
+        K, P = design.gains[0], design.P
+        r = np.exp(-2 * decay * 0.1)
+        for A, B, _, _ in data:
+            assert np.abs(np.linalg.eigvals(A - B @ K)).max() < 1
+        for _ in range(8):
+            x = rng.standard_normal(plant.nstates)
+            x /= np.sqrt(x @ P @ x)
+            for _ in range(100):
+                delta = rng.dirichlet(np.ones(len(data)))
+                A = sum(w * v[0] for w, v in zip(delta, data))
+                B = sum(w * v[1] for w, v in zip(delta, data))
+                nxt = A @ x + B @ np.clip(-K @ x, -1.0, 1.0)
+                assert nxt @ P @ nxt <= r * (x @ P @ x) * (1 + 1e-9) + 1e-300
+                x = nxt
 
 
 def test_ultimate_bound_refuses_zero_dynamics_with_the_reason():

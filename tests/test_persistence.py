@@ -259,3 +259,26 @@ def test_saturated_design_round_trip(saturated, tmp_path):
         lpv.load(forged(tmp_path, path, larger))
     with pytest.raises(ValueError, match=r"key 'design\.P'.*does not hold"):
         lpv.load(forged(tmp_path, path, negate_gains))
+
+
+def test_sampled_saturated_design_round_trip(tmp_path):
+    # x+ = 1.1 x + sat(u): the file's checks are the discrete-time sector
+    # condition, recomputed on load; a doubled gain (the linear loop 1.1 -
+    # 2 K outside the unit circle) fails them.
+    sampled = lpv.PolytopicStateSpace(
+        [ct.ss([[1.1]], [[1.0]], [[1.0]], 0, dt=0.1, inputs=["u"], states=["x"])]
+    )
+    design = lpv.saturated_state_feedback(sampled, u="u", u_max=1.0, backoff=None)
+    path = design.save(tmp_path / "sampled.json")
+    loaded = lpv.load(path)
+    assert loaded.certificate.verified and loaded.beta == design.beta
+    assert loaded.system.dt == 0.1
+    K = float(design.gains[0][0, 0])
+    assert abs(1.1 - K) < 1 and loaded.beta < 10.0  # no region reaches 10
+
+    def doubled_gain(d):
+        d["design"]["gains"] = (2 * np.array(d["design"]["gains"])).tolist()
+
+    assert abs(1.1 - 2 * K) > 1
+    with pytest.raises(ValueError, match=r"key 'design\.P'.*does not hold"):
+        lpv.load(forged(tmp_path, path, doubled_gain))

@@ -336,13 +336,114 @@ def test_two_inputs_with_different_levels():
             assert np.all(V <= np.exp(-2 * d.decay * sol.t) * (1 + 1e-6))
 
 
-def test_discrete_time_plant_is_refused():
-    # The certificate's LMIs are continuous-time ones: a sampled plant must
-    # be refused, naming the argument, not certified with them.
-    dt_plant = lpv.PolytopicStateSpace(
-        [ct.ss([[1.1]], [[1.0]], [[1.0]], 0, dt=0.1)], inputs="u"
+# ----------------------------------------------------------------------
+# Discrete time: the sampled loop, simulated and recomputed with numpy
+# ----------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def sampled():
+    """Unstable sampled plant (two vertices), dt = 0.1."""
+    A1 = np.array([[1.05, 0.1], [0.0, 1.02]])
+    A2 = A1 + np.diag([0.03, 0.0])
+    B = np.array([[0.0], [0.1]])
+    return lpv.PolytopicStateSpace(
+        [ct.ss(A, B, np.eye(2), 0, dt=0.1) for A in (A1, A2)], inputs="u"
     )
-    with pytest.raises(ValueError, match="^sys: discrete-time"):
-        saturated_state_feedback(dt_plant, "u", 1.0)
-    with pytest.raises(ValueError, match="^sys: discrete-time"):
-        saturation_region(dt_plant, [[0.5]], "u", 1.0)
+
+
+def discrete_sector(A, B, K, G, T, P, contraction):
+    """``[A-BK, -B]' P [A-BK, -B] + [[-r P, -G'T], [*, -2T]]`` (numpy)."""
+    F = np.hstack([A - B @ K, -B])
+    return F.T @ P @ F + np.block([[-contraction * P, -G.T @ T], [-T @ G, -2 * T]])
+
+
+def run_sampled(sys, gain, P, steps, rng, count=16):
+    """Saturated loop x+ = A(delta_k) x + B sat(-K x) from the boundary of
+    {x'Px <= 1}, delta_k random in the simplex: the ratios V(x+)/V(x) and
+    the final V of each start."""
+    data = sys.vertex_data()
+    ratios, finals = [], []
+    for angle in np.linspace(0, 2 * np.pi, count, endpoint=False):
+        x = np.array([np.cos(angle), np.sin(angle)])
+        x /= np.sqrt(x @ P @ x)
+        for _ in range(steps):
+            d = rng.dirichlet(np.ones(len(data)))
+            A = sum(dj * v[0] for dj, v in zip(d, data))
+            B = sum(dj * v[1] for dj, v in zip(d, data))
+            nxt = A @ x + B @ sat(-gain(d) @ x, 1.0)
+            ratios.append((nxt @ P @ nxt) / (x @ P @ x))
+            x = nxt
+        finals.append(x @ P @ x)
+    return np.array(ratios), np.array(finals)
+
+
+@pytest.mark.parametrize("decay", [0.0, 2.0])
+def test_discrete_time_design_is_invariant_and_contracting(sampled, decay):
+    # The certificate is the discrete-time sector condition: recomputed at
+    # each vertex with numpy, and the saturated sampled loop started on the
+    # ellipsoid's boundary stays inside it, V shrinking by exp(-2 sigma dt)
+    # per sample, and reaches the origin.
+    d = saturated_state_feedback(sampled, "u", 1.0, decay=decay, backoff=None)
+    assert d.certificate.verified and d.decay == decay
+    assert "V(x+)" in d.certificate.statement
+    r = np.exp(-2 * decay * 0.1)
+    K, G, P, W = d.gains[0], d.G[0], d.P, np.linalg.inv(d.P)
+    for A, B, _, _ in sampled.vertex_data():
+        M = discrete_sector(A, B, K, G, d.T, P, r)
+        assert np.linalg.eigvalsh(M).max() < 0
+    assert ((K - G) @ W @ (K - G).T).item() <= 1.0 + 1e-9
+    ratios, finals = run_sampled(sampled, lambda _: K, P, 300, np.random.default_rng(2))
+    assert ratios.max() <= r * (1 + 1e-9)
+    assert finals.max() < 1e-3
+    saturated = np.max(d.support(K)) > 1.0
+    assert saturated  # the region reaches where the input saturates
+
+
+def test_discrete_time_certificate_is_not_the_continuous_one(sampled):
+    # The same matrices read as a continuous-time plant have an entirely
+    # different region (here the sampled plant's A is near I: x' = A x is
+    # violently unstable): the sampled design must not be that one.
+    d = saturated_state_feedback(sampled, "u", 1.0, backoff=None)
+    P, K = d.P, d.gains[0]
+    for A, B, _, _ in sampled.vertex_data():
+        Acl = A - B @ K
+        # Continuous-time reading: A - B K is not Hurwitz, the discrete one
+        # is Schur (the design is for x+ = A x + B u).
+        assert np.abs(np.linalg.eigvals(Acl)).max() < 1
+        assert np.linalg.eigvals(Acl).real.max() > 0
+        assert np.linalg.eigvalsh(Acl.T @ P @ Acl - P).max() < 0
+
+
+def test_discrete_time_analysis_of_a_given_gain(sampled):
+    # The region of a given gain (the LQR gain of one vertex, rounded):
+    # invariance by simulation; a gain that does not stabilise the linear
+    # sampled loop is refused.
+    K = np.array([[3.0, 3.0]])
+    r = saturation_region(sampled, K, "u", 1.0)
+    assert not r.designed and r.certificate.verified
+    np.testing.assert_array_equal(r.gains[0], K)
+    for A, B, _, _ in sampled.vertex_data():
+        M = discrete_sector(A, B, K, r.G[0], r.T, r.P, 1.0)
+        assert np.linalg.eigvalsh(M).max() < 0
+    rng = np.random.default_rng(3)
+    ratios, finals = run_sampled(sampled, lambda _: K, r.P, 400, rng)
+    assert ratios.max() <= 1.0 + 1e-9
+    assert finals.max() < 1e-3
+    with pytest.raises(InfeasibleError, match="gain"):
+        saturation_region(sampled, [[0.1, 0.0]], "u", 1.0)
+
+
+def test_discrete_time_scheduled_gains(sampled):
+    # Vertex gains: the sector inequality at frozen parameter values inside
+    # the polytope (the relaxation's pairs are the engine's; here a grid),
+    # and the loop simulated with a random parameter sequence.
+    d = saturated_state_feedback(sampled, "u", 1.0, gains="scheduled", backoff=None)
+    assert d.scheduled and d.certificate.verified
+    data = sampled.vertex_data()
+    for s in np.linspace(0.0, 1.0, 11):
+        A = s * data[0][0] + (1 - s) * data[1][0]
+        B = s * data[0][1] + (1 - s) * data[1][1]
+        K = s * d.gains[0] + (1 - s) * d.gains[1]
+        G = s * d.G[0] + (1 - s) * d.G[1]
+        assert np.linalg.eigvalsh(discrete_sector(A, B, K, G, d.T, d.P, 1.0)).max() < 0
+    ratios, _ = run_sampled(sampled, d.gain, d.P, 100, np.random.default_rng(4))
+    assert ratios.max() <= 1.0 + 1e-9

@@ -175,8 +175,27 @@ def test_saturation_refusals_name_the_reason(plant):
             plant, "u", constraints=lpv.Saturation(1.0), lyapunov="affine",
             rate_bounds={"p": 0.0},
         )  # fmt: skip
+
+
+def test_discrete_time_region_against_the_null_controllable_one():
+    # x+ = 1.1 x + sat(u), |u| <= 1: from |x| >= 10, |x+| >= 1.1 |x| - 1 >=
+    # |x|, so no region of attraction reaches |x| = 10. A point inside is
+    # certified with the discrete-time sector condition, a point beyond 10
+    # never is, and the saturated sampled loop converges from the certified
+    # ellipsoid's boundary.
     discrete = lpv.PolytopicStateSpace(
         [ct.ss([[1.1]], [[1.0]], [[1.0]], [[0.0]], dt=0.1, inputs=["u"])]
     )
-    with pytest.raises(ValueError, match="continuous time only"):
-        lpv.synthesize(discrete, "u", constraints=lpv.Saturation(1.0))
+    design = lpv.synthesize(
+        discrete, "u", constraints=lpv.Saturation(1.0, points=[[8.0]])
+    )
+    assert design.certificate.verified
+    P, K = float(design.P[0, 0]), float(design.gains[0][0, 0])
+    edge = 1.0 / np.sqrt(P)
+    assert 8.0 <= edge < 10.0
+    for x in (edge, -edge):
+        for _ in range(200):
+            x = 1.1 * x + float(np.clip(-K * x, -1.0, 1.0))
+        assert abs(x) < 1e-6
+    with pytest.raises(lpv.SynthesisError):
+        lpv.synthesize(discrete, "u", constraints=lpv.Saturation(1.0, points=[[10.5]]))

@@ -11,18 +11,15 @@ from dataclasses import replace
 
 import numpy as np
 
+from ._sector_checks import sector_checks, sector_statement
 from .persistence import DocumentReader, _matrix
 from .reachability import Ellipsoid, EllipsoidCertificate
 from .regions import LMIRegion
-from .saturation import (
-    SaturatedDesign,
-    region_size,
-    sector_checks,
-    sector_statement,
-)
+from .saturation import SaturatedDesign
 from .synthesis import H2, Hinf, StateFeedbackDesign
 from .synthesis.channels import resolve_channels
 from .synthesis.recheck import recheck
+from .synthesis.region import region_size
 from .synthesis.results import DesignCertificate
 
 _SPECS = {"Hinf": Hinf, "H2": H2}
@@ -332,12 +329,16 @@ def read_saturated(reader: DocumentReader, section: dict, plant):
         raise reader.fail("design.P", "is not positive definite")
     W = np.linalg.inv(P)
     data = plant.vertex_data()
+    dt = 0.0 if not plant.isdtime(strict=True) else (
+        1.0 if plant.dt is True else float(plant.dt))  # fmt: skip
     checks, rho = sector_checks(
         [d[0] for d in data], [d[1][:, iu] for d in data],
         [d[1][:, iw] for d in data] if nw else [], wmax, U, P, 0.5 * (W + W.T),
-        Ks, Gs, Tm, mu, sigma, lam,
+        Ks, Gs, Tm, mu, sigma, lam, dt,
     )  # fmt: skip
-    certificate = EllipsoidCertificate(tuple(checks), (), sector_statement(bool(nw)))
+    certificate = EllipsoidCertificate(
+        tuple(checks), (), sector_statement(bool(nw), not dt)
+    )
     if not certificate.verified:
         raise reader.fail(
             "design.P",

@@ -1,10 +1,10 @@
-"""Helpers of the hand-built invariant-set LMIs of `ctrl_lpv.saturation`.
+"""The float64 checks of a saved saturated design, and power-of-two rounding.
 
-`ctrl_lpv.reachability.ultimate_bound` runs on the one engine; these are
-what `ctrl_lpv.saturation` still reads (re-exported by
-`ctrl_lpv.reachability`, where it imports them from): the ellipsoid
-certificate of its own checks, the power-of-two rounding, the two float64
-checks and the decay line search.
+`ctrl_lpv.saturation` and `ctrl_lpv.reachability` run on the one engine;
+these are what the load-time checks of a saved `SaturatedDesign`
+(`ctrl_lpv._sector_checks`) build their certificate from, and the
+power-of-two rounding of `ctrl_lpv.reachability`'s Gramian scaling
+(re-exported by `ctrl_lpv.reachability`).
 """
 
 from __future__ import annotations
@@ -12,10 +12,6 @@ from __future__ import annotations
 import numpy as np
 
 from .certificate import Certificate, Check, negative_definite
-
-# Line search: coarse grid points, then golden-section iterations.
-_GRID = 9
-_GOLDEN_ITERS = 8
 
 #: One float64 check in original units: ``EllipsoidCheck(name, value,
 #: bound)`` passes when ``value <= bound`` (see `ctrl_lpv.certificate.Check`).
@@ -72,52 +68,3 @@ def _strict_check(name: str, M: np.ndarray, M_abs: np.ndarray) -> Check:
 def _positive_check(name: str, P: np.ndarray) -> Check:
     """``P > 0`` (``-P < 0``, see `_strict_check`)."""
     return negative_definite(-P, what=name)
-
-
-def _line_search(f, grid):
-    """Minimise ``f(x) -> (value, payload)`` over a grid, then golden section.
-
-    The golden-section refinement works on ``log x`` in the bracket of the
-    best grid point. Returns ``(x, value, payload, [(x, value), ...])``;
-    ``payload`` is None when every value is infinite.
-    """
-    grid = np.asarray(grid, float)
-    search, best = [], (np.inf, None, None)
-    values = []
-    for x in grid:
-        val, payload = f(x)
-        values.append(val)
-        search.append((float(x), val))
-        if val < best[0]:
-            best = (val, payload, float(x))
-    if best[1] is None:
-        return float(grid[0]), np.inf, None, search
-    k = int(np.argmin(values))
-    lo = np.log(grid[max(k - 1, 0)])
-    hi = np.log(grid[min(k + 1, len(grid) - 1)])
-    g = (np.sqrt(5) - 1) / 2
-
-    def at(y):
-        val, payload = f(np.exp(y))
-        search.append((float(np.exp(y)), val))
-        return val, payload
-
-    x1, x2 = hi - g * (hi - lo), lo + g * (hi - lo)
-    (f1, s1), (f2, s2) = at(x1), at(x2)
-    for y, fy, sy in ((x1, f1, s1), (x2, f2, s2)):
-        if fy < best[0]:
-            best = (fy, sy, float(np.exp(y)))
-    for _ in range(_GOLDEN_ITERS):
-        if f1 <= f2:
-            hi, x2, f2, s2 = x2, x1, f1, s1
-            x1 = hi - g * (hi - lo)
-            f1, s1 = at(x1)
-            y, fy, sy = x1, f1, s1
-        else:
-            lo, x1, f1, s1 = x1, x2, f2, s2
-            x2 = lo + g * (hi - lo)
-            f2, s2 = at(x2)
-            y, fy, sy = x2, f2, s2
-        if fy < best[0]:
-            best = (fy, sy, float(np.exp(y)))
-    return best[2], best[0], best[1], search

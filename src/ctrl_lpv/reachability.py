@@ -62,14 +62,11 @@ from ._checks import (
     signal_indices,
 )
 
-# The helpers `ctrl_lpv.saturation` reads from here.
+# The certificate of a loaded saturated design (`ctrl_lpv._sector_checks`).
 from ._invariant_checks import (  # noqa: F401
     EllipsoidCertificate,
     EllipsoidCheck,
-    _line_search,
-    _positive_check,
     _pow2,
-    _strict_check,
 )
 from .budget import DEFAULT_TIME_LIMIT, time_budget
 from .certificate import Certificate

@@ -87,9 +87,10 @@ def synthesize(
         at most one `Peak` in all), pole regions (`halfplane`, `disk`,
         `sector`: here, not in a ``regions`` argument; in discrete time
         only disks inside the unit circle, in the z-plane), at most one
-        `GainBound` and at most one `Saturation` (continuous time: a region
-        of attraction under input saturation containing given states; with
-        `Peak`, invariant under the bounded disturbances).
+        `GainBound` and at most one `Saturation` (a region of attraction
+        under input saturation containing given states, in continuous or
+        discrete time; with `Peak`, invariant under the bounded
+        disturbances).
     gains : {"common", "scheduled"}, optional
         One gain for the whole polytope, or one per vertex scheduled with
         the parameter (default "common"; with `y`, "scheduled").

@@ -96,6 +96,10 @@ class Saturation(Spec):
     points : sequence of array_like, optional
         States (model units) that must lie in ``E``: initial conditions
         from which convergence is certified despite saturation.
+    decay : float, optional
+        Rate ``sigma >= 0`` of ``V = x' P x`` inside ``E`` (``w = 0``):
+        ``dV/dt <= -2 sigma V`` (1/s, continuous time) or ``V(k+1) <=
+        exp(-2 sigma) V(k)`` (per sample, discrete time). Default 0.
 
     Notes
     -----
@@ -107,23 +111,28 @@ class Saturation(Spec):
     diagonal ``T > 0`` wherever ``|((K - G) x)_i| <= u_max_i``. With
     ``W = P^-1``, ``Z = -K W``, ``Zg = G W`` and ``S = T^-1`` the LMIs are
 
-    ``[[sym(A W + B2 Z) - dW/dt, *], [-S B2' - Zg, -2 S]] < 0`` (decrease of
-    ``V = x' P x`` in the sector) and ``[[u_max_i^2, *], [-(Z + Zg)_i', W]]
-    > 0`` (``E`` inside the sector's region), ``[[1, *], [x0, W]] > 0`` for
-    each point. With a `Peak` spec the sector inequality also carries its
-    decay ``lambda W`` and disturbance column, so that ``E`` is invariant for
-    the saturated loop under every disturbance of peak ``w_max``: the
-    ultimate-bound certificate of the servo. ``E`` shares ``P`` with the
-    performance specs: with an
-    `Hinf` objective ``E`` is also the set that the linear loop's states
-    reach with unit disturbance energy, so a larger region costs gamma.
-    Continuous time, with a constant or a scheduled ``W``.
+    ``[[sym(A W + B2 Z) - dW/dt + 2 sigma W, *], [-S B2' - Zg, -2 S]] < 0``
+    (continuous time), ``[[-r W, *, *], [-Zg, -2 S, *], [A W + B2 Z, -B2 S,
+    -W+]] < 0`` with ``r = exp(-2 sigma)`` (discrete time: ``x+ = A_cl x -
+    B2 psi``, a Schur complement of ``V(x+) - r V(x) - 2 psi' T (psi + G
+    x) < 0``), ``[[u_max_i^2, *], [-(Z + Zg)_i', W]] > 0`` (``E`` inside
+    the sector's region) and ``[[1, *], [x0, W]] > 0`` for each point.
+    With a spec that carries a peak-bounded disturbance (`Peak`,
+    `~ctrl_lpv.synthesis.region.RegionSize`; `Spec.disturbance`) the sector
+    inequality also carries its decay ``lambda W`` and disturbance column,
+    so that ``E`` is invariant for the saturated loop under every
+    disturbance of peak ``w_max``: the ultimate-bound certificate of the
+    servo. ``E`` shares ``P`` with the performance specs: with an `Hinf`
+    objective ``E`` is also the set that the linear loop's states reach
+    with unit disturbance energy, so a larger region costs gamma. With a
+    constant or a scheduled ``W``; with given gains (an analysis) too.
     """
 
     unique = True
 
     u_max: tuple
     points: tuple = ()
+    decay: float = 0.0
 
     def __post_init__(self):
         object.__setattr__(self, "u_max", positive_levels(self.u_max, "u_max"))
@@ -137,18 +146,18 @@ class Saturation(Spec):
                 f"points: expected a sequence of state vectors, got {self.points!r}"
             ) from None
         object.__setattr__(self, "points", points)
+        object.__setattr__(
+            self, "decay", real_number(self.decay, "decay", minimum=0.0, below=1e150)
+        )
 
     def __str__(self) -> str:
-        return f"Saturation(u_max={list(self.u_max)}, {len(self.points)} points)"
+        rate = f", decay={self.decay:g}" if self.decay else ""
+        return f"Saturation(u_max={list(self.u_max)}, {len(self.points)} points{rate})"
 
     def structure(self) -> tuple:
         return (*super().structure(), len(self.points))
 
     def validate(self, context) -> None:
-        if not context.continuous:
-            raise ValueError(
-                "constraints: Saturation is implemented for continuous time only"
-            )
         if not (context.constant or context.scheduled):
             raise ValueError(
                 "constraints: Saturation with a common gain and lyapunov='affine' is "
@@ -174,25 +183,33 @@ class Saturation(Spec):
 
     def variables(self, declare) -> None:
         """``Zg`` (one per gain, the auxiliary gain times ``W``), the diagonal
-        of ``S``, and the parameters ``levels`` and ``point{q}``."""
+        of ``S``, and the parameters ``levels``, ``rate`` and
+        ``contraction`` (the decay in continuous and discrete time) and
+        ``point{q}``."""
         n, m = declare.n, declare.m
-        for k in range(declare.nZ):
+        for k in range(declare.ngains):
             declare.variable(f"Zg{k}", (m, n))
         declare.variable("S", (m, 1))
         declare.parameter("levels", (m,), nonneg=True)
+        declare.parameter("rate", (), nonneg=True)
+        declare.parameter("contraction", (), nonneg=True)
         for q in range(len(self.points)):
             declare.parameter(f"point{q}", (n, 1))
 
     def prescale(self, frame, dims) -> dict:
-        """Levels and points in the prescaled units of a rung.
+        """Levels, the decay and points in the prescaled units of a rung.
 
         With ``W = k T W~ T'`` and ``K = Su K~ T^-1`` (``k`` the scaling's
         `w_factor`), ``(K - G) W (K - G)' = k Su (Z~ + Zg~) W~^-1 (.)' Su``
-        and ``x0' W^-1 x0 = x~0' W~^-1 x~0 / k`` with ``x~0 = T^-1 x0``.
+        and ``x0' W^-1 x0 = x~0' W~^-1 x~0 / k`` with ``x~0 = T^-1 x0``;
+        the decay ``2 sigma / a`` (continuous) or ``exp(-2 sigma)``
+        (discrete, where ``a = 1``).
         """
         sc = frame.scaling
         k = sc.w_factor
         out = {"levels": self.check_sizes(dims.n, dims.m) ** 2 / (k * sc.Su**2)}
+        out["rate"] = 2.0 * self.decay / frame.a
+        out["contraction"] = float(np.exp(-2.0 * self.decay))
         Ti = np.linalg.inv(sc.matrix)
         for q, p in enumerate(self.points):
             out[f"point{q}"] = (Ti @ np.array(p) / np.sqrt(k))[:, None]
@@ -201,15 +218,33 @@ class Saturation(Spec):
     def lmis(self, t, continuous):
         """The sector inequality at one coefficient and rate."""
         m, S = t.m, t.var("S")
-        S = t.const(sum(S[i, 0] * unit(m, i) for i in range(m)))
-        sector = [
-            [2 * t.AW() - t.W_moved()],
-            [-S @ t.B2().T - t.local_linear("Zg"), -2 * S],
-        ]
-        for lam, Bw, D in t.disturbances():
-            # E must be invariant for the saturated loop under the disturbance.
-            sector[0][0] = sector[0][0] + lam * t.W()
-            sector.append([Bw.T, 0, D])
+        # S (degree zero) alone carries the coefficient's constant; times
+        # B2 (degree one) it does not: B2(delta) S has B2_j S + B2_k S at a
+        # pair, as Zg(delta) has Zg_j + Zg_k.
+        S_data = sum(S[i, 0] * unit(m, i) for i in range(m))
+        S = t.const(S_data)
+        W, AW, Zg = t.W(), t.AW(), t.local_linear("Zg")
+        disturbances = t.disturbances()
+        if continuous:
+            sector = [
+                [2 * AW - t.W_moved() + t.var("rate") * W],
+                [-S_data @ t.B2().T - Zg, -2 * S],
+            ]
+            for lam, Bw, D in disturbances:
+                # E must be invariant for the saturated loop under the disturbance.
+                sector[0][0] = sector[0][0] + lam * W
+                sector.append([Bw.T, 0] + [0] * (len(sector) - 2) + [D])
+            return [("saturation sector", sector)]
+        # Discrete time: rows x, psi, the disturbances, then x+.
+        first = -t.var("contraction") * W
+        for lam, _, _ in disturbances:
+            first = first + lam * W
+        sector = [[first], [-Zg, -2 * S]]
+        for _, _, D in disturbances:
+            sector.append([0, 0] + [0] * (len(sector) - 2) + [D])
+        sector.append(
+            [AW, -t.B2() @ S_data] + [Bw for _, Bw, _ in disturbances] + [-t.W_moved()]
+        )
         return [("saturation sector", sector)]
 
     def coefficient_lmis(self, t, continuous):
@@ -244,6 +279,21 @@ class Saturation(Spec):
             "T": np.diag(sc.a / sc.w_factor / (sc.Su**2 * S)),
         }
 
+    def model_values(self, frame, read) -> dict:
+        """``Zg`` (each gain's ``G W``, model units: ``k Su Zg~ T'``) and the
+        multiplier ``T`` (as `loop_fields`); ``G = Zg P``."""
+        sc = frame.scaling
+        Zg, k = [], 0
+        while True:
+            try:
+                Zt = np.asarray(read(f"Zg{k}"), float)
+            except KeyError:
+                break
+            Zg.append(sc.w_factor * (sc.Su[:, None] * (Zt @ sc.matrix.T)))
+            k += 1
+        S = np.ravel(np.asarray(read("S"), float))
+        return {"Zg": tuple(Zg), "T": np.diag(sc.a / sc.w_factor / (sc.Su**2 * S))}
+
     def reported(self, P):
         """The largest ``x0' P x0`` over the points (below 1), or None."""
         return self.level(P)
@@ -257,32 +307,56 @@ class Saturation(Spec):
     def residual(self, loop, continuous) -> float:
         """Largest excess, in the model's units, of the certified statements.
 
-        The sector inequality ``[[sym(P Acl) + dP/dt, -(P B2 + G' T)],
-        [*, -2 T]] < 0`` (Jacobi-normalised eigenvalue) with the loop's
-        auxiliary gain ``G`` and multiplier ``T``, and the relative excesses
-        of ``(K - G)_i W (K - G)_i' <= u_max_i^2`` and ``x0' P x0 <= 1``.
+        The sector inequality (Jacobi-normalised eigenvalue) with the loop's
+        auxiliary gain ``G`` and multiplier ``T``, continuous time ``[[sym(P
+        Acl) + dP/dt + 2 sigma P, -(P B2 + G' T)], [*, -2 T]] < 0``, discrete
+        time ``[Acl, -B2]' P+ [Acl, -B2] + [[-r P, -G' T], [*, -2 T]] < 0``
+        (with a disturbance: its decay, column and multipliers), and the
+        relative excesses of ``(K - G)_i W (K - G)_i' <= u_max_i^2`` and
+        ``x0' P x0 <= 1``.
         """
-        Acl, B2, K, G, T, P = loop.Acl, loop.B2, loop.K, loop.G, loop.T, loop.P
-        m = B2.shape[1]
-        M = np.block([
-            [Acl.T @ P + P @ Acl + loop.P_moved, -(P @ B2 + G.T @ T)],
-            [-(B2.T @ P + T @ G), -2 * T],
-        ])  # fmt: skip
-        if loop.lam is not None:
-            # With a Peak spec: its decay and disturbance (see `lmis`).
-            nw = loop.Bd.shape[1]
-            M[: len(P), : len(P)] += loop.lam * P
-            M = np.block([
-                [M, np.vstack([P @ loop.Bd, np.zeros((m, nw))])],
-                [loop.Bd.T @ P, np.zeros((nw, m)), -np.diag(loop.mu_w)],
-            ])  # fmt: skip
+        M = sector_matrix(loop, continuous, self.decay)
         worst = normalized_max_eig(M[None])
-        levels = self.check_sizes(Acl.shape[0], m)
-        F = K - G
+        m = loop.B2.shape[1]
+        levels = self.check_sizes(loop.Acl.shape[0], m)
+        F = loop.K - loop.G
         for i in range(m):
             worst = max(worst, float(F[i] @ loop.W @ F[i]) / levels[i] ** 2 - 1)
-        level = self.level(P)
+        level = self.level(loop.P)
         return worst if level is None else max(worst, level - 1)
+
+
+def sector_matrix(loop, continuous, decay) -> np.ndarray:
+    """The primal sector inequality of `Saturation` at a frozen loop.
+
+    In ``(x, psi[, w])`` (model units): ``V' + 2 sigma V - 2 psi' T (psi +
+    G x)`` (continuous time) or ``V(x+) - exp(-2 sigma) V(x) - 2 psi' T
+    (psi + G x)`` (discrete time), with the disturbance of a `Peak` or
+    region spec (``loop.lam``, ``loop.Bd``, ``loop.mu_w``) where present:
+    negative definite on a certified loop.
+    """
+    Acl, B2, G, T, P = loop.Acl, loop.B2, loop.G, loop.T, loop.P
+    n, m = B2.shape
+    disturbed = loop.lam is not None
+    nw = loop.Bd.shape[1] if disturbed else 0
+    lam = loop.lam if disturbed else 0.0
+    Bd = loop.Bd if disturbed else np.zeros((n, 0))
+    Mw = np.diag(loop.mu_w) if disturbed else np.zeros((0, 0))
+    off = -(G.T @ T)
+    if continuous:
+        top = Acl.T @ P + P @ Acl + loop.P_moved + (2 * decay + lam) * P
+        return np.block([
+            [top, off - P @ B2, P @ Bd],
+            [off.T - B2.T @ P, -2 * T, np.zeros((m, nw))],
+            [Bd.T @ P, np.zeros((nw, m)), -Mw],
+        ])  # fmt: skip
+    F = np.hstack([Acl, -B2, Bd])
+    base = np.block([
+        [-(np.exp(-2 * decay) - lam) * P, off, np.zeros((n, nw))],
+        [off.T, -2 * T, np.zeros((m, nw))],
+        [np.zeros((nw, n)), np.zeros((nw, m)), -Mw],
+    ])  # fmt: skip
+    return F.T @ loop.P_moved @ F + base
 
 
 @dataclass(frozen=True, eq=False)

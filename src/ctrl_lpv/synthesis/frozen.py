@@ -113,7 +113,7 @@ class Here:
         return self._values[names.local(self._q, name)]
 
     def gain_like(self, name):
-        count = self._problem.nZ
+        count = self._problem.ngains
         items = [self.var(f"{name}{k}") for k in range(count)]
         if self._problem.scheduled:
             return np.tensordot(self._delta, np.stack(items), axes=1)
@@ -202,7 +202,9 @@ def verify_frozen(problem, shape, frame, values, gains, bounds, margin, checks,
 
         A, B2 = mix(plant.A), mix(plant.B2)
         W_here = mix(np.stack([Ws[lyap.index[j]] for j in range(len(delta))]))
-        if not Zs:
+        if problem.fixed is not None:
+            K = mix(np.stack(gains)) if problem.scheduled else gains[0]
+        elif not Zs:
             K = np.zeros((0, A.shape[0]))
         elif problem.scheduled and not lyap.constant:
             K = sc.unscale_K(-mix(np.stack(Zs)) @ np.linalg.inv(W_here))

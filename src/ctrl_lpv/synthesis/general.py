@@ -37,12 +37,13 @@ MARGIN_FACTORS = (1.0, 1e-3)
 
 def run_general(
     sys, iu, specs, channels, objective, constraints, scheduled, lyap, continuous,
-    backoff, margin, chain, time_limit, method, suspects,
+    backoff, margin, chain, time_limit, method, suspects, fixed=None,
 ):  # fmt: skip
     """The engine on a plant and specs (the entry of the analyses).
 
     `specs` are the channel specs (the objective first, if any) with
-    their ``(iw, iu, iz)`` `channels`, `constraints` the other specs.
+    their ``(iw, iu, iz)`` `channels`, `constraints` the other specs;
+    `fixed` given gains of ``u = -K x`` (an analysis with the inputs kept).
     """
     from .spec import with_stability
 
@@ -50,6 +51,7 @@ def run_general(
     problem = Problem(
         plant, with_stability((*specs, *constraints)), objective, scheduled, lyap,
         continuous, backoff, margin, chain, method, tuple(suspects),
+        None if fixed is None else tuple(fixed),
     )  # fmt: skip
     return run(problem, time_limit)
 
@@ -85,7 +87,9 @@ def run(problem: Problem, time_limit=None) -> StateFeedbackDesign:
              for D in channel.Dzw],
             problem.continuous,
         )  # fmt: skip
-    prescalings = frames(plant, problem.continuous)
+    hints = [s.state_scaling(plant.n) for s in problem.specs]
+    hint = next((h for h in hints if h is not None), None)
+    prescalings = frames(plant, problem.continuous, hint)
     structures: dict = {}
 
     def structure_of(frame) -> Structure:

@@ -64,6 +64,8 @@ def check_point(problem, shape, frame, sol, settings, margin, final):
         vertex_W = [Wl[lyap.index[j if problem.scheduled else 0]]
                     for j in range(len(Zs))]  # fmt: skip
     gains = tuple(sc.unscale_K(-Z @ np.linalg.inv(W)) for Z, W in zip(Zs, vertex_W))
+    if problem.fixed is not None:
+        gains = tuple(problem.fixed)
     bounds = tuple(
         spec.to_model(float(getattr(sol, f"g{i}")[0, 0]), frame, i)
         for i, spec in enumerate(problem.bound_specs)

@@ -61,6 +61,11 @@ class Problem:
         Names the call in messages and the design.
     suspects : tuple
         Weakly controllable modes, for a refusal's hint.
+    fixed : tuple of ndarray or None
+        Given gains (model units, one or one per vertex): an analysis of the
+        loop ``u = -K x`` with the plant's inputs kept (what a spec such as
+        `Saturation` reads); ``Z_k = -K_k W`` is then a product of a
+        parameter and ``W`` (a constant Lyapunov matrix), not a variable.
     """
 
     plant: object
@@ -74,6 +79,7 @@ class Problem:
     chain: list | None
     method: str
     suspects: tuple = ()
+    fixed: tuple | None = None
 
     @property
     def channels(self) -> tuple:
@@ -91,7 +97,12 @@ class Problem:
 
     @property
     def nZ(self) -> int:
-        """Number of ``Z`` variables (none for an analysis, without inputs)."""
+        """Number of ``Z`` variables (none for an analysis)."""
+        return 0 if self.fixed is not None else self.ngains
+
+    @property
+    def ngains(self) -> int:
+        """Number of gains, designed or `fixed` (none without inputs)."""
         if not self.plant.m:
             return 0
         return self.plant.N if self.scheduled else 1
@@ -145,6 +156,8 @@ class Structure:
     coefficients: tuple
     lyapunov: tuple
     specs: tuple
+    # Gains, designed (nZ of them) or given (an analysis with inputs).
+    ngains: int = 0
     entries: int = field(default=0, compare=False)
     nlmis: int = field(default=0, compare=False)
     largest: int = field(default=0, compare=False)
@@ -155,7 +168,7 @@ class Structure:
         plant, lyap = problem.plant, problem.lyap
         rates = tuple(tuple((r / a).tolist()) for r in lyap.rates)
         key = cls(
-            n=plant.n, m=plant.m, N=plant.N, nZ=problem.nZ,
+            n=plant.n, m=plant.m, N=plant.N, nZ=problem.nZ, ngains=problem.ngains,
             scheduled=problem.scheduled, continuous=problem.continuous,
             slack=problem.slack, objective=problem.objective is not None,
             coefficients=coefficients(plant.system.domain, plant.N, problem.affine),
@@ -184,7 +197,7 @@ class Structure:
         lyap = dataclasses.replace(problem.lyap, rates=rates)
         sizes = tuple((c.nw, c.nz) for c in problem.plant.channels)
         return Shape(self.n, self.m, lyap, self.scheduled, self.continuous,
-                     self.slack, self.nZ, sizes)  # fmt: skip
+                     self.slack, self.nZ, sizes, self.ngains)  # fmt: skip
 
 
 class _Declarations:
@@ -210,9 +223,10 @@ class _Declarations:
 class _Local:
     """A spec's view of the declarations: its names prefixed, its sizes."""
 
-    def __init__(self, declarations, q, n, m, nZ, i=None, nw=0, nz=0):
+    def __init__(self, declarations, q, n, m, nZ, i=None, nw=0, nz=0, ngains=0):
         self._d, self._q = declarations, q
         self.n, self.m, self.nZ, self.i, self.nw, self.nz = n, m, nZ, i, nw, nz
+        self.ngains = ngains
 
     def variable(self, name, shape, symmetric=False):
         self._d.variable(names.local(self._q, name), shape, symmetric)
@@ -231,7 +245,7 @@ def _local(declarations, problem, q, s):
     nw = nz = 0
     if i is not None:
         nw, nz = problem.plant.channels[i].nw, problem.plant.channels[i].nz
-    return _Local(declarations, q, s.n, s.m, s.nZ, i, nw, nz)
+    return _Local(declarations, q, s.n, s.m, s.nZ, i, nw, nz, s.ngains)
 
 
 def _declarations(problem: Problem, s: Structure) -> _Declarations:
@@ -241,6 +255,9 @@ def _declarations(problem: Problem, s: Structure) -> _Declarations:
         d.variable(f"W{ell}", (n, n), symmetric=True)
     for k in range(s.nZ):
         d.variable(f"Z{k}", (m, n))
+    if problem.fixed is not None:
+        for k in range(s.ngains):
+            d.parameter(f"K{k}", (m, n))
     for i in range(len(problem.plant.channels)):
         d.variable(f"g{i}", (1, 1))
         d.parameter(f"rho{i}", (), nonneg=True)
@@ -441,6 +458,11 @@ def load(compiled: Compiled, problem: Problem, s: Structure, frame, margin) -> d
         compiled.scales.update(scales)
         lmi.invalidate("bounded")
     data = frame.scaled(problem.plant)
+    if problem.fixed is not None:
+        # u = -K x with u = Su u~, x = T x~: K~ = Su^-1 K T.
+        sc = frame.scaling
+        for k, K in enumerate(problem.fixed):
+            lmi.set_parameter(f"K{k}", (K / sc.Su[:, None]) @ sc.matrix)
     for j in range(s.N):
         lmi.set_parameter(names.data("A", j), data["A"][j])
         if s.m:

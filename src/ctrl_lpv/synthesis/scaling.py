@@ -270,8 +270,12 @@ class Frame:
         return out
 
 
-def frames(plant, continuous: bool) -> list:
+def frames(plant, continuous: bool, hint=None) -> list:
     """The prescalings tried in turn: balanced, Riccati, unbalanced, none.
+
+    With `hint` (state scales in the model's units, from a spec's
+    `~ctrl_lpv.synthesis.spec.Spec.state_scaling`) a "reference" prescaling
+    in those units comes first.
 
     The first channel shapes them (none: the control inputs alone);
     "unbalanced" (the time and input scalings alone) only where it differs
@@ -282,6 +286,14 @@ def frames(plant, continuous: bool) -> list:
     first = plant.six(0 if plant.channels else None)
     balanced = Scaling.of(first, time_scaling=continuous)
     out = [("balanced", balanced)]
+    if hint is not None:
+        # A spec's own units first (`Spec.state_scaling`): a region's
+        # reference set, whose size along each state the data do not show.
+        base = Scaling(np.array([pow2(x) for x in hint]), np.ones(plant.m), 1.0,
+                       1.0, 1.0)  # fmt: skip
+        shaped = [base.apply(v) for v in first]
+        out.insert(0, ("reference", base.then(
+            Scaling.of(shaped, time_scaling=continuous))))  # fmt: skip
     if plant.m:
         shaped = riccati_scaling(first, balanced, continuous)
         if shaped is not None:

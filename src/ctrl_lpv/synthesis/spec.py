@@ -210,6 +210,12 @@ class Spec(ABC):
         return {}
 
     # -- what the engine adapts to ---------------------------------------------
+    def state_scaling(self, n: int):
+        """State scales ``x_i = s_i x~_i`` (model units) the spec is posed
+        in, or None: the engine's first prescaling when given (a region's
+        reference set fixes units the plant's data do not show)."""
+        return None
+
     @property
     def gain_limit(self) -> float | None:
         """A bound on the gains' spectral norm (model units), if any."""

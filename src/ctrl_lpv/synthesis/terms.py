@@ -42,11 +42,13 @@ class Shape:
     Attributes: ``n``, ``m``, ``lyap`` (the
     `~ctrl_lpv.synthesis.parametric.LyapunovStructure`, rates prescaled),
     ``scheduled``, ``continuous``, ``slack`` (the extended LMIs), ``nZ``
-    (number of gain variables) and ``channel_sizes`` (``(nw, nz)`` per
-    channel).
+    (number of gain variables), ``channel_sizes`` (``(nw, nz)`` per
+    channel) and ``ngains`` (number of gains; given ones, parameters
+    ``K_k``, where there are no gain variables).
     """
 
-    def __init__(self, n, m, lyap, scheduled, continuous, slack, nZ, channel_sizes):
+    def __init__(self, n, m, lyap, scheduled, continuous, slack, nZ, channel_sizes,
+                 ngains=0):  # fmt: skip
         self.n = n
         self.m = m
         self.lyap = lyap
@@ -55,6 +57,7 @@ class Shape:
         self.slack = slack
         self.nZ = nZ
         self.channel_sizes = channel_sizes
+        self.ngains = ngains
 
 
 class Terms:
@@ -110,7 +113,11 @@ class Terms:
         return self._get(f"W{index}")
 
     def _Z(self, k):
-        return self._get(f"Z{k if self.shape.scheduled else 0}")
+        k = k if self.shape.scheduled else 0
+        if not self.shape.nZ and self.shape.ngains:
+            # A given gain (an analysis): Z_k = -K_k W, W constant.
+            return -self._get(f"K{k}") @ self._W(0)
+        return self._get(f"Z{k}")
 
     def W(self):
         """``W(delta)``."""
@@ -157,8 +164,8 @@ class Terms:
         """The gain variable ``Z(delta)``: one per vertex when scheduled
         (degree one), else constant (degree zero)."""
         if self.shape.scheduled:
-            return sum(self._get(f"Z{j}") for j in self.c.linear)
-        return self.c.const * self._get("Z0")
+            return sum(self._Z(j) for j in self.c.linear)
+        return self.c.const * self._Z(0)
 
     def B2(self):
         """``B2(delta)`` (degree one)."""
