@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from numbers import Real
@@ -9,7 +10,9 @@ from numbers import Real
 import control as ct
 import numpy as np
 
+from ctrl_lpv._numba import numba_available
 from ctrl_lpv.interconnection import BlockKernel, kernel_nlsys
+from ctrl_lpv.twomass.compiled_data import plant_block
 from ctrl_lpv.twomass.parameters import Parameters
 
 __all__ = ["plant"]
@@ -169,6 +172,12 @@ def plant(
     else:
         kernel = _deadzone_model(params, alpha0, alpha_fun)
         states = list(_STATES[:4])
+    # The same plant as data for the compiled engine (constant or stepped
+    # alpha only), and its compiled stepping when numba is there.
+    block = plant_block(params, model, alpha0, alpha_fun)
+    if block is not None:
+        advance = _CompiledAdvance(block, states) if numba_available() else None
+        kernel = dataclasses.replace(kernel, compiled=block, advance=advance)
     # The outputs depend on the state only (no direct feedthrough), and the
     # first four are states: `ctrl_lpv.interconnect` and the fast path of
     # `ctrl_lpv.simulate` use both facts.
@@ -180,6 +189,20 @@ def plant(
         feedthrough=False,
         name=name,
     )
+
+
+class _CompiledAdvance:
+    """`BlockKernel.advance` of the plant, compiled on first use."""
+
+    def __init__(self, block, states):
+        self.block, self.states, self._step = block, states, None
+
+    def __call__(self, t, x, u, t_end, rtol, atol):
+        if self._step is None:
+            from .compiled import plant_advance
+
+            self._step = plant_advance(self.block, self.states)
+        return self._step(t, x, u, t_end, rtol, atol)
 
 
 def _checked_alpha(value, what: str) -> float:

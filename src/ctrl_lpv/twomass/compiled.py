@@ -1,0 +1,165 @@
+"""The compiled engine of the two-mass scenarios (needs numba).
+
+`simulate_loop` runs what ``twomass.simulate(..., engine="compiled")``
+asks for: the plant of `twomass.plant` (exact or dead-zone backlash,
+constant or stepped ``alpha``) under `lpv_controller` or
+`backstepping_controller`, integrated by the numba Dormand-Prince 5(4) of
+`ctrl_lpv.twomass.dopri5` (scipy's RK45, compiled), outputs computed in
+compiled code too. `plant_advance` steps the plant alone with a held
+torque, for `ctrl_lpv.sampled_response`.
+
+The blocks describe themselves as data (`compiled_data.CompiledBlock` in
+``sys._kernel.compiled``); `compiled_form` reads that description.
+"""
+
+from __future__ import annotations
+
+import control as ct
+import numpy as np
+
+from .._numba import require_numba
+from ..simulation_guard import DivergenceError, SimulationError
+from .compiled_data import (
+    C_KIND,
+    CONTROLLER_SLOTS,
+    D_IJL,
+    D_IJM,
+    D_RATE,
+    I_TD,
+    I_TM,
+    I_TR,
+    P_CS,
+    P_JL,
+    P_JM,
+    P_KS,
+    PLANT_SLOTS,
+    SIZE,
+    CompiledBlock,
+)
+
+require_numba("the compiled two-mass engine")
+
+from . import dopri5  # noqa: E402  (after the check: it imports numba)
+
+__all__ = ["compiled_form", "simulate_loop", "plant_advance", "MAX_STEPS"]
+
+#: Steps after which a run is given up (a chattering loop), as a failure.
+MAX_STEPS = 10_000_000
+#: The compiled Dormand-Prince integrates at this fraction of the requested
+#: tolerances: at the same `rtol` its global error is then no larger than
+#: that of scipy's LSODA on the sweep corpus (at the requested tolerances
+#: themselves, RK45's 90th percentile error is 3 times LSODA's; see
+#: ``benchmarks/bench_compiled_sweep.py``), so that a sweep keeps today's
+#: accuracy when it changes engines.
+TOLERANCE_FACTOR = 0.1
+_LOOP_OUTPUTS = ["theta_l", "Tm", "theta_m", "omega_m", "omega_l", "Ts"]
+
+
+def compiled_form(sys, role: str) -> CompiledBlock | None:
+    """The `CompiledBlock` that `sys` carries for `role`, or None."""
+    block = getattr(getattr(sys, "_kernel", None), "compiled", None)
+    if isinstance(block, CompiledBlock) and block.role == role:
+        return block
+    return None
+
+
+def _data(plant: CompiledBlock, controller: CompiledBlock | None, **inputs):
+    d = np.zeros(SIZE)
+    d[list(PLANT_SLOTS)] = plant.values
+    if controller is not None:
+        d[list(CONTROLLER_SLOTS)] = controller.values
+    for slot, name in ((I_TR, "theta_r"), (I_TD, "Td"), (I_TM, "Tm")):
+        d[slot] = inputs.get(name, 0.0)
+    d[D_RATE] = d[P_KS] / d[P_CS]
+    d[D_IJM] = 1.0 / d[P_JM]
+    d[D_IJL] = 1.0 / d[P_JL]
+    return d
+
+
+def _raise(status, reached, steps, X, labels, what):
+    if status == dopri5.DIVERGED:
+        column = X[:, np.isfinite(X).all(axis=0)]
+        row = int(np.argmax(np.abs(column[:, -1]))) if column.size else 0
+        raise DivergenceError(
+            f"{what}: state {labels[row]!r} diverged at t = {reached:g} s",
+            reached, labels[row], float(column[row, -1]) if column.size else np.nan,
+        )  # fmt: skip
+    reason = {
+        dopri5.TOO_SMALL: "step size too small",
+        dopri5.STEPS: f"more than {steps} steps",
+    }[status]
+    raise SimulationError(f"{what}: integration failed at t = {reached:g} s: "
+                          f"{reason}", reached)  # fmt: skip
+
+
+def simulate_loop(
+    plant: ct.NonlinearIOSystem,
+    controller: ct.NonlinearIOSystem,
+    t: np.ndarray,
+    *,
+    theta_r: float,
+    Td: float,
+    rtol: float,
+    atol: float,
+    state_bound: float = 1e12,
+) -> ct.TimeResponseData:
+    """The loop of `twomass.closed_loop` from rest, by the compiled engine.
+
+    Returns the response of ``twomass.simulate(..., engine="fast")`` (same
+    labels, shapes and fields); raises `ValueError` if a block has no
+    compiled form, `DivergenceError` past `state_bound`, and
+    `SimulationError` if the integration fails.
+    """
+    plant_block = compiled_form(plant, "plant")
+    law = compiled_form(controller, "controller")
+    if plant_block is None:
+        raise ValueError(
+            "alpha: the compiled engine runs a constant backlash or a step "
+            "(twomass.alpha_step), not a general alpha(t); use engine='fast'"
+        )
+    if law is None:
+        raise ValueError(
+            f"controller: {controller.name!r} has no compiled form (the compiled "
+            "engine runs lpv_controller and backstepping_controller with a "
+            "constant alpha_estimate); use engine='fast'"
+        )
+    d = _data(plant_block, law, theta_r=theta_r, Td=Td)
+    n = plant_block.nstates + law.nstates
+    X, status, reached, steps = dopri5.solve(
+        d, np.zeros(n), t, TOLERANCE_FACTOR * rtol, TOLERANCE_FACTOR * atol,
+        state_bound, MAX_STEPS,
+    )  # fmt: skip
+    labels = [f"{plant.name}_{s}" for s in plant.state_labels] + [
+        f"{controller.name}_{s}" for s in controller.state_labels
+    ]
+    if status != dopri5.OK:
+        _raise(status, reached, steps, X, labels, "compiled engine")
+    U = np.vstack([np.full_like(t, theta_r), np.full_like(t, Td)])
+    return ct.TimeResponseData(
+        t, dopri5.outputs(d, t, X), X, U, issiso=False,
+        output_labels=list(_LOOP_OUTPUTS), input_labels=["theta_r", "Td"],
+        state_labels=labels, sysname="loop",
+        title="Input/output response for loop",
+    )  # fmt: skip
+
+
+def plant_advance(block: CompiledBlock, labels):
+    """``advance(t, x, u, t_end, rtol, atol)`` of the plant alone.
+
+    ``u = (Tm, Td)`` held over ``[t, t_end]`` (see `BlockKernel.advance`).
+    """
+    base = _data(block, None)
+    base[C_KIND] = 0.0
+    advance = dopri5.advance
+
+    def step(t, x, u, t_end, rtol, atol):
+        d = base.copy()
+        d[I_TM] = u[0]
+        d[I_TD] = u[1]
+        x = np.asarray(x, dtype=float)
+        y, status, reached, _ = advance(d, x, t, t_end, rtol, atol, 0.0, MAX_STEPS)
+        if status != dopri5.OK:
+            _raise(status, reached, MAX_STEPS, y[:, None], labels, "plant")
+        return y
+
+    return step
