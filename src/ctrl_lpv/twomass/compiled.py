@@ -146,7 +146,8 @@ def simulate_loop(
 def plant_advance(block: CompiledBlock, labels):
     """``advance(t, x, u, t_end, rtol, atol)`` of the plant alone.
 
-    ``u = (Tm, Td)`` held over ``[t, t_end]`` (see `BlockKernel.advance`).
+    ``u = (Tm, Td)`` held over ``[t, t_end]`` (see `BlockKernel.advance`),
+    at `TOLERANCE_FACTOR` times the tolerances asked for, as `simulate_loop`.
     """
     base = _data(block, None)
     base[C_KIND] = 0.0
@@ -157,7 +158,10 @@ def plant_advance(block: CompiledBlock, labels):
         d[I_TM] = u[0]
         d[I_TD] = u[1]
         x = np.asarray(x, dtype=float)
-        y, status, reached, _ = advance(d, x, t, t_end, rtol, atol, 0.0, MAX_STEPS)
+        y, status, reached, _ = advance(
+            d, x, t, t_end, TOLERANCE_FACTOR * rtol, TOLERANCE_FACTOR * atol, 0.0,
+            MAX_STEPS,
+        )  # fmt: skip
         if status != dopri5.OK:
             _raise(status, reached, MAX_STEPS, y[:, None], labels, "plant")
         return y
