@@ -20,14 +20,23 @@ import numpy as np
 from .._numba import require_numba
 from ..simulation_guard import DivergenceError, SimulationError
 from .compiled_data import (
+    B_EPS,
+    B_JL,
+    B_K,
+    B_KS,
     C_KIND,
     CONTROLLER_SLOTS,
+    D_BIJL,
+    D_BIK,
+    D_BIKEPS,
+    D_BIKS,
     D_IJL,
     D_IJM,
     D_RATE,
     I_TD,
     I_TM,
     I_TR,
+    KIND_BACKSTEPPING,
     P_CS,
     P_JL,
     P_JM,
@@ -40,6 +49,7 @@ from .compiled_data import (
 require_numba("the compiled two-mass engine")
 
 from . import dopri5  # noqa: E402  (after the check: it imports numba)
+from .plant import _STATES as PLANT_STATES  # noqa: E402
 
 __all__ = ["compiled_form", "simulate_loop", "plant_advance", "MAX_STEPS"]
 
@@ -73,6 +83,11 @@ def _data(plant: CompiledBlock, controller: CompiledBlock | None, **inputs):
     d[D_RATE] = d[P_KS] / d[P_CS]
     d[D_IJM] = 1.0 / d[P_JM]
     d[D_IJL] = 1.0 / d[P_JL]
+    if d[C_KIND] == KIND_BACKSTEPPING:
+        d[D_BIK] = 1.0 / d[B_K]  # 0 for k = inf (alpha = 0): not used then
+        d[D_BIJL] = 1.0 / d[B_JL]
+        d[D_BIKEPS] = 1.0 / (d[B_KS] * d[B_EPS])
+        d[D_BIKS] = 1.0 / d[B_KS]
     return d
 
 
@@ -93,7 +108,7 @@ def _raise(status, reached, steps, X, labels, what):
 
 
 def simulate_loop(
-    plant: ct.NonlinearIOSystem,
+    plant: CompiledBlock | None,
     controller: ct.NonlinearIOSystem,
     t: np.ndarray,
     *,
@@ -105,12 +120,14 @@ def simulate_loop(
 ) -> ct.TimeResponseData:
     """The loop of `twomass.closed_loop` from rest, by the compiled engine.
 
-    Returns the response of ``twomass.simulate(..., engine="fast")`` (same
-    labels, shapes and fields); raises `ValueError` if a block has no
-    compiled form, `DivergenceError` past `state_bound`, and
-    `SimulationError` if the integration fails.
+    `plant` is the plant's compiled form (`twomass.plant.compiled_plant`;
+    None: it has none). Returns the response of
+    ``twomass.simulate(..., engine="fast")`` (same labels, shapes and
+    fields); raises `ValueError` if a block has no compiled form,
+    `DivergenceError` past `state_bound`, and `SimulationError` if the
+    integration fails.
     """
-    plant_block = compiled_form(plant, "plant")
+    plant_block = plant
     law = compiled_form(controller, "controller")
     if plant_block is None:
         raise ValueError(
@@ -129,7 +146,8 @@ def simulate_loop(
         d, np.zeros(n), t, TOLERANCE_FACTOR * rtol, TOLERANCE_FACTOR * atol,
         state_bound, MAX_STEPS,
     )  # fmt: skip
-    labels = [f"{plant.name}_{s}" for s in plant.state_labels] + [
+    # The state names of `twomass.closed_loop` (plant named "plant").
+    labels = [f"plant_{s}" for s in PLANT_STATES[: plant_block.nstates]] + [
         f"{controller.name}_{s}" for s in controller.state_labels
     ]
     if status != dopri5.OK:

@@ -33,9 +33,11 @@ L_SCHED, L_INTEGRAL, L_AEST, L_LO, L_HI, L_KLO, L_KHI = 15, 16, 17, 18, 19, 20, 
 B_JM, B_JL, B_CM, B_CL, B_KS = 15, 16, 17, 18, 19
 B_C1, B_C2, B_C3, B_C4, B_ALPHA, B_K, B_EPS, B_TDHAT, B_A, B_B = range(20, 30)
 # Derived once per simulation (as the Python kernels do): ks / cs, 1 / Jm,
-# 1 / Jl.
+# 1 / Jl; for the backstepping law 1 / k, 1 / Jl, 1 / (ks eps), 1 / ks
+# (multiplications instead of divisions on the hot path).
 D_RATE, D_IJM, D_IJL = 30, 31, 32
-SIZE = 33
+D_BIK, D_BIJL, D_BIKEPS, D_BIKS = 33, 34, 35, 36
+SIZE = 37
 
 PLANT_SLOTS = range(P_MODEL, P_AT + 1)
 CONTROLLER_SLOTS = range(C_KIND, SIZE)

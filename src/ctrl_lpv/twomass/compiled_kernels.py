@@ -26,14 +26,16 @@ from .compiled_data import (
     B_C4,
     B_CL,
     B_CM,
-    B_EPS,
-    B_JL,
     B_JM,
     B_K,
     B_KS,
     B_TDHAT,
     C_KIND,
     C_LIMIT,
+    D_BIJL,
+    D_BIK,
+    D_BIKEPS,
+    D_BIKS,
     D_IJL,
     D_IJM,
     D_RATE,
@@ -178,9 +180,13 @@ def _dead_zone_side(z):
 
 @jit
 def backstepping_law(x, d):
-    """Motor torque of `backstepping_controller` (`BacksteppingLaw.torque`)."""
+    """Motor torque of `backstepping_controller` (`BacksteppingLaw.torque`).
+
+    The same expressions, with the divisions by constants as
+    multiplications by their reciprocals (agreement to rounding).
+    """
     x1, x2, x3, x4 = x[2], x[3], x[0], x[1]
-    ks, cl, jl = d[B_KS], d[B_CL], d[B_JL]
+    ks, cl, inv_jl = d[B_KS], d[B_CL], d[D_BIJL]
     c1, c3 = d[B_C1], d[B_C3]
     A, B = d[B_A], d[B_B]
     td_hat, alpha, k = d[B_TDHAT], d[B_ALPHA], d[B_K]
@@ -188,27 +194,27 @@ def backstepping_law(x, d):
     if math.isfinite(k):
         plus, plus_slope = _dead_zone_side(k * (dd - alpha))
         minus, minus_slope = _dead_zone_side(-k * (dd + alpha))
-        value = (plus - minus) / k
+        value = (plus - minus) * d[D_BIK]
         slope = plus_slope + minus_slope
     else:
         value, slope = dd, 1.0
-    a2 = (ks * value - cl * x2 - td_hat) / jl
-    a2dot = (ks * slope * (x4 - x2) - cl * a2) / jl
+    a2 = (ks * value - cl * x2 - td_hat) * inv_jl
+    a2dot = (ks * slope * (x4 - x2) - cl * a2) * inv_jl
     z1 = x1 - d[I_TR]
     z2 = x2 + c1 * z1
     T = A * z1 + B * x2 + td_hat
     Tdot = A * x2 + B * a2
-    keps = ks * d[B_EPS]
-    th = math.tanh(T / keps)
-    sech2 = 1.0 - th**2
-    inv = T / ks + alpha * th
-    inv1 = 1.0 / ks + alpha * sech2 / keps
-    inv2 = -2.0 * alpha * sech2 * th / keps**2
+    inv_keps = d[D_BIKEPS]
+    th = math.tanh(T * inv_keps)
+    sech2 = 1.0 - th * th
+    inv = T * d[D_BIKS] + alpha * th
+    inv1 = d[D_BIKS] + alpha * sech2 * inv_keps
+    inv2 = -2.0 * alpha * sech2 * th * (inv_keps * inv_keps)
     z3 = dd - inv
     alpha3 = x2 + inv1 * Tdot - c3 * z3 - z2
     z4 = x4 - alpha3
     alpha3dot = (
-        inv2 * Tdot**2
+        inv2 * Tdot * Tdot
         + inv1 * (A * a2 + B * a2dot)
         - c3 * (x4 - x2 - inv1 * Tdot)
         - c1 * x2

@@ -95,10 +95,22 @@ def _initial_step(d, t0, y0, f0, t_bound, rtol, atol, y1, f1):
     return min(100.0 * h0, h1, interval)
 
 
+# The tableau as scalars: the stages below are written out (numba then
+# keeps every coefficient in a register; loops over the tableau cost a third
+# of a step).
+A21 = A[1, 0]
+A31, A32 = A[2, 0], A[2, 1]
+A41, A42, A43 = A[3, 0], A[3, 1], A[3, 2]
+A51, A52, A53, A54 = A[4, 0], A[4, 1], A[4, 2], A[4, 3]
+A61, A62, A63, A64, A65 = A[5, 0], A[5, 1], A[5, 2], A[5, 3], A[5, 4]
+B1, B3, B4, B5, B6 = B[0], B[2], B[3], B[4], B[5]
+E1, E3, E4, E5, E6, E7 = E[0], E[2], E[3], E[4], E[5], E[6]
+C2, C3, C4, C5 = C[1], C[2], C[3], C[4]
+
+
 @jit
-def _segment(
-    d, y, t, t_end, h_abs, rtol, atol, bound, t_eval, X, i, K, work, max_steps
-):
+def _segment(d, y, t, t_end, h_abs, rtol, atol, bound, t_eval, X, i, K, work,
+             max_steps):  # fmt: skip
     """Integrate y (in place) from t to t_end; fill X at t_eval[i:] <= t_end.
 
     Returns (status, t reached, next step size, next index of t_eval,
@@ -108,6 +120,7 @@ def _segment(
     y_new = work[0]
     y_tmp = work[1]
     Q = np.empty((n, 4))
+    k1, k2, k3, k4, k5, k6, k7 = K[0], K[1], K[2], K[3], K[4], K[5], K[6]
     steps = 0
     while t < t_end:
         if steps >= max_steps:
@@ -123,26 +136,37 @@ def _segment(
             if t_new > t_end:
                 t_new = t_end
             h = t_new - t
-            for s in range(1, 6):
-                for m in range(n):
-                    acc = 0.0
-                    for j in range(s):
-                        acc += A[s, j] * K[j, m]
-                    y_tmp[m] = y[m] + h * acc
-                system_rhs(t + C[s] * h, y_tmp, d, K[s])
             for m in range(n):
-                acc = 0.0
-                for j in range(6):
-                    acc += B[j] * K[j, m]
-                y_new[m] = y[m] + h * acc
-            system_rhs(t_new, y_new, d, K[6])
+                y_tmp[m] = y[m] + h * (A21 * k1[m])
+            system_rhs(t + C2 * h, y_tmp, d, k2)
+            for m in range(n):
+                y_tmp[m] = y[m] + h * (A31 * k1[m] + A32 * k2[m])
+            system_rhs(t + C3 * h, y_tmp, d, k3)
+            for m in range(n):
+                y_tmp[m] = y[m] + h * (A41 * k1[m] + A42 * k2[m] + A43 * k3[m])
+            system_rhs(t + C4 * h, y_tmp, d, k4)
+            for m in range(n):
+                y_tmp[m] = y[m] + h * (
+                    A51 * k1[m] + A52 * k2[m] + A53 * k3[m] + A54 * k4[m]
+                )
+            system_rhs(t + C5 * h, y_tmp, d, k5)
+            for m in range(n):
+                y_tmp[m] = y[m] + h * (
+                    A61 * k1[m] + A62 * k2[m] + A63 * k3[m] + A64 * k4[m]
+                    + A65 * k5[m]
+                )  # fmt: skip
+            system_rhs(t + h, y_tmp, d, k6)
+            for m in range(n):
+                y_new[m] = y[m] + h * (
+                    B1 * k1[m] + B3 * k3[m] + B4 * k4[m] + B5 * k5[m] + B6 * k6[m]
+                )
+            system_rhs(t_new, y_new, d, k7)
             err = 0.0
             for m in range(n):
-                acc = 0.0
-                for j in range(7):
-                    acc += E[j] * K[j, m]
+                e = (E1 * k1[m] + E3 * k3[m] + E4 * k4[m] + E5 * k5[m]
+                     + E6 * k6[m] + E7 * k7[m])  # fmt: skip
                 scale = atol + max(abs(y[m]), abs(y_new[m])) * rtol
-                err += (h * acc / scale) ** 2
+                err += (h * e / scale) ** 2
             err = math.sqrt(err / n)
             if err < 1.0:
                 if err == 0.0:
@@ -181,7 +205,7 @@ def _segment(
             i += 1
         for m in range(n):
             y[m] = y_new[m]
-            K[0, m] = K[6, m]
+            k1[m] = k7[m]
         t = t_new
         for m in range(n):
             if not abs(y[m]) <= bound:

@@ -12,6 +12,7 @@ from .._numba import numba_available, require_numba
 from ..metrics import StepMetrics, step_metrics
 from ..simulation import simulate as run
 from .parameters import Parameters
+from .plant import compiled_plant
 from .plant import plant as make_plant
 
 __all__ = ["closed_loop", "simulate", "metrics", "alpha_step", "AlphaStep"]
@@ -171,8 +172,10 @@ def simulate(
         raise ValueError(f"engine: expected one of {_ENGINES}, got {engine!r}")
     t = np.linspace(0.0, T, npoints)
     if engine in ("compiled", "auto"):
-        drive = make_plant(params, model=model, alpha=alpha, name="plant")
-        if engine == "compiled" or _compiled_runs(drive, controller):
+        drive = compiled_plant(params, model, alpha)  # checked as by `plant`
+        law = getattr(getattr(controller, "_kernel", None), "compiled", None)
+        runs = numba_available() and drive is not None and law is not None
+        if engine == "compiled" or runs:
             if method not in (None, "RK45"):
                 raise ValueError(
                     "method: the compiled engine integrates with Dormand-Prince "
@@ -191,15 +194,6 @@ def simulate(
         loop, t, U, np.zeros(loop.nstates), engine=engine,
         method="LSODA" if method is None else method, rtol=rtol, atol=atol,
     )  # fmt: skip
-
-
-def _compiled_runs(drive, controller) -> bool:
-    """True if the compiled engine can run this plant and controller."""
-    if not numba_available():
-        return False
-    blocks = (getattr(getattr(s, "_kernel", None), "compiled", None)
-              for s in (drive, controller))  # fmt: skip
-    return all(block is not None for block in blocks)
 
 
 def metrics(response: ct.TimeResponseData, theta_r: float = 0.5) -> StepMetrics:
