@@ -48,7 +48,7 @@ from .compiled_data import (
 
 require_numba("the compiled two-mass engine")
 
-from . import dopri5  # noqa: E402  (after the check: it imports numba)
+from . import compiled_kernels, dopri5  # noqa: E402  (they import numba)
 from .plant import _STATES as PLANT_STATES  # noqa: E402
 
 __all__ = ["compiled_form", "simulate_loop", "plant_advance", "MAX_STEPS"]
@@ -63,6 +63,21 @@ MAX_STEPS = 10_000_000
 #: accuracy when it changes engines.
 TOLERANCE_FACTOR = 0.1
 _LOOP_OUTPUTS = ["theta_l", "Tm", "theta_m", "omega_m", "omega_l", "Ts"]
+
+
+def _fresh_cache():
+    """Drop compiled code cached from other sources (see `dopri5.SOURCES`)."""
+    if dopri5.fingerprint() == dopri5.FINGERPRINT:
+        return
+    for module in (compiled_kernels, dopri5):
+        for function in vars(module).values():
+            cache = getattr(function, "_cache", None)
+            if cache is not None and hasattr(function, "recompile"):
+                cache.flush()
+    dopri5.fingerprint.recompile()
+
+
+_fresh_cache()
 
 
 def compiled_form(sys, role: str) -> CompiledBlock | None:

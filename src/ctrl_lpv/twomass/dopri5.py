@@ -21,7 +21,9 @@ Imported only by the compiled engine: it needs numba.
 
 from __future__ import annotations
 
+import hashlib
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -29,6 +31,19 @@ from .compiled_data import P_AT
 from .compiled_kernels import jit, system_outputs, system_rhs
 
 __all__ = ["solve", "advance", "outputs", "OK", "TOO_SMALL", "DIVERGED", "STEPS"]
+
+# numba's on-disk cache keys a function on its own source file only: a
+# change in a file it takes code or constants from (the kernels, the data
+# layout, the plant's contact layer) would leave a stale compiled function
+# in use. The fingerprint of all of them, compiled into `fingerprint`,
+# tells `ctrl_lpv.twomass.compiled` when to throw the cache away.
+SOURCES = ("compiled_data.py", "compiled_kernels.py", "dopri5.py", "plant.py")
+FINGERPRINT = int(
+    hashlib.sha256(
+        b"".join((Path(__file__).parent / name).read_bytes() for name in SOURCES)
+    ).hexdigest()[:15],
+    16,
+)
 
 # Status codes.
 OK, TOO_SMALL, DIVERGED, STEPS = 0, 1, 2, 3
@@ -61,6 +76,12 @@ P = np.array([
 ])  # fmt: skip
 SAFETY, MIN_FACTOR, MAX_FACTOR = 0.9, 0.2, 10.0
 EXPONENT = -1.0 / 5.0  # error estimator of order 4
+
+
+@jit
+def fingerprint():
+    """`FINGERPRINT` as it was when this code was compiled."""
+    return FINGERPRINT
 
 
 @jit

@@ -44,7 +44,15 @@ def alpha_step(before: float = 0.03, after: float = 0.045, at: float = 2.5):
 
 @dataclass(frozen=True)
 class AlphaStep:
-    """``alpha(t) = before if t < at else after`` (see `alpha_step`)."""
+    """``alpha(t) = before if t < at else after`` (see `alpha_step`).
+
+    Attributes
+    ----------
+    before, after : float
+        Half-gap before `at` and from `at` on, rad.
+    at : float
+        Time of the step, s.
+    """
 
     before: float
     after: float
