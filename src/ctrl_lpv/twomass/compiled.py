@@ -14,6 +14,8 @@ The blocks describe themselves as data (`compiled_data.CompiledBlock` in
 
 from __future__ import annotations
 
+import math
+
 import control as ct
 import numpy as np
 
@@ -167,7 +169,8 @@ def simulate_loop(
     ]
     if status != dopri5.OK:
         _raise(status, reached, steps, X, labels, "compiled engine")
-    U = np.vstack([np.full_like(t, theta_r), np.full_like(t, Td)])
+    U = np.empty((2, t.size))
+    U[0], U[1] = theta_r, Td
     return ct.TimeResponseData(
         t, dopri5.outputs(d, t, X), X, U, issiso=False,
         output_labels=list(_LOOP_OUTPUTS), input_labels=["theta_r", "Td"],
@@ -181,22 +184,30 @@ def plant_advance(block: CompiledBlock, labels):
 
     ``u = (Tm, Td)`` held over ``[t, t_end]`` (see `BlockKernel.advance`),
     at `TOLERANCE_FACTOR` times the tolerances asked for, as `simulate_loop`.
+    A call that starts where the previous one ended (the next sample
+    interval) starts with the step size the previous one reached, instead
+    of selecting one again: a fifth of the cost of a 1 ms interval, and
+    still the same results for the same sequence of calls.
     """
     base = _data(block, None)
     base[C_KIND] = 0.0
     advance = dopri5.advance
+    last = [math.nan, 0.0]  # where the previous call ended, its step size
 
     def step(t, x, u, t_end, rtol, atol):
         d = base.copy()
         d[I_TM] = u[0]
         d[I_TD] = u[1]
         x = np.asarray(x, dtype=float)
-        y, status, reached, _ = advance(
-            d, x, t, t_end, TOLERANCE_FACTOR * rtol, TOLERANCE_FACTOR * atol, 0.0,
+        h = last[1] if t == last[0] else 0.0
+        y, status, reached, h_next = advance(
+            d, x, t, t_end, TOLERANCE_FACTOR * rtol, TOLERANCE_FACTOR * atol, h,
             MAX_STEPS,
         )  # fmt: skip
         if status != dopri5.OK:
+            last[0] = math.nan
             _raise(status, reached, MAX_STEPS, y[:, None], labels, "plant")
+        last[0], last[1] = t_end, h_next
         return y
 
     return step
