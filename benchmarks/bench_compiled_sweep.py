@@ -16,10 +16,10 @@ shared: CPU time is what a core spends), in one run:
    process with an empty numba cache (compilation) and with the cache
    filled (loading), and numba's import.
 3. **Accuracy**: every metric of the compiled table against today's; and,
-   on an evenly spread subset, both against a tight reference (scipy
-   DOP853 at rtol 1e-10 on the python-control loop): the largest
-   theta_l error per run (median, 90th percentile, max over the subset)
-   and per metric.
+   on an evenly spread subset and on the runs where the two engines'
+   IAE differ most, both against a tight reference (scipy DOP853 at rtol
+   1e-10 on the python-control loop): the largest theta_l error per run
+   (median, 90th percentile, max over the subset) and per metric.
 4. **sampled_response**: a 5 s run at 1 ms of the exact plant under a
    saturated state-feedback controller written in Python (one evaluation
    per sample), with the plant stepped by LSODA (before) and by its
@@ -142,28 +142,41 @@ def sweep_speed(specs, scenarios):
     return seconds, tables
 
 
-def reference_study(specs, scenarios, count):
-    """theta_l and metric errors of both engines against DOP853 1e-10."""
+def spread(specs, scenarios, count):
+    """(spec, scenario) pairs evenly spread over the grid, per controller."""
     index = np.linspace(0, len(scenarios) - 1, max(1, count // len(specs)))
     chosen = [scenarios[i] for i in sorted(set(index.round().astype(int)))]
+    return [(spec, s) for spec in specs.values() for s in chosen]
+
+
+def largest_disagreements(specs, scenarios, tables, count):
+    """The (spec, scenario) pairs where the engines' IAE differ most."""
+    pairs = [(spec, s) for spec in specs.values() for s in scenarios]
+    fast = np.asarray(tables["fast"]["iae"], float)
+    ours = np.asarray(tables["compiled"]["iae"], float)
+    order = np.argsort(-np.abs(ours - fast) / np.abs(fast))
+    return [pairs[i] for i in order[:count]]
+
+
+def reference_study(pairs):
+    """theta_l and metric errors of both engines against DOP853 1e-10."""
     theta = {e: [] for e in ENGINES}
     tables = {e: {key: [] for key in METRICS} for e in (*ENGINES, "reference")}
-    for spec in specs.values():
-        for s in chosen:
-            limit = None if s["torque_limit"] == math.inf else s["torque_limit"]
-            controller = spec.build(torque_limit=limit)
-            kw = scenario_kwargs(s)
-            ref = twomass.simulate(controller, engine="fast", method="DOP853",
-                                   rtol=1e-10, atol=1e-12, **kw)  # fmt: skip
-            runs = {"reference": ref}
-            for engine in ENGINES:
-                runs[engine] = twomass.simulate(controller, engine=engine, **kw)
-                diff = runs[engine].outputs[0] - ref.outputs[0]
-                theta[engine].append(float(np.abs(diff).max()))
-            for key_run, r in runs.items():
-                m = twomass.metrics(r).as_dict()
-                for key in METRICS:
-                    tables[key_run][key].append(m[key])
+    for spec, s in pairs:
+        limit = None if s["torque_limit"] == math.inf else s["torque_limit"]
+        controller = spec.build(torque_limit=limit)
+        kw = scenario_kwargs(s)
+        ref = twomass.simulate(controller, engine="fast", method="DOP853",
+                               rtol=1e-10, atol=1e-12, **kw)  # fmt: skip
+        runs = {"reference": ref}
+        for engine in ENGINES:
+            runs[engine] = twomass.simulate(controller, engine=engine, **kw)
+            diff = runs[engine].outputs[0] - ref.outputs[0]
+            theta[engine].append(float(np.abs(diff).max()))
+        for key_run, r in runs.items():
+            m = twomass.metrics(r).as_dict()
+            for key in METRICS:
+                tables[key_run][key].append(m[key])
     summary = {
         engine: {
             "median": float(np.median(v)), "p90": float(np.quantile(v, 0.9)),
@@ -173,7 +186,23 @@ def reference_study(specs, scenarios, count):
         for engine, v in theta.items()
     }  # fmt: skip
     metric_errors = {e: errors(tables[e], tables["reference"]) for e in ENGINES}
-    return len(chosen) * len(specs), summary, metric_errors
+    return len(pairs), summary, metric_errors
+
+
+def print_reference(title, nref, theta_errors, metric_errors):
+    print(f"\n{title}: against DOP853 rtol 1e-10 on {nref} runs, max "
+          "|theta_l error| per run (rad):")  # fmt: skip
+    for engine, s in theta_errors.items():
+        print(f"  {engine:>8}: median {s['median']:.1e}, p90 {s['p90']:.1e}, "
+              f"max {s['max']:.1e}; larger than today's in "
+              f"{100 * s['worse_than_fast']:.0f} % of runs")  # fmt: skip
+    print("  per metric, largest error (absolute; relative):")
+    for key in METRICS:
+        cells = "  ".join(
+            f"{e} {metric_errors[e][key][0]:.1e}; {metric_errors[e][key][1]:.1e}"
+            for e in ENGINES
+        )
+        print(f"  {key:>18}: {cells}")
 
 
 def sampled_study(T=5.0, dt=1e-3):
@@ -239,8 +268,11 @@ def main(argv=None):
     scenarios = scenario_grid(**(QUICK_GRID if args.quick else GRID))
     seconds, tables = sweep_speed(specs, scenarios)
     agreement = errors(tables["compiled"], tables["fast"])
-    nref, theta_errors, metric_errors = reference_study(
-        specs, scenarios, 8 if args.quick else args.reference
+    spread_study = reference_study(
+        spread(specs, scenarios, 8 if args.quick else args.reference)
+    )
+    worst_study = reference_study(
+        largest_disagreements(specs, scenarios, tables, 4 if args.quick else 10)
     )
     sampled = sampled_study()
 
@@ -262,19 +294,8 @@ def main(argv=None):
           "(absolute; relative where not near 0):")  # fmt: skip
     for key, (a, r) in agreement.items():
         print(f"  {key:>18}: {a:.1e}; {r:.1e}")
-    print(f"\nagainst DOP853 rtol 1e-10 on {nref} runs, max |theta_l error| "
-          "per run (rad):")  # fmt: skip
-    for engine, s in theta_errors.items():
-        print(f"  {engine:>8}: median {s['median']:.1e}, p90 {s['p90']:.1e}, "
-              f"max {s['max']:.1e}; larger than today's in "
-              f"{100 * s['worse_than_fast']:.0f} % of runs")  # fmt: skip
-    print("  per metric, largest error (absolute; relative):")
-    for key in METRICS:
-        cells = "  ".join(
-            f"{e} {metric_errors[e][key][0]:.1e}; {metric_errors[e][key][1]:.1e}"
-            for e in ENGINES
-        )
-        print(f"  {key:>18}: {cells}")
+    print_reference("evenly spread runs", *spread_study)
+    print_reference("the runs where the engines' IAE differ most", *worst_study)
     print(f"\nsampled_response, 5 s at 1 ms, Python controller: LSODA plant "
           f"{sampled['lsoda']:.2f} s, compiled plant {sampled['compiled']:.2f} s "
           f"({sampled['lsoda'] / sampled['compiled']:.1f}x); of which the "
@@ -296,12 +317,18 @@ def main(argv=None):
                         "cached_first_run_s": warm},
                 "compiled_vs_fast": {k: {"max_abs": a, "max_rel": r}
                                      for k, (a, r) in agreement.items()},
-                "reference_runs": nref,
-                "theta_l_error_vs_dop853": theta_errors,
-                "metric_error_vs_dop853": {
-                    e: {k: {"max_abs": a, "max_rel": r}
-                        for k, (a, r) in metric_errors[e].items()}
-                    for e in ENGINES
+                "vs_dop853": {
+                    name: {
+                        "runs": study[0],
+                        "theta_l_error": study[1],
+                        "metric_error": {
+                            e: {k: {"max_abs": a, "max_rel": r}
+                                for k, (a, r) in study[2][e].items()}
+                            for e in ENGINES
+                        },
+                    }
+                    for name, study in (("spread", spread_study),
+                                        ("largest_disagreements", worst_study))
                 },
                 "sampled_response_5s_1ms": sampled,
                 "python": platform.python_version(),

@@ -243,7 +243,7 @@ def solve(d, x0, t_eval, rtol, atol, bound, max_steps):
     """
     n = x0.size
     npts = t_eval.size
-    X = np.full((n, npts), np.nan)
+    X = np.empty((n, npts))
     K = np.empty((7, n))
     work = np.empty((2, n))
     y = x0.copy()
@@ -278,6 +278,7 @@ def solve(d, x0, t_eval, rtol, atol, bound, max_steps):
         )
         steps += taken
         if status != OK:
+            X[:, i:] = np.nan  # not reached
             return X, status, t, steps
     return X, OK, t, steps
 
