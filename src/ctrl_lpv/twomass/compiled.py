@@ -199,7 +199,8 @@ def plant_advance(block: CompiledBlock, labels):
         d = base.copy()
         d[I_TM] = u[0]
         d[I_TD] = u[1]
-        x = np.asarray(x, dtype=float)
+        # Contiguous: a strided column would compile another specialization.
+        x = np.ascontiguousarray(x, dtype=float)
         h = last[1] if t == last[0] else 0.0
         y, status, reached, h_next = advance(
             d, x, t, t_end, TOLERANCE_FACTOR * rtol, TOLERANCE_FACTOR * atol, h,
