@@ -452,7 +452,7 @@ def sweep(
         is installed (``pip install "ctrl_lpv[fast]"``) and the controller
         has a compiled form (`lpv_spec`, `backstepping_spec`), else
         ``"fast"``; ``"compiled"`` insists on it (`ImportError` without
-        numba); ``"fast"`` is the scipy path (LSODA), about 10 times
+        numba); ``"fast"`` is the scipy path (LSODA), about 20 times
         slower; ``"control"`` python-control's reference path, about 100
         times slower still (see `twomass.simulate`).
     simulate : callable, optional

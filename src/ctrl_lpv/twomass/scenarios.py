@@ -149,13 +149,17 @@ def simulate(
         LSODA and 10 times with RK45 (``benchmarks/bench_simulation.py``);
         results agree to the solver tolerance.  ``"compiled"``: the same
         loop compiled by numba (``pip install "ctrl_lpv[fast]"``) and
-        integrated by a compiled Dormand-Prince 5(4), another 10 times
-        faster than ``"fast"`` and, at the same `rtol`, more accurate than
-        its LSODA (``benchmarks/bench_compiled_sweep.py``); it runs
+        integrated by a compiled Dormand-Prince 5(4) at a tenth of the
+        tolerances, so that at the same `rtol` it is as accurate as the
+        LSODA of ``"fast"`` (more on most sweep runs; with the dead-zone
+        model, whose damper torque jumps at contact, 3 times less, within
+        1e-6 rad), and 12 to 28 times faster than it in a sweep
+        (``benchmarks/bench_compiled_sweep.py``); it runs
         `lpv_controller` (constant ``alpha_estimate``) and
         `backstepping_controller` on a constant or stepped (`alpha_step`)
         backlash.  The first call in a fresh installation compiles for
-        about 10 s; the code is cached on disk for later processes.
+        15 to 30 s; the code is cached on disk for later processes (about
+        0.5 s to load).
         ``"auto"``: ``"compiled"`` where numba is installed and the
         controller and `alpha` have a compiled form, else ``"fast"`` (the
         default of `sweep`).
