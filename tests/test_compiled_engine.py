@@ -167,3 +167,13 @@ def test_engine_choice_and_refusals(monkeypatch):
     auto = twomass.simulate(paper, engine="auto", **short)
     fast = twomass.simulate(paper, engine="fast", **short)
     np.testing.assert_array_equal(auto.outputs, fast.outputs)
+
+
+def test_divergence_is_reported_like_the_fast_engine():
+    from ctrl_lpv import DivergenceError
+
+    unstable = twomass.lpv_controller(-twomass.paper_gain())  # positive feedback
+    for engine in ("fast", "compiled"):
+        with pytest.raises(DivergenceError, match="plant_") as info:
+            twomass.simulate(unstable, engine=engine, T=2.0, npoints=201)
+        assert 0.0 < info.value.time < 2.0, engine
