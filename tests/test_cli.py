@@ -189,6 +189,12 @@ def test_simulate_engines_give_the_same_response(tmp_path):
         assert np.abs(csv[engine][:, 1] - control[:, 1]).max() <= 1e-6  # theta_l
 
 
+def test_simulate_compiled_without_numba_says_what_to_install(monkeypatch, capsys):
+    monkeypatch.setitem(sys.modules, "numba", None)
+    assert main(["simulate", "--T", "0.05", "--engine", "compiled"]) == 2
+    assert "ctrl_lpv[fast]" in capsys.readouterr().err
+
+
 def test_saved_scheduled_gains_give_the_design_controller(tmp_path):
     design = twomass.design(scheduled=True)
     path = twomass.save_gains(design, tmp_path / "g.json")
