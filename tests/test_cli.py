@@ -171,8 +171,11 @@ def test_design_save_then_simulate(tmp_path, capsys):
 
 
 def test_simulate_engines_give_the_same_response(tmp_path):
+    from ctrl_lpv._numba import numba_available
+
     csv = {}
-    for engine in ("control", "fast"):
+    engines = ("control", "fast") + (("compiled",) if numba_available() else ())
+    for engine in engines:
         out = tmp_path / engine
         argv = ["simulate", "--controller", "paper", "--alpha", "0.03", "--T", "1"]
         assert (
@@ -180,9 +183,16 @@ def test_simulate_engines_give_the_same_response(tmp_path):
             == 0
         )
         csv[engine] = np.loadtxt(out / "response.csv", delimiter=",", skiprows=1)
-    control, fast = csv["control"], csv["fast"]
-    np.testing.assert_array_equal(fast[:, 0], control[:, 0])
-    assert np.abs(fast[:, 1] - control[:, 1]).max() <= 1e-6  # theta_l, rad
+    control = csv["control"]
+    for engine in engines[1:]:
+        np.testing.assert_array_equal(csv[engine][:, 0], control[:, 0])
+        assert np.abs(csv[engine][:, 1] - control[:, 1]).max() <= 1e-6  # theta_l
+
+
+def test_simulate_compiled_without_numba_says_what_to_install(monkeypatch, capsys):
+    monkeypatch.setitem(sys.modules, "numba", None)
+    assert main(["simulate", "--T", "0.05", "--engine", "compiled"]) == 2
+    assert "ctrl_lpv[fast]" in capsys.readouterr().err
 
 
 def test_saved_scheduled_gains_give_the_design_controller(tmp_path):

@@ -240,8 +240,11 @@ def test_specs_pickle_and_build_the_same_controllers(designs, specs):
         np.testing.assert_array_equal(ours.outputs, ref.outputs, err_msg=name)
 
 
-# twomass.sweep simulates with the fast engine unless told otherwise.
-@pytest.mark.parametrize("engine, used", [(None, "fast"), ("control", "control")])
+# twomass.sweep simulates with the "auto" engine (compiled where numba is
+# installed, else fast) unless told otherwise.
+@pytest.mark.parametrize(
+    "engine, used", [(None, "auto"), ("fast", "fast"), ("control", "control")]
+)
 def test_run_scenario_matches_a_direct_simulation(designs, specs, engine, used):
     scenario = dict(
         alpha=0.02,

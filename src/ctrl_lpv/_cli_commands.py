@@ -221,9 +221,12 @@ def _run_simulate(args) -> int:
             check_destination(args.out, "--out", folder=True)
         except ValueError as exc:
             return usage(str(exc))
+    from ._numba import INSTALL, numba_available
     from .twomass import metrics, simulate
     from .twomass.scenarios import alpha_step
 
+    if args.engine == "compiled" and not numba_available():
+        return usage(f"--engine compiled needs numba (not installed): {INSTALL}")
     try:
         controller = _controller(args)
     except ValueError as exc:

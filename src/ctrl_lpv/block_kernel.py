@@ -43,12 +43,24 @@ class BlockKernel:
     state_outputs : tuple of int or None, optional
         For each output, the index of the state it equals, or None.  Such
         outputs are read from the state without calling `out`.
+    compiled : object, optional
+        The block as data for a compiled engine that knows it (the two-mass
+        blocks give a `ctrl_lpv.twomass.compiled_data.CompiledBlock`);
+        None (default): the block runs on the scipy engines only.
+    advance : callable, optional
+        ``advance(t, x, u, t_end, rtol, atol) -> x_end``: the state at
+        ``t_end`` from ``x`` at ``t`` with the inputs ``u`` held, by a
+        compiled integrator (`ctrl_lpv.sampled_response` steps the plant
+        with it between samples); it raises `ctrl_lpv.SimulationError` when
+        the integration fails.  None (default): scipy integrates `rhs`.
     """
 
     out: Callable
     rhs: Callable | None = None
     out_many: Callable | None = None
     state_outputs: tuple[int | None, ...] | None = None
+    compiled: object | None = None
+    advance: Callable | None = None
 
 
 def kernel_nlsys(

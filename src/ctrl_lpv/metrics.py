@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -43,7 +43,7 @@ class StepMetrics:
 
     def as_dict(self) -> dict[str, float]:
         """The metrics as a plain dictionary (for tables and JSON)."""
-        return {k: float(v) for k, v in asdict(self).items()}
+        return {f.name: float(getattr(self, f.name)) for f in fields(self)}
 
 
 def _crossing(t, y, level, rising):
@@ -58,8 +58,9 @@ def _crossing(t, y, level, rising):
     return float(t[i - 1] + frac * (t[i] - t[i - 1]))
 
 
-def _integral(t, values):
-    return float(np.sum(0.5 * (values[1:] + values[:-1]) * np.diff(t)))
+def _integral(dt, values):
+    """Trapezoidal integral of `values` over the steps `dt` of the times."""
+    return float(np.sum(0.5 * (values[1:] + values[:-1]) * dt))
 
 
 def step_metrics(
@@ -110,7 +111,8 @@ def step_metrics(
     y = np.asarray(y, float).reshape(-1)
     if t.shape != y.shape or t.size < 2:
         raise ValueError(f"t, y: expected equal lengths >= 2, got {t.size}, {y.size}")
-    if np.any(np.diff(t) <= 0):
+    dt = np.diff(t)
+    if np.any(dt <= 0):
         raise ValueError("t: time points must be increasing")
     if not (np.all(np.isfinite(y)) and np.isfinite(reference)):
         raise ValueError("y, reference: values must be finite")
@@ -145,14 +147,14 @@ def step_metrics(
         u = np.asarray(u, float).reshape(-1)
         if u.shape != t.shape:
             raise ValueError(f"u: expected {t.size} samples, got {u.size}")
-        peak, energy = float(np.abs(u).max()), _integral(t, u**2)
+        peak, energy = float(np.abs(u).max()), _integral(dt, u**2)
     return StepMetrics(
         rise_time=float(rise),
         settling_time=settling,
         overshoot=overshoot,
         steady_state_error=float(error[-1]),
-        iae=_integral(t, np.abs(error)),
-        ise=_integral(t, error**2),
+        iae=_integral(dt, np.abs(error)),
+        ise=_integral(dt, error**2),
         peak_input=peak,
         energy=energy,
     )

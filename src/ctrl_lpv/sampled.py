@@ -5,9 +5,19 @@ runs on a drive: the plant evolves continuously, the controller reads its
 sensors at the sampling instants ``t_k = k dt``, computes a command, and a
 zero-order hold applies it, possibly ``delay`` samples later.
 `sampled_response` simulates exactly that loop: the plant is integrated
-between samples with the held command (LSODA, tight tolerances), the
-controller's output and update run once per sample, and each measured
-signal passes through its sensor model (`ctrl_lpv.sensors`) first.
+between samples with the held command (LSODA, tight tolerances; or the
+plant's own compiled integrator, see below), the controller's output and
+update run once per sample, and each measured signal passes through its
+sensor model (`ctrl_lpv.sensors`) first.
+
+A plant may step itself between samples: if its kernel offers
+``advance(t, x, u, t_end, rtol, atol)`` (`ctrl_lpv.BlockKernel.advance`)
+and every plant input is held over the interval (a callable input in
+``inputs`` is not), that compiled integrator replaces LSODA. The two-mass
+plant of `ctrl_lpv.twomass.plant` offers one when numba is installed
+(``pip install "ctrl_lpv[fast]"``): a 5 s run at 1 ms then spends its time
+in the controller, not in the plant
+(``benchmarks/bench_compiled_sweep.py``).
 
 Signals connect by name, as in `control.interconnect`: a controller output
 that is a plant input drives it through the hold; a plant output that is a
@@ -114,7 +124,8 @@ def sampled_response(
         Recording points of the plant per sample interval (default 1: the
         sampling instants).
     rtol, atol : float, optional
-        Tolerances of the integration between samples.
+        Tolerances of the integration between samples (LSODA's, or the
+        plant's compiled integrator's, see the module notes).
 
     Returns
     -------
@@ -158,6 +169,7 @@ def sampled_response(
     xc = _named_state(controller_X0, controller.nstates, "controller_X0")
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
 
+    advance = _compiled_advance(plant, wiring)
     nsamples = int(math.floor(T / dt + 1e-9))
     commands = []  # v_k, applied from k + delay
     c_in, c_out, c_x = [], [], []
@@ -181,19 +193,10 @@ def sampled_response(
             plant_u.append(wiring.plant_input(t, held))
             break
         grid = t + dt * np.arange(points_per_sample + 1) / points_per_sample
-
-        def rhs(s, xs, held=held):
-            return plant._rhs(s, xs, wiring.plant_input(s, held))
-
-        reached, X, ok, message = integrate(
-            rhs, grid, x, {"method": "LSODA", "rtol": rtol, "atol": atol}
-        )
-        if not ok:
-            raise SimulationError(
-                f"sampled_response: integration failed in [{t:g}, {t + dt:g}] s: "
-                f"{message}",
-                float(reached[-1]),
-            )
+        if advance is not None:
+            X = _advanced(advance, grid, x, wiring.plant_input(t, held), rtol, atol)
+        else:
+            X = _integrated(plant, wiring, grid, x, held, rtol, atol)
         times.extend(grid[:-1])
         states.extend(X[:, :-1].T)
         plant_u.extend(wiring.plant_input(s, held) for s in grid[:-1])
@@ -215,6 +218,49 @@ def sampled_response(
     )
 
 
+def _compiled_advance(plant, wiring):
+    """The plant's compiled `BlockKernel.advance`, if it has one and its
+    inputs are held over each sample interval (no continuous input)."""
+    advance = getattr(getattr(plant, "_kernel", None), "advance", None)
+    if advance is None or not wiring.held_inputs:
+        return None
+    return advance
+
+
+def _advanced(advance, grid, x, u, rtol, atol):
+    """States at the grid points by the plant's compiled integrator."""
+    X = np.empty((x.size, grid.size))
+    X[:, 0] = x
+    for j in range(1, grid.size):
+        try:
+            X[:, j] = advance(grid[j - 1], X[:, j - 1], u, grid[j], rtol, atol)
+        except SimulationError as exc:
+            raise SimulationError(
+                f"sampled_response: integration failed in [{grid[0]:g}, "
+                f"{grid[-1]:g}] s: {exc}",
+                exc.time,
+            ) from None
+    return X
+
+
+def _integrated(plant, wiring, grid, x, held, rtol, atol):
+    """States at the grid points by LSODA on the plant's Python kernel."""
+
+    def rhs(s, xs):
+        return plant._rhs(s, xs, wiring.plant_input(s, held))
+
+    reached, X, ok, message = integrate(
+        rhs, grid, x, {"method": "LSODA", "rtol": rtol, "atol": atol}
+    )
+    if not ok:
+        raise SimulationError(
+            f"sampled_response: integration failed in [{grid[0]:g}, "
+            f"{grid[-1]:g}] s: {message}",
+            float(reached[-1]),
+        )
+    return X
+
+
 class _Wiring:
     """Which signal feeds which input: resolved once, by name."""
 
@@ -227,6 +273,7 @@ class _Wiring:
         self.command_rows = [c_outputs.index(n) for n in self.driven]
         self.driven_rows = [plant.input_labels.index(n) for n in self.driven]
         self.plant_external = []
+        self.held_inputs = True  # every plant input constant between samples
         for i, name in enumerate(plant.input_labels):
             if name in self.driven:
                 continue
@@ -237,6 +284,7 @@ class _Wiring:
                 )
             used.add(name)
             self.plant_external.append((i, _source(inputs[name], name)))
+            self.held_inputs = self.held_inputs and not callable(inputs[name])
         # Controller inputs: sampled plant outputs, or external signals.
         self.measured = []
         for i, name in enumerate(controller.input_labels):

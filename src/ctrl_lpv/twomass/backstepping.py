@@ -50,6 +50,7 @@ import control as ct
 import numpy as np
 
 from ..interconnection import BlockKernel, kernel_nlsys
+from .compiled_data import backstepping_block
 from .parameters import Parameters
 
 __all__ = ["backstepping_controller", "BacksteppingLaw"]
@@ -257,7 +258,9 @@ def backstepping_controller(
         return (np.clip(tq, -limit, limit),)
 
     return kernel_nlsys(
-        BlockKernel(out=out, out_many=out_many),
+        BlockKernel(
+            out=out, out_many=out_many, compiled=backstepping_block(law, limit)
+        ),
         inputs=["theta_m", "omega_m", "theta_l", "omega_l", "theta_r"],
         outputs=["Tm"],
         feedthrough=True,

@@ -298,6 +298,19 @@ def _plant_params(params, changes) -> Parameters:
 
 def _accepts(function, keyword: str) -> bool:
     try:
+        return _accepts_cached(function, keyword)
+    except TypeError:  # an unhashable callable
+        return _signature_accepts(function, keyword)
+
+
+@functools.lru_cache(maxsize=64)
+def _accepts_cached(function, keyword: str) -> bool:
+    # inspect.signature costs as much as a compiled simulation.
+    return _signature_accepts(function, keyword)
+
+
+def _signature_accepts(function, keyword: str) -> bool:
+    try:
         signature = inspect.signature(function)
     except (TypeError, ValueError):
         return False
@@ -434,9 +447,14 @@ def sweep(
         Name -> spec (`lpv_spec`, `backstepping_spec`); default
         `comparison_specs` (designs computed here, on nominal data).
     engine : str, optional
-        Simulation engine passed to `simulate`; ``"fast"`` with the
-        default `simulate` (``"control"`` gives python-control's
-        reference path, about 100 times slower).
+        Simulation engine passed to `simulate`. With the default
+        `simulate`: ``"auto"`` (default), the compiled engine where numba
+        is installed (``pip install "ctrl_lpv[fast]"``) and the controller
+        has a compiled form (`lpv_spec`, `backstepping_spec`), else
+        ``"fast"``; ``"compiled"`` insists on it (`ImportError` without
+        numba); ``"fast"`` is the scipy path (LSODA), about 20 times
+        slower; ``"control"`` python-control's reference path, about 100
+        times slower still (see `twomass.simulate`).
     simulate : callable, optional
         Simulation function, default `twomass.simulate`; must pickle
         (module level) for process and cluster executors.
@@ -478,7 +496,7 @@ def sweep(
     >>> table.pivot_table("iae", "controller", "alpha")    # doctest: +SKIP
     """
     if simulate is None and engine is None:
-        engine = "fast"
+        engine = "auto"
     simulate_fn = default_simulate if simulate is None else simulate
     if engine is not None and not _accepts(simulate_fn, "engine"):
         raise TypeError(

@@ -17,6 +17,7 @@ import numpy as np
 from ..interconnection import BlockKernel, kernel_nlsys
 from ..polytope import box
 from ..synthesis import StateFeedbackDesign
+from .compiled_data import lpv_block
 from .model import paper_gain
 
 __all__ = ["lpv_controller", "backlash_parameter"]
@@ -271,7 +272,15 @@ def _lpv_kernel(gains: np.ndarray, domain, alpha_estimate, limit) -> BlockKernel
             raw = raw + k[4] * x[0]
         return (np.clip(-raw, -limit, limit),)
 
-    return BlockKernel(out=out, rhs=rhs if integral else None, out_many=out_many)
+    if not scheduled:
+        compiled = lpv_block(k_common, k_common, integral, None, None, limit)
+    elif interval:
+        compiled = lpv_block(k_lo, k_hi, integral, (lo, hi), alpha_estimate, limit)
+    else:
+        compiled = None  # a general polytope of p: no compiled form
+    return BlockKernel(
+        out=out, rhs=rhs if integral else None, out_many=out_many, compiled=compiled
+    )
 
 
 def _is_number(value) -> bool:

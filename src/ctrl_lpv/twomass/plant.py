@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from numbers import Real
@@ -9,7 +10,9 @@ from numbers import Real
 import control as ct
 import numpy as np
 
+from ctrl_lpv._numba import numba_available
 from ctrl_lpv.interconnection import BlockKernel, kernel_nlsys
+from ctrl_lpv.twomass.compiled_data import plant_block
 from ctrl_lpv.twomass.parameters import Parameters
 
 __all__ = ["plant"]
@@ -137,6 +140,47 @@ def plant(
     True
 
     """
+    params, alpha0, alpha_fun = _checked(params, model, alpha, name)
+    if model == "exact":
+        kernel = _exact_model(params, alpha0, alpha_fun)
+        states = list(_STATES)
+    else:
+        kernel = _deadzone_model(params, alpha0, alpha_fun)
+        states = list(_STATES[:4])
+    # The same plant as data for the compiled engine (constant or stepped
+    # alpha only), and its compiled stepping when numba is there.
+    block = plant_block(params, model, alpha0, alpha_fun)
+    if block is not None:
+        advance = _CompiledAdvance(block, states) if numba_available() else None
+        kernel = dataclasses.replace(kernel, compiled=block, advance=advance)
+    # The outputs depend on the state only (no direct feedthrough), and the
+    # first four are states: `ctrl_lpv.interconnect` and the fast path of
+    # `ctrl_lpv.simulate` use both facts.
+    return kernel_nlsys(
+        kernel,
+        inputs=list(_INPUTS),
+        outputs=list(_OUTPUTS),
+        states=states,
+        feedthrough=False,
+        name=name,
+    )
+
+
+def compiled_plant(params=None, model="exact", alpha=None):
+    """The plant of `plant` as data for the compiled engine, without the system.
+
+    The same checks as `plant`; returns a
+    `ctrl_lpv.twomass.compiled_data.CompiledBlock`, or None for an
+    ``alpha(t)`` that is neither constant nor a step (`alpha_step`).
+    Building the I/O system costs as much as a tenth of a compiled
+    simulation, which a sweep does not need.
+    """
+    params, alpha0, alpha_fun = _checked(params, model, alpha, "plant")
+    return plant_block(params, model, alpha0, alpha_fun)
+
+
+def _checked(params, model, alpha, name):
+    """(params, alpha(0), alpha function or None), checked as `plant` says."""
     if params is None:
         params = Parameters()
     elif not isinstance(params, Parameters):
@@ -163,23 +207,21 @@ def plant(
             f"got {type(alpha).__name__}"
         )
 
-    if model == "exact":
-        kernel = _exact_model(params, alpha0, alpha_fun)
-        states = list(_STATES)
-    else:
-        kernel = _deadzone_model(params, alpha0, alpha_fun)
-        states = list(_STATES[:4])
-    # The outputs depend on the state only (no direct feedthrough), and the
-    # first four are states: `ctrl_lpv.interconnect` and the fast path of
-    # `ctrl_lpv.simulate` use both facts.
-    return kernel_nlsys(
-        kernel,
-        inputs=list(_INPUTS),
-        outputs=list(_OUTPUTS),
-        states=states,
-        feedthrough=False,
-        name=name,
-    )
+    return params, alpha0, alpha_fun
+
+
+class _CompiledAdvance:
+    """`BlockKernel.advance` of the plant, compiled on first use."""
+
+    def __init__(self, block, states):
+        self.block, self.states, self._step = block, states, None
+
+    def __call__(self, t, x, u, t_end, rtol, atol):
+        if self._step is None:
+            from .compiled import plant_advance
+
+            self._step = plant_advance(self.block, self.states)
+        return self._step(t, x, u, t_end, rtol, atol)
 
 
 def _checked_alpha(value, what: str) -> float:
