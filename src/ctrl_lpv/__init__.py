@@ -17,6 +17,9 @@ __version__ = "0.1.0"
 _EXPORTS = {
     "PolytopicStateSpace": "systems",
     "pss": "systems",
+    "GriddedStateSpace": "systems",
+    "gss": "systems",
+    "ParameterGrid": "systems",
     "ParameterBox": "polytope",
     "Polytope": "polytope",
     "Simplex": "polytope",

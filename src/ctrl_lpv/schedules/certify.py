@@ -37,7 +37,8 @@ from .._checks import real_number
 from ..certificate import Certificate, Check
 from ..exceptions import SynthesisError
 from ..lmi import LMIProblem
-from ..systems import PolytopicStateSpace
+from ..systems import GriddedStateSpace, PolytopicStateSpace
+from .objective import checked_objective
 from .schedule import GainSchedule, schedule_of
 
 __all__ = ["certify", "ScheduleCertificate", "FrozenCounterexample"]
@@ -82,6 +83,10 @@ class ScheduleCertificate:
         The float64 checks of what is certified.
     tried : tuple of str
         What was tried, in order.
+    bound : float or None
+        With an `objective`: the certified bound of its channel (L2 gain for
+        `Hinf`, H2 for `H2`) for arbitrarily fast parameters; None otherwise
+        or when it is not certified (then `certified` is False).
     """
 
     certified: bool
@@ -89,11 +94,14 @@ class ScheduleCertificate:
     counterexample: object
     certificate: Certificate
     tried: tuple[str, ...] = field(default=())
+    bound: float | None = None
 
     def __str__(self) -> str:
         rates = ", ".join(f"|d{k}/dt| <= {v:.4g}" for k, v in self.rate_bound.items())
         head = "certified" if self.certified else "not certified"
         lines = [f"{head}; rate bound: {rates or 'none'}"]
+        if self.bound is not None:
+            lines.append(f"bound: {self.bound:.6g}")
         if self.counterexample is not None:
             lines.append(f"counterexample: {self.counterexample}")
         lines += [f"tried: {t}" for t in self.tried]
@@ -106,6 +114,7 @@ def certify(
     *,
     parameters=None,
     rate_bounds=None,
+    objective=None,
     margin: float = 1e-6,
     samples: int = 20,
     counterexample: bool = True,
@@ -168,7 +177,11 @@ def certify(
             names = plant.param_names[: k.shape[1]]
         schedule = schedule_of(controller, names=names)
     margin = real_number(margin, "margin", positive=True, below=1.0)
-    loops = _ClosedLoops.of(schedule, plant, controller, parameters)
+    objective = checked_objective(objective)
+    if isinstance(plant, GriddedStateSpace):
+        loops = _gridded_loops(schedule, plant, controller, parameters)
+    else:
+        loops = _ClosedLoops.of(schedule, plant, controller, parameters)
     tried = []
     frozen = loops.frozen_counterexample(samples)
     tried.append(f"frozen closed loops at {len(schedule.points)} points and "
@@ -180,13 +193,28 @@ def certify(
     tried.append("one quadratic Lyapunov function (arbitrary rates)")
     if quadratic is not None:
         rates = {n: math.inf for n in loops.names}
-        return ScheduleCertificate(True, rates, None, quadratic, tuple(tried))
-    if not loops.continuous or loops.bilinear:
+        if objective is None:
+            return ScheduleCertificate(True, rates, None, quadratic, tuple(tried))
+        name = type(objective).__name__
+        tried.append(f"{name} bound from {list(objective.w)} to "
+                     f"{list(objective.z)}, one Lyapunov matrix")  # fmt: skip
+        try:
+            bound, certificate = loops.bound(objective, margin)
+        except SynthesisError as err:
+            tried.append(f"{name} bound not certified: {str(err).splitlines()[0]}")
+            return ScheduleCertificate(False, rates, None, quadratic, tuple(tried))
+        return ScheduleCertificate(True, rates, None, quadratic + certificate,
+                                   tuple(tried), bound)  # fmt: skip
+    if objective is not None:
         tried.append(
-            "rate-bounded analysis: not implemented "
-            + ("in discrete time" if not loops.continuous else
-               "when B_u and the gains both vary")
-        )  # fmt: skip
+            "the objective's bound: not certified (it needs one Lyapunov "
+            "matrix for arbitrary rates, and none exists)"
+        )
+        return ScheduleCertificate(False, {n: 0.0 for n in loops.names}, None,
+                                   Certificate(()), tuple(tried))  # fmt: skip
+    refusal = loops.rate_refusal()
+    if refusal is not None:
+        tried.append(f"rate-bounded analysis: not implemented {refusal}")
         return ScheduleCertificate(False, {n: 0.0 for n in loops.names},
                                    None, Certificate(()), tuple(tried))  # fmt: skip
     if rate_bounds is not None:
@@ -202,13 +230,30 @@ def certify(
     tried.append("parameter-dependent P(p), bisection on the rate")
     rates = {n: float(scale) for n in loops.names}
     example = None
-    if counterexample and scale < math.inf:
+    if counterexample and scale < math.inf and loops.searchable:
         from .counterexample import destabilising_trajectory
 
         example = destabilising_trajectory(loops, max(scale, 1e-6))
         tried.append("periodic parameter trajectories above the certified rate")
     certificate = certificate or Certificate(())
     return ScheduleCertificate(False, rates, example, certificate, tuple(tried))
+
+
+def _gridded_loops(schedule, plant, controller, parameters):
+    from .gridded import GriddedLoops
+
+    points = _plant_points(schedule, plant, parameters)
+    u = _control_inputs(controller, plant, schedule)
+    _check_gain_shape(schedule.gains[0], u, plant.nstates)
+    return GriddedLoops(schedule, points, plant, u)
+
+
+def _check_gain_shape(K, u, n):
+    if K.shape != (len(u), n):
+        raise ValueError(
+            f"controller: gains of shape {K.shape}; expected "
+            f"{(len(u), n)} (inputs {u}, the plant's states)"
+        )
 
 
 @dataclass(frozen=True)
@@ -237,56 +282,68 @@ class _ClosedLoops:
         """Whether ``B_u(p) K(p)`` is quadratic on a cell (both vary)."""
         return _varies(self.K) and _varies(self.B)
 
+    #: Whether `destabilising_trajectory` can search this loop.
+    searchable = True
+
+    def rate_refusal(self) -> str | None:
+        """Why the rate-bounded analysis does not apply (None: it does)."""
+        if not self.continuous:
+            return "in discrete time"
+        if self.bilinear:
+            return "when B_u and the gains both vary"
+        return None
+
+    def bound(self, objective, margin):
+        """``(bound, certificate)`` of the objective's channel, one P.
+
+        On a cell the channel's matrices are affine in ``p`` (checked) and
+        ``K`` too: the loop is ``sum_ij l_i l_j T(i, j)`` with ``T(i, j)``
+        the loop of point ``i`` under gain ``j``, a convex combination of
+        the ``T(i, i)`` and, when ``K`` and ``B_u`` or ``D_zu`` vary, of the
+        ``(T(i, j) + T(j, i)) / 2`` of the cell's pairs.
+        """
+        from .objective import certified_bound, channel
+
+        iw, iz, of, dzu = channel(objective, self.plant, self._u)
+        data = [tuple(np.asarray(M) for M in _frozen(self.plant, p))
+                for p in self.points]  # fmt: skip
+        for c, cell in enumerate(self.schedule.cells):
+            mid = _frozen(self.plant, self.points[cell].mean(axis=0))
+            for name, index in (("C", 2), ("D", 3)):
+                mean = np.mean([data[i][index] for i in cell], axis=0)
+                M = np.asarray(mid[index])
+                tol = 1e-12 * max(1.0, np.abs(M).max())
+                if not np.allclose(M, mean, rtol=1e-10, atol=tol):
+                    raise ValueError(
+                        f"plant: {name} is not affine in the parameters on cell "
+                        f"{c} (points {self.points[cell].tolist()}): refine the "
+                        "schedule's points"
+                    )
+        loops = [of(d, K) for d, K in zip(data, self.K)]
+        Dzu = np.array([dzu(d) for d in data])
+        if _varies(self.K) and (_varies(self.B) or _varies(Dzu)):
+            for cell in self.schedule.cells:
+                for i, j in itertools.combinations(cell, 2):
+                    ij, ji = of(data[i], self.K[j]), of(data[j], self.K[i])
+                    loops.append(tuple(0.5 * (a + b) for a, b in zip(ij, ji)))
+        w = [self.plant.physical_inputs[i] for i in iw]
+        z = [self.plant.output_labels[i] for i in iz]
+        return certified_bound(loops, objective, self.plant.dt, margin, w, z,
+                               "in the points' convex hull")  # fmt: skip
+
     @classmethod
     def of(cls, schedule, plant, controller, parameters):
         if not isinstance(plant, PolytopicStateSpace) or not hasattr(
             plant.domain, "lower"
         ):
             raise TypeError("plant: expected a PolytopicStateSpace over a box")
+        points = _plant_points(schedule, plant, parameters)
         names = list(plant.param_names)
-        if schedule.nvars != len(names):
-            raise ValueError(
-                f"parameters: the schedule has {schedule.nvars} variables "
-                f"{list(schedule.names)}, the plant {len(names)} {names}"
-            )
-        if parameters is None:
-            mapping = (
-                dict(zip(schedule.names, schedule.names))
-                if set(schedule.names) == set(names)
-                else dict(zip(schedule.names, names))
-            )
-        else:
-            mapping = dict(parameters)
-            if sorted(mapping) != sorted(schedule.names) or sorted(
-                mapping.values()
-            ) != sorted(names):
-                raise ValueError(
-                    f"parameters: expected {{scheduling variable: plant "
-                    f"parameter}} for {list(schedule.names)} -> {names}, got "
-                    f"{mapping}"
-                )
-        order = [list(schedule.names).index(s) for s in
-                 sorted(mapping, key=lambda s: names.index(mapping[s]))]  # fmt: skip
-        points = schedule.points[:, order]
-        lo, hi = plant.domain.lower, plant.domain.upper
-        outside = [
-            p.tolist()
-            for p in points
-            if np.any(p < lo - 1e-12) or np.any(p > hi + 1e-12)
-        ]
-        if outside:
-            raise ValueError(
-                f"controller: points {outside} are outside the plant's domain"
-            )
         u = _control_inputs(controller, plant, schedule)
         As, Bs = [], []
         for p, K in zip(points, schedule.gains):
             A, B, _, _ = (np.asarray(M) for M in _frozen(plant, p))
-            if K.shape != (len(u), A.shape[0]):
-                raise ValueError(
-                    f"controller: gains of shape {K.shape}; expected "
-                    f"{(len(u), A.shape[0])} (inputs {u}, the plant's states)"
-                )
+            _check_gain_shape(K, u, A.shape[0])
             As.append(A)
             Bs.append(B[:, u])
         for c, cell in enumerate(schedule.cells):
@@ -300,8 +357,10 @@ class _ClosedLoops:
                         f"{c} (points {points[cell].tolist()}): refine the "
                         "schedule's points"
                     )
-        return cls(schedule, points, np.array(As), np.array(Bs), tuple(names),
-                   not plant.isdtime(strict=True), plant)  # fmt: skip
+        loops = cls(schedule, points, np.array(As), np.array(Bs), tuple(names),
+                    not plant.isdtime(strict=True), plant)  # fmt: skip
+        object.__setattr__(loops, "_u", u)
+        return loops
 
     def unstable(self, A) -> complex | None:
         eig = np.linalg.eigvals(A)
@@ -453,6 +512,42 @@ class _ClosedLoops:
                             + 2 * (A[j].T @ getattr(v, f"P{i}")) + 2 * G(v)]],
                     )  # fmt: skip
         return lmi
+
+
+def _plant_points(schedule, plant, parameters):
+    """The schedule's points in the plant's parameter order, checked."""
+    names = list(plant.param_names)
+    if schedule.nvars != len(names):
+        raise ValueError(
+            f"parameters: the schedule has {schedule.nvars} variables "
+            f"{list(schedule.names)}, the plant {len(names)} {names}"
+        )
+    if parameters is None:
+        mapping = (
+            dict(zip(schedule.names, schedule.names))
+            if set(schedule.names) == set(names)
+            else dict(zip(schedule.names, names))
+        )
+    else:
+        mapping = dict(parameters)
+        if sorted(mapping) != sorted(schedule.names) or sorted(
+            mapping.values()
+        ) != sorted(names):
+            raise ValueError(
+                f"parameters: expected {{scheduling variable: plant "
+                f"parameter}} for {list(schedule.names)} -> {names}, got "
+                f"{mapping}"
+            )
+    order = [list(schedule.names).index(s) for s in
+             sorted(mapping, key=lambda s: names.index(mapping[s]))]  # fmt: skip
+    points = schedule.points[:, order]
+    lo, hi = plant.domain.lower, plant.domain.upper
+    outside = [
+        p.tolist() for p in points if np.any(p < lo - 1e-12) or np.any(p > hi + 1e-12)
+    ]
+    if outside:
+        raise ValueError(f"controller: points {outside} are outside the plant's domain")
+    return points
 
 
 def _gradients(V):
