@@ -1,0 +1,179 @@
+"""`certify` on gridded plants, against independent facts.
+
+The plant is built from `control.linearize` of a nonlinear python-control
+pendulum at trim points; the frozen closed loops are formed here from
+``G.at(p)`` and the gains interpolated by scipy (what python-control's
+``gainsched_method="linear"`` does), and their H-infinity norms come from
+`control.linfnorm`. The certified L2 bound must be at least the worst of
+them on a grid ten times denser than the design grid.
+"""
+
+import control as ct
+import numpy as np
+import pytest
+from scipy.interpolate import LinearNDInterpolator
+
+import ctrl_lpv as lpv
+from ctrl_lpv.schedules import FrozenCounterexample
+
+GRAVITY, LENGTH, DAMPING = 9.81, 1.0, 0.5
+
+
+def pendulum_dynamics(t, x, u, params):
+    m = params.get("m", 1.0)
+    torque = -m * GRAVITY * LENGTH * np.sin(x[0]) - DAMPING * x[1] + u[0] + u[1]
+    return [x[1], torque / (m * LENGTH**2)]
+
+
+PENDULUM = ct.nlsys(pendulum_dynamics, None, inputs=["u", "w"],
+                    states=["theta", "omega"], outputs=["theta", "omega"],
+                    params={"m": 1.0}, name="pendulum")  # fmt: skip
+
+
+def trim_linearization(theta0, m):
+    """The pendulum linearized where it holds the angle theta0."""
+    u0 = m * GRAVITY * LENGTH * np.sin(theta0)
+    return ct.linearize(PENDULUM, [theta0, 0.0], [u0, 0.0], params={"m": m},
+                        copy_names=True)  # fmt: skip
+
+
+DESIGN = {"theta0": np.linspace(0.0, 1.2, 3), "m": np.linspace(0.8, 1.25, 3)}
+
+
+@pytest.fixture(scope="module")
+def design():
+    G = lpv.gss(trim_linearization, DESIGN)
+    points = G.grid.points
+    gains = [ct.lqr(G.at(p)[:, "u"], np.diag([10.0, 1.0]), 1.0)[0] for p in points]
+    return G, gains, points
+
+
+def frozen_loop(G, gain_of, p):
+    S = G.at(p)
+    K = gain_of(p)
+    return ct.ss(S.A - S.B[:, [0]] @ K, S.B[:, [1]], S.C[[0]], 0)
+
+
+def test_certified_l2_bound_covers_the_frozen_norms_on_a_10x_denser_grid(design):
+    G, gains, points = design
+    c = lpv.certify((gains, points), G, objective=lpv.Hinf(w="w", z="theta"))
+    assert c.certified and c.certificate.verified
+    assert c.rate_bound == {"theta0": np.inf, "m": np.inf}
+    interp = LinearNDInterpolator(points, np.array(gains).reshape(len(points), -1))
+
+    def gain_of(p):
+        return interp(p).reshape(1, 2)
+
+    # Design spacing / 10 on both axes: 21 x 21 points.
+    dense = [np.linspace(0.0, 1.2, 21), np.linspace(0.8, 1.25, 21)]
+    norms = [float(ct.linfnorm(frozen_loop(G, gain_of, [a, m]))[0])
+             for a in dense[0] for m in dense[1]]  # fmt: skip
+    worst = max(norms)
+    assert c.bound >= worst
+    # Arbitrary rates cost something, but the bound is not vacuous.
+    assert c.bound < 10 * worst
+
+
+def test_the_spanning_terms_reproduce_every_frozen_loop(design):
+    """The frozen loop is the convex combination the docstring claims:
+    ``sum_i w_i^2 M_ii + sum_{i<j} 2 w_i w_j (M_ij + M_ji) / 2``."""
+    from ctrl_lpv.schedules.certify import _gridded_loops
+    from ctrl_lpv.schedules.schedule import schedule_of
+
+    G, gains, points = design
+    schedule = schedule_of((gains, points), names=G.param_names)
+    loops = _gridded_loops(schedule, G, (gains, points), None)
+    interp = LinearNDInterpolator(points, np.array(gains).reshape(len(points), -1))
+    rng = np.random.default_rng(3)
+    for piece in loops.pieces:
+        K = loops.corner_gains(piece)
+        terms = loops.products(piece)
+        for _ in range(5):
+            # A point of the piece: a random convex combination of the
+            # simplex's points, kept if it lies in the cell.
+            lam = rng.dirichlet(np.ones(3))
+            p = lam @ loops.points[piece.points]
+            lo, hi = G.grid.points[piece.corners[[0, -1]]]
+            if np.any(p < lo) or np.any(p > hi):
+                continue
+            w = G.grid.weights(p)
+            combined = np.zeros((2, 2))
+            for term in terms:
+                if isinstance(term[0], tuple):
+                    (i, b), (j, a) = term
+                    coef = 2 * w[i] * w[j]
+                    Mij = loops.A[i] - loops.B[i] @ K[b]
+                    Mji = loops.A[j] - loops.B[j] @ K[a]
+                    combined += coef * 0.5 * (Mij + Mji)
+                else:
+                    i, a = term
+                    combined += w[i] ** 2 * (loops.A[i] - loops.B[i] @ K[a])
+            true = frozen_loop(G, lambda q: interp(q).reshape(1, 2), p).A
+            np.testing.assert_allclose(combined, true, atol=1e-12)
+
+
+@pytest.mark.filterwarnings("ignore:cannot verify system output:UserWarning")
+def test_python_control_controller_on_a_gridded_plant_agrees_with_the_table():
+    def upright(theta0):
+        return trim_linearization(theta0, 1.0)[:, "u"]
+
+    points = np.linspace(0.0, 1.2, 4)
+    gains = [ct.lqr(upright(t), np.diag([10.0, 1.0]), 1.0)[0] for t in points]
+    ctrl, _ = ct.create_statefbk_iosystem(upright(0.6), (gains, points),
+                                          gainsched_indices=["xd[0]"])  # fmt: skip
+    # The plant's grid is finer than the schedule's points.
+    G = lpv.gss(upright, {"theta0": np.linspace(0.0, 1.2, 7)})
+    from_object = lpv.certify(ctrl, G)
+    from_table = lpv.certify((gains, points), G)
+    assert from_object.certified and from_table.certified
+    assert from_object.rate_bound == from_table.rate_bound == {"theta0": np.inf}
+    assert from_object.certificate.verified
+
+
+def test_frozen_unstable_schedule_is_refused_with_the_cell_and_eigenvalue(design):
+    G, gains, points = design
+    bad = [K.copy() for K in gains]
+    # Positive feedback at the last grid point: unstable there.
+    bad[-1] = -gains[-1]
+    c = lpv.certify((bad, points), G)
+    assert not c.certified
+    example = c.counterexample
+    assert isinstance(example, FrozenCounterexample)
+    p = np.array([example.point["theta0"], example.point["m"]])
+    interp = LinearNDInterpolator(points, np.array(bad).reshape(len(points), -1))
+    S = G.at(p)
+    eig = np.linalg.eigvals(S.A - S.B[:, [0]] @ interp(p).reshape(1, 2))
+    assert eig.real.max() >= 0
+    assert example.eigenvalue.real == pytest.approx(eig.real.max(), abs=1e-9)
+    lo = G.grid.points[G.grid.corners(example.cell)[0]]
+    hi = G.grid.points[G.grid.corners(example.cell)[-1]]
+    assert np.all(lo <= p) and np.all(p <= hi)
+
+
+def first_order(a):
+    return ct.ss([[-a]], [[1.0, 1.0]], [[1.0]], 0, inputs=["u", "w"], outputs="z")
+
+
+def test_objective_is_checked():
+    G = lpv.gss(first_order, {"a": [1, 2]})
+    table = ([np.array([[1.0]]), np.array([[1.0]])], [1.0, 2.0])
+    with pytest.raises(TypeError, match="objective"):
+        lpv.certify(table, G, objective="hinf")
+    with pytest.raises(ValueError, match="objective: name the channel"):
+        lpv.certify(table, G, objective=lpv.Hinf())
+    with pytest.raises(ValueError, match="objective.w"):
+        lpv.certify(table, G, objective=lpv.Hinf(w="nope", z="z"))
+
+
+def test_first_order_gridded_bound_against_the_exact_worst_case():
+    """x' = -(a + k(a)) x + w, z = x: one state, so the L2 gain under
+    arbitrary variation is the frozen worst 1 / min(a + k(a)) (a constant P
+    is exact for scalar systems)."""
+    G = lpv.gss(first_order, {"a": [1.0, 2.0, 3.0]})
+    gains = [np.array([[0.5]]), np.array([[0.2]]), np.array([[0.1]])]
+    c = lpv.certify((gains, [1.0, 2.0, 3.0]), G, objective=lpv.Hinf(w="w", z="z"))
+    a = np.linspace(1.0, 3.0, 201)
+    k = np.interp(a, [1.0, 2.0, 3.0], [0.5, 0.2, 0.1])
+    exact = 1.0 / np.min(a + k)
+    assert c.certified
+    assert exact <= c.bound <= exact * (1 + 1e-3)
