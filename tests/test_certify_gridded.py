@@ -177,3 +177,90 @@ def test_first_order_gridded_bound_against_the_exact_worst_case():
     exact = 1.0 / np.min(a + k)
     assert c.certified
     assert exact <= c.bound <= exact * (1 + 1e-3)
+
+
+# ------------------------------------------------------------ rate bounds
+
+# The switched pair of test_certify_schedule: every convex combination is
+# stable, switching between them is not.
+A1 = np.array([[-0.1, 1.0], [-2.0, -0.1]])
+A2 = np.array([[-0.1, 2.0], [-1.0, -0.1]])
+E = np.array([[0.0, 0.3], [-0.3, 0.0]])
+
+
+def integrator(p=None, q=0.0):
+    """x' = q E x + u: with K(p) = -((1 - p) A1 + p A2) the closed loop is
+    (1 - p) A1 + p A2 + q E."""
+    return ct.ss(q * E, np.eye(2), np.eye(2), 0, inputs=["u0", "u1"])
+
+
+def simulate(loop_of_t, T, x0=(1.0, 0.0)):
+    from scipy.integrate import solve_ivp
+
+    sol = solve_ivp(lambda t, x: loop_of_t(t) @ x, (0.0, T), x0, rtol=1e-9,
+                    atol=1e-12, max_step=0.01)  # fmt: skip
+    return sol.y
+
+
+def bounded_rate_signal(rng, nu, center, amplitude):
+    """A random smooth signal in center +- amplitude with |d/dt| <= nu."""
+    r, w, phase = rng.uniform(0.2, 1.0, (3, 3))
+    a = amplitude * r / r.sum()
+    w = w * nu / np.sum(a * w)
+    return lambda t: center + np.sum(a * np.sin(w * t + 2 * np.pi * phase))
+
+
+def test_gridded_rate_bound_matches_the_polytopic_one_on_the_same_cell():
+    table = ([-A1, -A2], [0.0, 1.0])
+    polytopic = lpv.PolytopicStateSpace.from_affine(
+        integrator(), {"p": (np.zeros((2, 2)), 0, 0, 0)}, {"p": (0.0, 1.0)}
+    )
+    gridded = lpv.gss(integrator, {"p": [0.0, 1.0]})
+    a = lpv.certify(table, polytopic, counterexample=False)
+    b = lpv.certify(table, gridded, counterexample=False)
+    assert not a.certified and not b.certified
+    assert b.rate_bound["p"] == pytest.approx(a.rate_bound["p"], rel=1e-9)
+
+
+def test_finer_grid_certifies_a_rate_that_simulations_confirm():
+    """P(p) on a finer grid is more flexible: a larger certified rate.
+    Below it random trajectories decay; the counterexample diverges."""
+    coarse = lpv.certify(([-A1, -A2], [0.0, 1.0]),
+                         lpv.gss(integrator, {"p": [0.0, 1.0]}),
+                         counterexample=False)  # fmt: skip
+    c = lpv.certify(([-A1, -A2], [0.0, 1.0]),
+                    lpv.gss(integrator, {"p": np.linspace(0.0, 1.0, 5)}))  # fmt: skip
+    nu = c.rate_bound["p"]
+    assert coarse.rate_bound["p"] < nu < np.inf
+    assert c.certificate.verified and "multilinear" in c.certificate.statement
+
+    def loop(p):
+        return (1 - p) * A1 + p * A2
+
+    rng = np.random.default_rng(1)
+    for _ in range(4):
+        p = bounded_rate_signal(rng, 0.9 * nu, 0.5, 0.5)
+        x = simulate(lambda t, p=p: loop(p(t)), 150.0)
+        assert np.linalg.norm(x[:, -1]) < 1e-2 * np.linalg.norm(x[:, 0])
+    traj = c.counterexample
+    assert traj.rate > nu
+    periods = 12
+    x = simulate(lambda t: loop(traj([t])[0, 0]), periods * traj.period)
+    assert np.linalg.norm(x[:, -1]) > 0.5 * traj.growth**periods > 1
+
+
+def test_two_parameter_rate_bound_is_confirmed_by_simulation():
+    G = lpv.gss(integrator, {"p": [0.0, 0.5, 1.0], "q": [0.0, 0.5, 1.0]})
+    points = G.grid.points
+    gains = [-((1 - p) * A1 + p * A2) for p, _ in points]
+    c = lpv.certify((gains, points), G, counterexample=False)
+    nu = c.rate_bound
+    assert not c.certified and 0 < nu["p"] < np.inf and nu["p"] == nu["q"]
+    assert c.certificate.verified
+    rng = np.random.default_rng(2)
+    for _ in range(3):
+        p = bounded_rate_signal(rng, 0.9 * nu["p"], 0.5, 0.5)
+        q = bounded_rate_signal(rng, 0.9 * nu["q"], 0.5, 0.5)
+        x = simulate(lambda t, p=p, q=q: (1 - p(t)) * A1 + p(t) * A2 + q(t) * E,
+                     150.0)  # fmt: skip
+        assert np.linalg.norm(x[:, -1]) < 1e-2 * np.linalg.norm(x[:, 0])

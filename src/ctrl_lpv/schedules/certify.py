@@ -39,6 +39,7 @@ from ..exceptions import SynthesisError
 from ..lmi import LMIProblem
 from ..systems import GriddedStateSpace, PolytopicStateSpace
 from .objective import checked_objective
+from .rates import RateSearch
 from .schedule import GainSchedule, schedule_of
 
 __all__ = ["certify", "ScheduleCertificate", "FrozenCounterexample"]
@@ -230,7 +231,7 @@ def certify(
     tried.append("parameter-dependent P(p), bisection on the rate")
     rates = {n: float(scale) for n in loops.names}
     example = None
-    if counterexample and scale < math.inf and loops.searchable:
+    if counterexample and scale < math.inf:
         from .counterexample import destabilising_trajectory
 
         example = destabilising_trajectory(loops, max(scale, 1e-6))
@@ -257,7 +258,7 @@ def _check_gain_shape(K, u, n):
 
 
 @dataclass(frozen=True)
-class _ClosedLoops:
+class _ClosedLoops(RateSearch):
     """The closed loops at the schedule's points, in the plant's parameters."""
 
     schedule: GainSchedule
@@ -282,8 +283,15 @@ class _ClosedLoops:
         """Whether ``B_u(p) K(p)`` is quadratic on a cell (both vary)."""
         return _varies(self.K) and _varies(self.B)
 
-    #: Whether `destabilising_trajectory` can search this loop.
-    searchable = True
+    def segments(self):
+        """``(start, end, nodes, loops)``: pairs of points of a cell (the
+        loop is affine between them when the rate-bounded analysis
+        applies; see `destabilising_trajectory`)."""
+        return [
+            (self.points[a], self.points[b], [0.0, 1.0], [self.Acl[a], self.Acl[b]])
+            for cell in self.schedule.cells
+            for a, b in itertools.combinations(cell, 2)
+        ]
 
     def rate_refusal(self) -> str | None:
         """Why the rate-bounded analysis does not apply (None: it does)."""
@@ -428,54 +436,6 @@ class _ClosedLoops:
                 "(one quadratic Lyapunov function of the closed loops at the points)"
             ),
         )
-
-    def rate_bounded(self, nu, margin, lmi=None):
-        """The certificate with rates `nu` (one per parameter), or None.
-
-        `lmi` is the problem of `_rate_problem` to re-solve (``nu`` is a
-        parameter of it: the bisection builds it once).
-        """
-        lmi = self._rate_problem(margin) if lmi is None else lmi
-        lmi.set_parameter("nu", nu)
-        try:
-            sol = lmi.solve()
-        except SynthesisError:
-            return None
-        checks = tuple(
-            Check.from_lmi_check(c, group="rate-bounded") for c in sol.checks
-        )
-        rates = ", ".join(f"|d{n}/dt| <= {v:.4g}" for n, v in zip(self.names, nu))
-        return Certificate(
-            checks,
-            statement=(
-                f"stable for parameter trajectories in the points' convex hull with "
-                f"{rates} (P(p) affine on each cell, continuous)"
-            ),
-        )
-
-    def largest_rate(self, margin):
-        """``(nu, certificate)``: the largest uniform rate certified."""
-        width = float(np.max(self.plant.domain.upper - self.plant.domain.lower))
-        rate = 1e-3 * width * max(1.0, float(np.abs(self.Acl).max()))
-        ones = np.ones(len(self.names))
-        lmi = self._rate_problem(margin)
-        best, certificate = 0.0, self.rate_bounded(0.0 * ones, margin, lmi)
-        if certificate is None:
-            return 0.0, None
-        lo, hi = 0.0, None
-        for _ in range(40):  # expand, then bisect to 5 %
-            trial = rate if hi is None else 0.5 * (lo + hi)
-            found = self.rate_bounded(trial * ones, margin, lmi)
-            if found is not None:
-                lo, best, certificate = trial, trial, found
-                rate *= 4.0
-                if hi is None and rate > 1e9:
-                    return math.inf, certificate
-            else:
-                hi = trial
-            if hi is not None and hi - lo <= 0.05 * hi:
-                break
-        return best, certificate
 
     def _rate_problem(self, margin):
         n = self.Acl.shape[1]

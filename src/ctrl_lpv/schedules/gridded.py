@@ -43,6 +43,7 @@ from scipy.optimize import linprog
 
 from ..certificate import Certificate, Check
 from ..exceptions import SynthesisError
+from .rates import RateSearch
 
 __all__ = ["GriddedLoops"]
 
@@ -58,8 +59,20 @@ class Piece:
     inside: np.ndarray  # a point inside the piece (plant parameter order)
 
 
-class GriddedLoops:
+class GriddedLoops(RateSearch):
     """The closed loops of a schedule on a `GriddedStateSpace`, by pieces.
+
+    Rate-bounded analysis (continuous time, on every cell ``B_u`` constant
+    or the gain constant on each piece, so that the loop is multilinear on
+    the piece, ``sum_a w_a M_a``): ``P(p) = sum_i w_i(p) P_i`` multilinear
+    on the grid, continuous across cells. On a cell of widths ``h``,
+    ``dw_a/dp_d`` is ``+-(w_a + w_a')/h_d`` (``a'`` the corner across axis
+    ``d``), so ``dP/dt = sum_a w_a D_a`` with ``D_a = sum_d (dp_d/dt)
+    (P_a+ - P_a-) / h_d`` (the difference of ``P`` along the cell's edge
+    through corner ``a``). Then ``dV/dt = x' (sum_ab w_a w_b Q_ab) x`` with
+    ``Q_ab = M_a' P_b + P_b M_a + (D_a + D_b) / 2``, negative when the
+    ``Q_aa`` and the ``Q_ab + Q_ba`` are, at the ``2**k`` corners of the
+    rate box (the terms are affine in the rates).
 
     Parameters
     ----------
@@ -223,13 +236,124 @@ class GriddedLoops:
     def Acl(self) -> np.ndarray:
         return self.spanning()
 
-    #: `destabilising_trajectory` interpolates the loops at two points
-    #: linearly, which a multilinear cell is not.
-    searchable = False
+    region = "on the plant's grid cells within the schedule's points"
+    lyapunov_form = "P(p) multilinear on each grid cell, continuous"
 
     def rate_refusal(self) -> str | None:
         """Why the rate-bounded analysis does not apply (None: it does)."""
-        return "on gridded plants"
+        if not self.continuous:
+            return "in discrete time"
+        for piece in self.pieces:
+            if not _constant(self.K[list(piece.points)]) and not _constant(
+                self.B[list(piece.corners)]
+            ):
+                return "when B_u and the gains both vary on a grid cell"
+        return None
+
+    def families(self):
+        """``[(piece, M)]``: the loop is ``sum_a w_a M[a]`` on each piece."""
+        out = []
+        for piece in self.pieces:
+            K = self.corner_gains(piece)
+            M = [self.A[i] - self.B[i] @ K[a] for a, i in enumerate(piece.corners)]
+            out.append((piece, np.array(M)))
+        return out
+
+    def segments(self):
+        """``(start, end, nodes, loops)``: grid lines across a simplex.
+
+        Along one axis, the grid points of a line that lie in one schedule
+        simplex (a run, the simplex being convex): there the gain is affine
+        and the plant piecewise affine between the grid points, so the loop
+        is the linear interpolation of its values at them (``nodes``, the
+        relative positions from 0 to 1; see `destabilising_trajectory`).
+        """
+        grid, out = self.grid, {}
+        for s in {piece.simplex for piece in self.pieces}:
+            c, G = self._barycentric_map(s)
+            points = self.schedule.cells[s]
+            inside = np.all(grid.points @ G.T + c >= -1e-12, axis=1)
+            index = np.flatnonzero(inside)
+            if index.size < 2:
+                continue
+            multi = np.array(np.unravel_index(index, grid.shape)).T
+            for d in range(grid.nparams):
+                lines = {}
+                for i, m in zip(index, multi):
+                    lines.setdefault(tuple(np.delete(m, d)), []).append((m[d], i))
+                for line in lines.values():
+                    if len(line) < 2:
+                        continue
+                    run = [i for _, i in sorted(line)]
+                    lam = grid.points[run] @ G.T + c
+                    K = np.tensordot(lam, self.K[points], axes=(1, 0))
+                    M = [self.A[i] - self.B[i] @ Ki for i, Ki in zip(run, K)]
+                    ends = grid.points[[run[0], run[-1]]]
+                    span = ends[1][d] - ends[0][d]
+                    nodes = (grid.points[run][:, d] - ends[0][d]) / span
+                    key = b"".join(x.tobytes() for x in M)
+                    out.setdefault(key, (ends[0], ends[1], nodes, M))
+        return list(out.values())
+
+    def _rate_problem(self, margin):
+        from ..lmi import LMIProblem
+
+        grid, n = self.grid, self.A.shape[1]
+        k = grid.nparams
+        families = self.families()
+        scale = max(1.0, max(float(np.linalg.norm(M, 2))
+                             for _, Ms in families for M in Ms))  # fmt: skip
+        lmi = LMIProblem(margin=margin * scale)
+        for i in sorted({int(i) for piece, _ in families for i in piece.corners}):
+            lmi.variable(f"P{i}", (n, n), symmetric=True)
+            lmi.add(f"P{i} > 0", lambda v, i=i: [[-getattr(v, f"P{i}")]])
+            lmi.add(f"P{i} <= I", lambda v, i=i: [[getattr(v, f"P{i}") - np.eye(n)]],
+                    strict=False, normalization=True)  # fmt: skip
+        lmi.parameter("nu", (k,), value=np.zeros(k), nonneg=True)
+        bits = grid._bits
+        # across[a][d]: the corner position across axis d from position a.
+        weights = 2 ** np.arange(k - 1, -1, -1)
+        across = [[int((bits[a] ^ np.eye(k, dtype=int)[d]) @ weights)
+                   for d in range(k)] for a in range(len(bits))]  # fmt: skip
+        seen = set()
+        for piece, M in families:
+            key = (piece.cell, M.tobytes())
+            if key in seen:
+                continue
+            seen.add(key)
+            corners = [int(i) for i in piece.corners]
+            lo = grid.points[corners[0]]
+            h = grid.points[corners[-1]] - lo
+
+            def P(v, a, corners=corners):
+                return getattr(v, f"P{corners[a]}")
+
+            def edge(v, a, d, corners=corners):
+                """(P at the upper end - P at the lower end) of the edge."""
+                b = across[a][d]
+                up, down = (a, b) if bits[a][d] else (b, a)
+                return P(v, up) - P(v, down)
+
+            for signs in itertools.product((-1.0, 1.0), repeat=k):
+
+                def D(v, a, signs=signs, h=h, edge=edge):
+                    return sum(s * v.nu[d] * edge(v, a, d) / h[d]
+                               for d, s in enumerate(signs))  # fmt: skip
+
+                def sym(X):
+                    return X + X.T
+
+                where = f"cell {list(piece.cell)} rates {signs}"
+                for a in range(len(corners)):
+                    name = f"{where} loop {len(seen)} corner {corners[a]}"
+                    lmi.add(name, lambda v, a=a, M=M, P=P, D=D:
+                            [[sym(M[a].T @ P(v, a)) + D(v, a)]])  # fmt: skip
+                for a, b in itertools.combinations(range(len(corners)), 2):
+                    name = f"{where} loop {len(seen)} pair {corners[a]},{corners[b]}"
+                    lmi.add(name, lambda v, a=a, b=b, M=M, P=P, D=D:
+                            [[sym(M[a].T @ P(v, b)) + sym(M[b].T @ P(v, a))
+                              + D(v, a) + D(v, b)]])  # fmt: skip
+        return lmi
 
     # ------------------------------------------------------------------
     # Frozen check, arbitrary rates, the channel's bound
