@@ -1,8 +1,8 @@
 """Is a gain schedule stable, and for how fast a parameter?
 
 `certify` takes a scheduled state feedback as python-control builds it (or a
-table of gains at points) and a polytopic plant, and answers with a
-`ScheduleCertificate`:
+table of gains at points) and a polytopic or gridded plant, and answers
+with a `ScheduleCertificate`. For a polytopic plant:
 
 1. **frozen**: the closed loop at every point and at seeded samples inside
    every cell; an unstable one is the counterexample (cell, point,
@@ -22,7 +22,14 @@ table of gains at points) and a polytopic plant, and answers with a
    every parameter's given rate, 1 per time unit by default) is found by
    bisection, each step a certified LMI solve; above it nothing is claimed,
    and `ctrl_lpv.schedules.counterexample` looks for a periodic parameter
-   trajectory that destabilises the loop.
+   trajectory that destabilises the loop;
+4. **objective** (`Hinf` or `H2` of a named channel): the bound with one
+   Lyapunov matrix for the channel's terms spanning the loops (arbitrary
+   rates; `ctrl_lpv.schedules.objective`).
+
+For a `ctrl_lpv.GriddedStateSpace` the same steps run on the pieces of
+grid cells and schedule simplices, with the terms and the multilinear
+``P(p)`` of `ctrl_lpv.schedules.gridded`.
 """
 
 from __future__ import annotations
@@ -111,7 +118,7 @@ class ScheduleCertificate:
 
 def certify(
     controller,
-    plant: PolytopicStateSpace,
+    plant,
     *,
     parameters=None,
     rate_bounds=None,
@@ -120,7 +127,7 @@ def certify(
     samples: int = 20,
     counterexample: bool = True,
 ) -> ScheduleCertificate:
-    """Certify a gain schedule on a polytopic plant, and find its rate bound.
+    """Certify a gain schedule on an LPV plant, and find its rate bound.
 
     Parameters
     ----------
@@ -129,16 +136,27 @@ def certify(
         `control.create_statefbk_iosystem` (``gain=(gains, points)``,
         ``gainsched_method="linear"``), a table ``(gains, points)``, a
         design of this library (certified on another plant, e.g. the true
-        one), or a `GainSchedule`. Its outputs (for a table: ``u``, the plant's inputs
-        in order) are plant inputs; ``K`` acts on the plant's states.
-    plant : `PolytopicStateSpace`
-        The plant over a box of named parameters.
+        one), or a `GainSchedule`. Its outputs (for a table: ``u``, the
+        plant's inputs in order) are plant inputs; ``K`` acts on the plant's
+        states.
+    plant : `PolytopicStateSpace` or `GriddedStateSpace`
+        The plant over a box of named parameters, or on a grid of them
+        (e.g. linearizations at trim points, `ctrl_lpv.gss`); then every
+        grid cell within the schedule's points is certified, the gain
+        being affine on each simplex of the schedule, the plant
+        multilinear on each cell (see `ctrl_lpv.schedules.gridded` for why
+        the relaxation is sound).
     parameters : mapping of str to str, optional
         ``{scheduling variable: plant parameter}``; default: the same names,
         or else in order.
     rate_bounds : mapping of str to float, optional
         Rates to certify, ``{parameter: nu}``; default: find the largest
         ``nu`` for every parameter (per time unit).
+    objective : `Hinf` or `H2`, optional
+        A channel ``Hinf(w=..., z=...)`` (or `H2`) whose bound to certify
+        (L2 gain, or H2), for arbitrarily fast parameters: `certified`
+        then also requires the bound, reported in ``.bound``. Its ``w`` are
+        plant inputs, its ``z`` plant outputs; ``bound=`` must be None.
     margin : float, optional
         Relative margin of the strict LMIs.
     samples : int, optional
@@ -154,8 +172,10 @@ def certify(
     ------
     ValueError, TypeError
         A controller that is not a linear gain schedule, parameters that do
-        not match, points outside the plant's domain, or a closed loop that
-        whose ``A`` or ``B_u`` is not affine in the parameters on a cell.
+        not match, points outside the plant's domain, a polytopic plant
+        whose ``A`` or ``B_u`` (with an objective also ``C``, ``D``) is not
+        affine in the parameters on a cell, or an objective that is not an
+        `Hinf` or `H2` naming its channel.
 
     Examples
     --------
@@ -167,6 +187,16 @@ def certify(
     >>> gains = [np.array([[1.0, 2.0]]), np.array([[0.5, 2.0]])]
     >>> lpv.certify((gains, [0.0, 2.0]), G).rate_bound
     {'a': inf}
+
+    A gridded plant, with an L2 bound from ``w`` to ``y``:
+
+    >>> G = lpv.gss(lambda a: ct.ss([[-a]], [[1.0, 1.0]], [[1.0]], 0,
+    ...                             inputs=["u", "w"], outputs="y"),
+    ...             {"a": [1.0, 2.0, 3.0]})
+    >>> c = lpv.certify(([[[0.5]], [[0.2]], [[0.1]]], [1.0, 2.0, 3.0]), G,
+    ...                 objective=lpv.Hinf(w="w", z="y"))
+    >>> c.certified, round(c.bound, 3)
+    (True, 0.667)
     """
     if isinstance(controller, GainSchedule):
         schedule = controller

@@ -227,7 +227,21 @@ class GriddedStateSpace(NominalPointMixin, SchedulingMixin, StateSpace):
         return self._physical_inputs
 
     def weights(self, p, clip: bool = False) -> np.ndarray:
-        """Interpolation weights of `p` over the grid points (see `ParameterGrid`)."""
+        """Interpolation weights of `p` over the grid points.
+
+        Parameters
+        ----------
+        p : array_like or mapping
+            Parameter value.
+        clip : bool, optional
+            Project `p` onto the grid's box instead of raising.
+
+        Returns
+        -------
+        ndarray
+            Shape ``(N,)``: nonnegative, summing to one, nonzero only at the
+            corners of the cell containing `p`.
+        """
         return self.domain.weights(p, clip=clip)
 
     def _combine(self, delta: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -293,7 +307,20 @@ class GriddedStateSpace(NominalPointMixin, SchedulingMixin, StateSpace):
         )
 
     def scheduled(self, by: Scheduling):
-        """Return a copy with another scheduling source (see `PolytopicStateSpace`)."""
+        """Return a copy with another scheduling source.
+
+        Parameters
+        ----------
+        by : None, "inputs" or callable
+            Where the parameters come from in simulation: the ``params``
+            dict (None), one extra input per parameter (``"inputs"``), or a
+            callable ``p = f(t, x, u)``.
+
+        Returns
+        -------
+        `GriddedStateSpace`
+            The same grid, systems, nominal point and name.
+        """
         return type(self)(self.vertices, self.domain, scheduling=by,
                           nominal=self.nominal, name=self.name)  # fmt: skip
 
