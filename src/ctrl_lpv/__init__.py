@@ -47,6 +47,7 @@ _EXPORTS = {
     "check_detectability": "stabilizability",
     "ModeResidual": "stabilizability",
     "StateFeedbackDesign": "synthesis",
+    "GriddedDesign": "synthesis",
     "Certificate": "synthesis",
     "SynthesisCache": "problem_cache",
     "synthesis_cache": "problem_cache",
