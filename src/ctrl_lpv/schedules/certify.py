@@ -80,7 +80,9 @@ class ScheduleCertificate:
     ----------
     certified : bool
         Stable for every parameter trajectory in the points' convex hull
-        with the rates asked for (``rate_bounds``; arbitrary rates if None).
+        (on a gridded plant: in its grid cells within it) with the rates
+        asked for (``rate_bounds``; arbitrary rates if None), and with an
+        objective its bound certified too.
     rate_bound : dict
         ``{parameter: rate}`` certified; ``inf`` for arbitrary rates, ``0``
         when only frozen stability (or nothing) is established.
