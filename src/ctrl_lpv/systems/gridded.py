@@ -114,6 +114,8 @@ class GriddedStateSpace(NominalPointMixin, SchedulingMixin, StateSpace):
     array([[-3.]])
     """
 
+    _kind = "gridded"
+
     def __init__(
         self,
         systems,
