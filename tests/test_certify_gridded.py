@@ -322,3 +322,47 @@ def test_random_gridded_schedules_certified_are_stable_with_their_bound():
                 norm = float(ct.linfnorm(ct.ss(loop, S.B[:, [1]], S.C, 0))[0])
                 assert norm <= c.bound, (seed, p, q)
     assert certified >= 4
+
+
+def test_scattered_schedule_points_across_grid_cells():
+    """python-control also schedules on scattered points: Delaunay triangles
+    that cross the plant's grid cells (pieces found by a linear program).
+    The terms reproduce the frozen loops on every piece, and the certified
+    bound covers the frozen norms on a dense grid."""
+    from ctrl_lpv.schedules.certify import _gridded_loops
+    from ctrl_lpv.schedules.schedule import schedule_of
+
+    G, _, _ = random_case(5)
+    rng = np.random.default_rng(11)
+    corners = [[0.0, 0.0], [0.0, 1.0], [1.0, 0.0], [1.0, 1.0]]
+    points = np.vstack([corners, rng.uniform(0.1, 0.9, size=(5, 2))])
+    gains = [ct.lqr(G.at(x)[:, "u"], np.eye(2), 1.0)[0] for x in points]
+    table = (gains, points)
+    loops = _gridded_loops(schedule_of(table, names=G.param_names), G, table, None)
+    assert len(loops.pieces) > len(loops.schedule.cells)  # triangles are split
+    interp = LinearNDInterpolator(points, np.array(gains).reshape(len(points), -1))
+    for piece in loops.pieces:
+        K = loops.corner_gains(piece)
+        p = piece.inside
+        w = G.grid.weights(p)
+        combined = np.zeros((2, 2))
+        for term in loops.products(piece):
+            if isinstance(term[0], tuple):
+                (i, b), (j, a) = term
+                ij = loops.A[i] - loops.B[i] @ K[b]
+                ji = loops.A[j] - loops.B[j] @ K[a]
+                combined += w[i] * w[j] * (ij + ji)
+            else:
+                i, a = term
+                combined += w[i] ** 2 * (loops.A[i] - loops.B[i] @ K[a])
+        S = G.at(p)
+        true = S.A - S.B[:, [0]] @ interp(p).reshape(1, 2)
+        np.testing.assert_allclose(combined, true, atol=1e-10)
+    c = lpv.certify(table, G, objective=lpv.Hinf(w="w", z=["z0", "z1"]))
+    assert c.certified
+    for p in np.linspace(0.0, 1.0, 21):
+        for q in np.linspace(0.0, 1.0, 21):
+            S = G.at([p, q])
+            loop = S.A - S.B[:, [0]] @ interp([p, q]).reshape(1, 2)
+            norm = float(ct.linfnorm(ct.ss(loop, S.B[:, [1]], S.C, 0))[0])
+            assert norm <= c.bound
