@@ -217,3 +217,40 @@ def test_a_design_is_certified_on_another_plant():
     c = lpv.certify(design, true)
     np.testing.assert_array_equal(schedule_of(design).gains, np.array(design.gains))
     assert c.certified and c.rate_bound == {"a": np.inf}
+
+
+# ------------------------------------------------------------- objective
+
+
+def steered(v):
+    """The vehicle of the test above with a heading disturbance w."""
+    return ct.ss([[0.0, v], [0.0, 0.0]], [[0.0, 0.0], [v / 3.0, 1.0]],
+                 [[1.0, 0.0]], 0, inputs=["delta", "w"], outputs="y",
+                 states=["y", "theta"])  # fmt: skip
+
+
+def test_l2_bound_covers_the_frozen_norms_on_polytopic_and_gridded_plants():
+    """B_u and K both vary: the pairwise terms span the channel. The bound
+    is at least control's H-infinity norm of every frozen loop on a dense
+    grid, and the polytopic and gridded models of the same (affine) plant
+    give the same bound (the same terms)."""
+    polytopic = lpv.PolytopicStateSpace.from_affine(
+        steered(0.0), {"v": ([[0, 1.0], [0, 0]], [[0.0, 0.0], [1 / 3.0, 0.0]], 0, 0)},
+        {"v": (2.0, 10.0)},
+    )  # fmt: skip
+    points = [2.0, 5.0, 10.0]
+    gridded = lpv.gss(steered, {"v": points})
+    gains = [ct.lqr(steered(v)[:, "delta"], np.eye(2), 1.0)[0] for v in points]
+    hinf = lpv.Hinf(w="w", z="y")
+    on_polytope = lpv.certify((gains, points), polytopic, objective=hinf)
+    on_grid = lpv.certify((gains, points), gridded, objective=hinf)
+    worst = 0.0
+    for v in np.linspace(2.0, 10.0, 81):
+        K = np.array([[np.interp(v, points, [g[0, i] for g in gains]) for i in (0, 1)]])
+        S = steered(v)
+        loop = ct.ss(S.A - S.B[:, [0]] @ K, S.B[:, [1]], S.C, 0)
+        worst = max(worst, float(ct.linfnorm(loop)[0]))
+    for c in (on_polytope, on_grid):
+        assert c.certified and c.certificate.verified, str(c)
+        assert c.bound >= worst
+    assert on_grid.bound == pytest.approx(on_polytope.bound, rel=1e-3)

@@ -17,6 +17,9 @@ __version__ = "0.1.0"
 _EXPORTS = {
     "PolytopicStateSpace": "systems",
     "pss": "systems",
+    "GriddedStateSpace": "systems",
+    "gss": "systems",
+    "ParameterGrid": "systems",
     "ParameterBox": "polytope",
     "Polytope": "polytope",
     "Simplex": "polytope",
@@ -44,6 +47,7 @@ _EXPORTS = {
     "check_detectability": "stabilizability",
     "ModeResidual": "stabilizability",
     "StateFeedbackDesign": "synthesis",
+    "GriddedDesign": "synthesis",
     "Certificate": "synthesis",
     "SynthesisCache": "problem_cache",
     "synthesis_cache": "problem_cache",

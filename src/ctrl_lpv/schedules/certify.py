@@ -1,8 +1,8 @@
 """Is a gain schedule stable, and for how fast a parameter?
 
 `certify` takes a scheduled state feedback as python-control builds it (or a
-table of gains at points) and a polytopic plant, and answers with a
-`ScheduleCertificate`:
+table of gains at points) and a polytopic or gridded plant, and answers
+with a `ScheduleCertificate`. For a polytopic plant:
 
 1. **frozen**: the closed loop at every point and at seeded samples inside
    every cell; an unstable one is the counterexample (cell, point,
@@ -22,7 +22,14 @@ table of gains at points) and a polytopic plant, and answers with a
    every parameter's given rate, 1 per time unit by default) is found by
    bisection, each step a certified LMI solve; above it nothing is claimed,
    and `ctrl_lpv.schedules.counterexample` looks for a periodic parameter
-   trajectory that destabilises the loop.
+   trajectory that destabilises the loop;
+4. **objective** (`Hinf` or `H2` of a named channel): the bound with one
+   Lyapunov matrix for the channel's terms spanning the loops (arbitrary
+   rates; `ctrl_lpv.schedules.objective`).
+
+For a `ctrl_lpv.GriddedStateSpace` the same steps run on the pieces of
+grid cells and schedule simplices, with the terms and the multilinear
+``P(p)`` of `ctrl_lpv.schedules.gridded`.
 """
 
 from __future__ import annotations
@@ -37,7 +44,9 @@ from .._checks import real_number
 from ..certificate import Certificate, Check
 from ..exceptions import SynthesisError
 from ..lmi import LMIProblem
-from ..systems import PolytopicStateSpace
+from ..systems import GriddedStateSpace, PolytopicStateSpace
+from .objective import checked_objective
+from .rates import RateSearch
 from .schedule import GainSchedule, schedule_of
 
 __all__ = ["certify", "ScheduleCertificate", "FrozenCounterexample"]
@@ -71,7 +80,9 @@ class ScheduleCertificate:
     ----------
     certified : bool
         Stable for every parameter trajectory in the points' convex hull
-        with the rates asked for (``rate_bounds``; arbitrary rates if None).
+        (on a gridded plant: in its grid cells within it) with the rates
+        asked for (``rate_bounds``; arbitrary rates if None), and with an
+        objective its bound certified too.
     rate_bound : dict
         ``{parameter: rate}`` certified; ``inf`` for arbitrary rates, ``0``
         when only frozen stability (or nothing) is established.
@@ -82,6 +93,10 @@ class ScheduleCertificate:
         The float64 checks of what is certified.
     tried : tuple of str
         What was tried, in order.
+    bound : float or None
+        With an `objective`: the certified bound of its channel (L2 gain for
+        `Hinf`, H2 for `H2`) for arbitrarily fast parameters; None otherwise
+        or when it is not certified (then `certified` is False).
     """
 
     certified: bool
@@ -89,11 +104,14 @@ class ScheduleCertificate:
     counterexample: object
     certificate: Certificate
     tried: tuple[str, ...] = field(default=())
+    bound: float | None = None
 
     def __str__(self) -> str:
         rates = ", ".join(f"|d{k}/dt| <= {v:.4g}" for k, v in self.rate_bound.items())
         head = "certified" if self.certified else "not certified"
         lines = [f"{head}; rate bound: {rates or 'none'}"]
+        if self.bound is not None:
+            lines.append(f"bound: {self.bound:.6g}")
         if self.counterexample is not None:
             lines.append(f"counterexample: {self.counterexample}")
         lines += [f"tried: {t}" for t in self.tried]
@@ -102,15 +120,16 @@ class ScheduleCertificate:
 
 def certify(
     controller,
-    plant: PolytopicStateSpace,
+    plant,
     *,
     parameters=None,
     rate_bounds=None,
+    objective=None,
     margin: float = 1e-6,
     samples: int = 20,
     counterexample: bool = True,
 ) -> ScheduleCertificate:
-    """Certify a gain schedule on a polytopic plant, and find its rate bound.
+    """Certify a gain schedule on an LPV plant, and find its rate bound.
 
     Parameters
     ----------
@@ -119,16 +138,27 @@ def certify(
         `control.create_statefbk_iosystem` (``gain=(gains, points)``,
         ``gainsched_method="linear"``), a table ``(gains, points)``, a
         design of this library (certified on another plant, e.g. the true
-        one), or a `GainSchedule`. Its outputs (for a table: ``u``, the plant's inputs
-        in order) are plant inputs; ``K`` acts on the plant's states.
-    plant : `PolytopicStateSpace`
-        The plant over a box of named parameters.
+        one), or a `GainSchedule`. Its outputs (for a table: ``u``, the
+        plant's inputs in order) are plant inputs; ``K`` acts on the plant's
+        states.
+    plant : `PolytopicStateSpace` or `GriddedStateSpace`
+        The plant over a box of named parameters, or on a grid of them
+        (e.g. linearizations at trim points, `ctrl_lpv.gss`); then every
+        grid cell within the schedule's points is certified, the gain
+        being affine on each simplex of the schedule, the plant
+        multilinear on each cell (see `ctrl_lpv.schedules.gridded` for why
+        the relaxation is sound).
     parameters : mapping of str to str, optional
         ``{scheduling variable: plant parameter}``; default: the same names,
         or else in order.
     rate_bounds : mapping of str to float, optional
         Rates to certify, ``{parameter: nu}``; default: find the largest
         ``nu`` for every parameter (per time unit).
+    objective : `Hinf` or `H2`, optional
+        A channel ``Hinf(w=..., z=...)`` (or `H2`) whose bound to certify
+        (L2 gain, or H2), for arbitrarily fast parameters: `certified`
+        then also requires the bound, reported in ``.bound``. Its ``w`` are
+        plant inputs, its ``z`` plant outputs; ``bound=`` must be None.
     margin : float, optional
         Relative margin of the strict LMIs.
     samples : int, optional
@@ -144,8 +174,10 @@ def certify(
     ------
     ValueError, TypeError
         A controller that is not a linear gain schedule, parameters that do
-        not match, points outside the plant's domain, or a closed loop that
-        whose ``A`` or ``B_u`` is not affine in the parameters on a cell.
+        not match, points outside the plant's domain, a polytopic plant
+        whose ``A`` or ``B_u`` (with an objective also ``C``, ``D``) is not
+        affine in the parameters on a cell, or an objective that is not an
+        `Hinf` or `H2` naming its channel.
 
     Examples
     --------
@@ -157,6 +189,16 @@ def certify(
     >>> gains = [np.array([[1.0, 2.0]]), np.array([[0.5, 2.0]])]
     >>> lpv.certify((gains, [0.0, 2.0]), G).rate_bound
     {'a': inf}
+
+    A gridded plant, with an L2 bound from ``w`` to ``y``:
+
+    >>> G = lpv.gss(lambda a: ct.ss([[-a]], [[1.0, 1.0]], [[1.0]], 0,
+    ...                             inputs=["u", "w"], outputs="y"),
+    ...             {"a": [1.0, 2.0, 3.0]})
+    >>> c = lpv.certify(([[[0.5]], [[0.2]], [[0.1]]], [1.0, 2.0, 3.0]), G,
+    ...                 objective=lpv.Hinf(w="w", z="y"))
+    >>> c.certified, round(c.bound, 3)
+    (True, 0.667)
     """
     if isinstance(controller, GainSchedule):
         schedule = controller
@@ -168,7 +210,11 @@ def certify(
             names = plant.param_names[: k.shape[1]]
         schedule = schedule_of(controller, names=names)
     margin = real_number(margin, "margin", positive=True, below=1.0)
-    loops = _ClosedLoops.of(schedule, plant, controller, parameters)
+    objective = checked_objective(objective)
+    if isinstance(plant, GriddedStateSpace):
+        loops = _gridded_loops(schedule, plant, controller, parameters)
+    else:
+        loops = _ClosedLoops.of(schedule, plant, controller, parameters)
     tried = []
     frozen = loops.frozen_counterexample(samples)
     tried.append(f"frozen closed loops at {len(schedule.points)} points and "
@@ -180,13 +226,28 @@ def certify(
     tried.append("one quadratic Lyapunov function (arbitrary rates)")
     if quadratic is not None:
         rates = {n: math.inf for n in loops.names}
-        return ScheduleCertificate(True, rates, None, quadratic, tuple(tried))
-    if not loops.continuous or loops.bilinear:
+        if objective is None:
+            return ScheduleCertificate(True, rates, None, quadratic, tuple(tried))
+        name = type(objective).__name__
+        tried.append(f"{name} bound from {list(objective.w)} to "
+                     f"{list(objective.z)}, one Lyapunov matrix")  # fmt: skip
+        try:
+            bound, certificate = loops.bound(objective, margin)
+        except SynthesisError as err:
+            tried.append(f"{name} bound not certified: {str(err).splitlines()[0]}")
+            return ScheduleCertificate(False, rates, None, quadratic, tuple(tried))
+        return ScheduleCertificate(True, rates, None, quadratic + certificate,
+                                   tuple(tried), bound)  # fmt: skip
+    if objective is not None:
         tried.append(
-            "rate-bounded analysis: not implemented "
-            + ("in discrete time" if not loops.continuous else
-               "when B_u and the gains both vary")
-        )  # fmt: skip
+            "the objective's bound: not certified (it needs one Lyapunov "
+            "matrix for arbitrary rates, and none exists)"
+        )
+        return ScheduleCertificate(False, {n: 0.0 for n in loops.names}, None,
+                                   Certificate(()), tuple(tried))  # fmt: skip
+    refusal = loops.rate_refusal()
+    if refusal is not None:
+        tried.append(f"rate-bounded analysis: not implemented {refusal}")
         return ScheduleCertificate(False, {n: 0.0 for n in loops.names},
                                    None, Certificate(()), tuple(tried))  # fmt: skip
     if rate_bounds is not None:
@@ -211,8 +272,25 @@ def certify(
     return ScheduleCertificate(False, rates, example, certificate, tuple(tried))
 
 
+def _gridded_loops(schedule, plant, controller, parameters):
+    from .gridded import GriddedLoops
+
+    points = _plant_points(schedule, plant, parameters)
+    u = _control_inputs(controller, plant, schedule)
+    _check_gain_shape(schedule.gains[0], u, plant.nstates)
+    return GriddedLoops(schedule, points, plant, u)
+
+
+def _check_gain_shape(K, u, n):
+    if K.shape != (len(u), n):
+        raise ValueError(
+            f"controller: gains of shape {K.shape}; expected "
+            f"{(len(u), n)} (inputs {u}, the plant's states)"
+        )
+
+
 @dataclass(frozen=True)
-class _ClosedLoops:
+class _ClosedLoops(RateSearch):
     """The closed loops at the schedule's points, in the plant's parameters."""
 
     schedule: GainSchedule
@@ -237,56 +315,75 @@ class _ClosedLoops:
         """Whether ``B_u(p) K(p)`` is quadratic on a cell (both vary)."""
         return _varies(self.K) and _varies(self.B)
 
+    def segments(self):
+        """``(start, end, nodes, loops)``: pairs of points of a cell (the
+        loop is affine between them when the rate-bounded analysis
+        applies; see `destabilising_trajectory`)."""
+        return [
+            (self.points[a], self.points[b], [0.0, 1.0], [self.Acl[a], self.Acl[b]])
+            for cell in self.schedule.cells
+            for a, b in itertools.combinations(cell, 2)
+        ]
+
+    def rate_refusal(self) -> str | None:
+        """Why the rate-bounded analysis does not apply (None: it does)."""
+        if not self.continuous:
+            return "in discrete time"
+        if self.bilinear:
+            return "when B_u and the gains both vary"
+        return None
+
+    def bound(self, objective, margin):
+        """``(bound, certificate)`` of the objective's channel, one P.
+
+        On a cell the channel's matrices are affine in ``p`` (checked) and
+        ``K`` too: the loop is ``sum_ij l_i l_j T(i, j)`` with ``T(i, j)``
+        the loop of point ``i`` under gain ``j``, a convex combination of
+        the ``T(i, i)`` and, when ``K`` and ``B_u`` or ``D_zu`` vary, of the
+        ``(T(i, j) + T(j, i)) / 2`` of the cell's pairs.
+        """
+        from .objective import certified_bound, channel
+
+        iw, iz, of, dzu = channel(objective, self.plant, self._u)
+        data = [tuple(np.asarray(M) for M in _frozen(self.plant, p))
+                for p in self.points]  # fmt: skip
+        for c, cell in enumerate(self.schedule.cells):
+            mid = _frozen(self.plant, self.points[cell].mean(axis=0))
+            for name, index in (("C", 2), ("D", 3)):
+                mean = np.mean([data[i][index] for i in cell], axis=0)
+                M = np.asarray(mid[index])
+                tol = 1e-12 * max(1.0, np.abs(M).max())
+                if not np.allclose(M, mean, rtol=1e-10, atol=tol):
+                    raise ValueError(
+                        f"plant: {name} is not affine in the parameters on cell "
+                        f"{c} (points {self.points[cell].tolist()}): refine the "
+                        "schedule's points"
+                    )
+        loops = [of(d, K) for d, K in zip(data, self.K)]
+        Dzu = np.array([dzu(d) for d in data])
+        if _varies(self.K) and (_varies(self.B) or _varies(Dzu)):
+            for cell in self.schedule.cells:
+                for i, j in itertools.combinations(cell, 2):
+                    ij, ji = of(data[i], self.K[j]), of(data[j], self.K[i])
+                    loops.append(tuple(0.5 * (a + b) for a, b in zip(ij, ji)))
+        w = [self.plant.physical_inputs[i] for i in iw]
+        z = [self.plant.output_labels[i] for i in iz]
+        return certified_bound(loops, objective, self.plant.dt, margin, w, z,
+                               "in the points' convex hull")  # fmt: skip
+
     @classmethod
     def of(cls, schedule, plant, controller, parameters):
         if not isinstance(plant, PolytopicStateSpace) or not hasattr(
             plant.domain, "lower"
         ):
             raise TypeError("plant: expected a PolytopicStateSpace over a box")
+        points = _plant_points(schedule, plant, parameters)
         names = list(plant.param_names)
-        if schedule.nvars != len(names):
-            raise ValueError(
-                f"parameters: the schedule has {schedule.nvars} variables "
-                f"{list(schedule.names)}, the plant {len(names)} {names}"
-            )
-        if parameters is None:
-            mapping = (
-                dict(zip(schedule.names, schedule.names))
-                if set(schedule.names) == set(names)
-                else dict(zip(schedule.names, names))
-            )
-        else:
-            mapping = dict(parameters)
-            if sorted(mapping) != sorted(schedule.names) or sorted(
-                mapping.values()
-            ) != sorted(names):
-                raise ValueError(
-                    f"parameters: expected {{scheduling variable: plant "
-                    f"parameter}} for {list(schedule.names)} -> {names}, got "
-                    f"{mapping}"
-                )
-        order = [list(schedule.names).index(s) for s in
-                 sorted(mapping, key=lambda s: names.index(mapping[s]))]  # fmt: skip
-        points = schedule.points[:, order]
-        lo, hi = plant.domain.lower, plant.domain.upper
-        outside = [
-            p.tolist()
-            for p in points
-            if np.any(p < lo - 1e-12) or np.any(p > hi + 1e-12)
-        ]
-        if outside:
-            raise ValueError(
-                f"controller: points {outside} are outside the plant's domain"
-            )
         u = _control_inputs(controller, plant, schedule)
         As, Bs = [], []
         for p, K in zip(points, schedule.gains):
             A, B, _, _ = (np.asarray(M) for M in _frozen(plant, p))
-            if K.shape != (len(u), A.shape[0]):
-                raise ValueError(
-                    f"controller: gains of shape {K.shape}; expected "
-                    f"{(len(u), A.shape[0])} (inputs {u}, the plant's states)"
-                )
+            _check_gain_shape(K, u, A.shape[0])
             As.append(A)
             Bs.append(B[:, u])
         for c, cell in enumerate(schedule.cells):
@@ -300,8 +397,10 @@ class _ClosedLoops:
                         f"{c} (points {points[cell].tolist()}): refine the "
                         "schedule's points"
                     )
-        return cls(schedule, points, np.array(As), np.array(Bs), tuple(names),
-                   not plant.isdtime(strict=True), plant)  # fmt: skip
+        loops = cls(schedule, points, np.array(As), np.array(Bs), tuple(names),
+                    not plant.isdtime(strict=True), plant)  # fmt: skip
+        object.__setattr__(loops, "_u", u)
+        return loops
 
     def unstable(self, A) -> complex | None:
         eig = np.linalg.eigvals(A)
@@ -370,54 +469,6 @@ class _ClosedLoops:
             ),
         )
 
-    def rate_bounded(self, nu, margin, lmi=None):
-        """The certificate with rates `nu` (one per parameter), or None.
-
-        `lmi` is the problem of `_rate_problem` to re-solve (``nu`` is a
-        parameter of it: the bisection builds it once).
-        """
-        lmi = self._rate_problem(margin) if lmi is None else lmi
-        lmi.set_parameter("nu", nu)
-        try:
-            sol = lmi.solve()
-        except SynthesisError:
-            return None
-        checks = tuple(
-            Check.from_lmi_check(c, group="rate-bounded") for c in sol.checks
-        )
-        rates = ", ".join(f"|d{n}/dt| <= {v:.4g}" for n, v in zip(self.names, nu))
-        return Certificate(
-            checks,
-            statement=(
-                f"stable for parameter trajectories in the points' convex hull with "
-                f"{rates} (P(p) affine on each cell, continuous)"
-            ),
-        )
-
-    def largest_rate(self, margin):
-        """``(nu, certificate)``: the largest uniform rate certified."""
-        width = float(np.max(self.plant.domain.upper - self.plant.domain.lower))
-        rate = 1e-3 * width * max(1.0, float(np.abs(self.Acl).max()))
-        ones = np.ones(len(self.names))
-        lmi = self._rate_problem(margin)
-        best, certificate = 0.0, self.rate_bounded(0.0 * ones, margin, lmi)
-        if certificate is None:
-            return 0.0, None
-        lo, hi = 0.0, None
-        for _ in range(40):  # expand, then bisect to 5 %
-            trial = rate if hi is None else 0.5 * (lo + hi)
-            found = self.rate_bounded(trial * ones, margin, lmi)
-            if found is not None:
-                lo, best, certificate = trial, trial, found
-                rate *= 4.0
-                if hi is None and rate > 1e9:
-                    return math.inf, certificate
-            else:
-                hi = trial
-            if hi is not None and hi - lo <= 0.05 * hi:
-                break
-        return best, certificate
-
     def _rate_problem(self, margin):
         n = self.Acl.shape[1]
         M, k = self.points.shape
@@ -453,6 +504,42 @@ class _ClosedLoops:
                             + 2 * (A[j].T @ getattr(v, f"P{i}")) + 2 * G(v)]],
                     )  # fmt: skip
         return lmi
+
+
+def _plant_points(schedule, plant, parameters):
+    """The schedule's points in the plant's parameter order, checked."""
+    names = list(plant.param_names)
+    if schedule.nvars != len(names):
+        raise ValueError(
+            f"parameters: the schedule has {schedule.nvars} variables "
+            f"{list(schedule.names)}, the plant {len(names)} {names}"
+        )
+    if parameters is None:
+        mapping = (
+            dict(zip(schedule.names, schedule.names))
+            if set(schedule.names) == set(names)
+            else dict(zip(schedule.names, names))
+        )
+    else:
+        mapping = dict(parameters)
+        if sorted(mapping) != sorted(schedule.names) or sorted(
+            mapping.values()
+        ) != sorted(names):
+            raise ValueError(
+                f"parameters: expected {{scheduling variable: plant "
+                f"parameter}} for {list(schedule.names)} -> {names}, got "
+                f"{mapping}"
+            )
+    order = [list(schedule.names).index(s) for s in
+             sorted(mapping, key=lambda s: names.index(mapping[s]))]  # fmt: skip
+    points = schedule.points[:, order]
+    lo, hi = plant.domain.lower, plant.domain.upper
+    outside = [
+        p.tolist() for p in points if np.any(p < lo - 1e-12) or np.any(p > hi + 1e-12)
+    ]
+    if outside:
+        raise ValueError(f"controller: points {outside} are outside the plant's domain")
+    return points
 
 
 def _gradients(V):

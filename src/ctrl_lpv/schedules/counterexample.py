@@ -10,7 +10,6 @@ grows by that factor every period, as a simulation shows.
 
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -61,36 +60,46 @@ def destabilising_trajectory(loops, certified_rate, span=1e3, count=80):
     """The most destabilising trajectory found above `certified_rate`.
 
     Scans rates from 1.05 to `span` times the certified one (`count` on a
-    log grid; a resonance can sit anywhere in between) for every pair of
-    points of a cell, and returns the largest growth per period, or None.
+    log grid; a resonance can sit anywhere in between) for every segment
+    of `loops.segments()` (two parameter values, and the closed loop
+    between them, piecewise affine: its values at nodes), and returns the
+    largest growth per period, or None.
     """
     best = None
+    segments = loops.segments()
     for rate in certified_rate * np.geomspace(1.05, span, count):
-        for cell in loops.schedule.cells:
-            for a, b in itertools.combinations(cell, 2):
-                growth, period = _growth(loops, a, b, rate)
-                if growth > 1.0 + 1e-9 and (best is None or growth > best[0]):
-                    best = (growth, period, a, b, rate)
+        for start, end, nodes, loops_at in segments:
+            growth, period = _growth(start, end, nodes, loops_at, rate)
+            if growth > 1.0 + 1e-9 and (best is None or growth > best[0]):
+                best = (growth, period, start, end, rate)
     if best is None:
         return None
-    growth, period, a, b, rate = best
+    growth, period, start, end, rate = best
     return ParameterTrajectory(
-        dict(zip(loops.names, loops.points[a].tolist())),
-        dict(zip(loops.names, loops.points[b].tolist())),
+        dict(zip(loops.names, np.asarray(start).tolist())),
+        dict(zip(loops.names, np.asarray(end).tolist())),
         float(rate), float(period), float(growth),
     )  # fmt: skip
 
 
-def _growth(loops, a, b, rate):
-    """Spectral radius of the monodromy of the triangle wave from a to b."""
-    distance = float(np.max(np.abs(loops.points[b] - loops.points[a])))
+def _growth(start, end, nodes, loops_at, rate):
+    """Spectral radius of the monodromy of the triangle wave start-end.
+
+    The closed loop at ``start + s (end - start)`` interpolates `loops_at`
+    (its values at the positions `nodes`, from 0 to 1) linearly.
+    """
+    distance = float(np.max(np.abs(np.asarray(end) - np.asarray(start))))
     half = distance / rate
-    A0, A1 = loops.Acl[a], loops.Acl[b]
-    n = A0.shape[0]
+    n = loops_at[0].shape[0]
+    nodes = np.asarray(nodes, float)
 
     def rhs(t, y, sign):
         s = t / half if sign > 0 else 1.0 - t / half
-        return (((1 - s) * A0 + s * A1) @ y.reshape(n, n)).ravel()
+        k = int(np.clip(np.searchsorted(nodes, s, side="right") - 1, 0,
+                        len(nodes) - 2))  # fmt: skip
+        f = (s - nodes[k]) / (nodes[k + 1] - nodes[k])
+        A = (1 - f) * loops_at[k] + f * loops_at[k + 1]
+        return (A @ y.reshape(n, n)).ravel()
 
     Phi = np.eye(n)
     for sign in (1, -1):

@@ -78,9 +78,10 @@ def schedule_of(controller, names=None) -> GainSchedule:
         A gain-scheduled controller from `control.create_statefbk_iosystem`
         (``gain=(gains, points)``, ``gainsched_method="linear"``, without
         integral action), a table ``(gains, points)`` as passed to it, or
-        a design: a common gain (at the corners of its domain), or vertex
+        a design: a common gain (at the corners of its domain), vertex
         gains over one parameter (interpolated linearly, as the design's
-        controller does).
+        controller does), or a `ctrl_lpv.synthesis.gridded.GriddedDesign`
+        (gains at the grid points, interpolated as python-control does).
     names : sequence of str, optional
         Names of the scheduling variables of a table (default ``p[i]``).
 
@@ -129,6 +130,9 @@ def _table(gains, points, names):
 
 def _from_design(design):
     domain = design.system.domain
+    if hasattr(design, "points"):  # a GriddedDesign: gains at the grid points
+        gains = np.asarray(design.gains, float)
+        return _table(gains, np.asarray(design.points, float), domain.names)
     if not hasattr(domain, "lower"):
         raise TypeError("controller: a design over a box of named parameters")
     points = np.asarray(domain.points, float)

@@ -76,6 +76,7 @@ back from a file.
 
 from .compose import synthesize
 from .constraints import GainBound, Saturation
+from .gridded import GriddedDesign
 from .paper import (
     gain_scheduled_hinf,
     gain_scheduled_stabilization,
@@ -88,6 +89,7 @@ from .specs import H2, Hinf, Peak
 
 __all__ = [
     "StateFeedbackDesign",
+    "GriddedDesign",
     "Certificate",
     "quadratic_stabilization",
     "hinf_state_feedback",

@@ -65,9 +65,15 @@ def synthesize(
 
     Parameters
     ----------
-    sys : `PolytopicStateSpace`
+    sys : `PolytopicStateSpace` or `GriddedStateSpace`
         The plant, continuous (``dt = 0``) or discrete time (``dt > 0`` or
-        True); all states are measured.
+        True); all states are measured. On a `GriddedStateSpace`
+        (continuous time): gains at the grid points, interpolated as
+        python-control's ``create_statefbk_iosystem(...,
+        gainsched_method="linear")`` does, with one Lyapunov matrix, an
+        `Hinf` objective or none, certified by `ctrl_lpv.certify`; a
+        `GriddedDesign` is returned (``y``, ``constraints``, ``lyapunov``
+        and ``rate_bounds`` are not implemented there).
     u : str, int or list
         Control inputs.
     y : str, int or list, optional
@@ -127,7 +133,7 @@ def synthesize(
 
     Returns
     -------
-    `StateFeedbackDesign`
+    `StateFeedbackDesign` (`GriddedDesign` on a `GriddedStateSpace`)
         ``.gamma`` the certified bound of the objective (None without one),
         ``.gamma_opt`` an estimate of the optimum from above, ``.bounds``
         the certified bound of every `Hinf`, `H2` and `Peak` spec (for a
@@ -155,6 +161,14 @@ def synthesize(
     >>> design.certificate.verified and design.bounds[Hinf("w", bound=2.0)] < 2.0
     True
     """
+    if _is_gridded(sys):
+        from .gridded import synthesize_gridded
+
+        return synthesize_gridded(
+            sys, u, y=y, objective=objective, constraints=constraints,
+            gains=gains, lyapunov=lyapunov, rate_bounds=rate_bounds,
+            backoff=backoff, margin=margin, solvers=solvers,
+        )  # fmt: skip
     require_pss(sys)
     if y is not None:
         return _output_feedback(
@@ -205,6 +219,12 @@ def synthesize(
             design, objective, iu, channels, rate_bounds, margin
         )
     return design
+
+
+def _is_gridded(sys) -> bool:
+    from ..systems import GriddedStateSpace
+
+    return isinstance(sys, GriddedStateSpace)
 
 
 def _output_feedback(sys, u, y, objective, constraints, gains, lyapunov,

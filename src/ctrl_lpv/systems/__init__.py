@@ -10,9 +10,14 @@ One module a concept, imported one way (each only from those above it):
 * `arithmetic`: block-diagram algebra vertex by vertex, or a refusal;
 * `sampling`: vertexwise discretization with its error bound;
 * `polytopic`: `PolytopicStateSpace` (construction, vertex data, display,
-  the bases above) and `pss`.
+  the bases above) and `pss`;
+* `grid`: `ParameterGrid`, a rectangular grid with multilinear interpolation;
+* `gridded`: `GriddedStateSpace` (systems at grid points, a union of
+  polytopic cells) and `gss`.
 """
 
+from .grid import ParameterGrid
+from .gridded import GriddedStateSpace, gss
 from .polytopic import PolytopicStateSpace, pss
 
-__all__ = ["PolytopicStateSpace", "pss"]
+__all__ = ["PolytopicStateSpace", "pss", "GriddedStateSpace", "gss", "ParameterGrid"]

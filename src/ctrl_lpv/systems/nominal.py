@@ -93,6 +93,9 @@ class NominalPointMixin:
     # ------------------------------------------------------------------
     # The StateSpace matrices: nominal, or frozen at a time response's params
     # ------------------------------------------------------------------
+    #: What the warnings call the system.
+    _kind = "polytopic"
+
     A = _matrix_property(0, "A")
     B = _matrix_property(1, "B")
     C = _matrix_property(2, "C")
@@ -127,7 +130,7 @@ class NominalPointMixin:
             return
         _last_nominal_warning[0] = (anchor, line)
         message = detail or (
-            f"{what}: the polytopic system {self.name!r} is read at its nominal "
+            f"{what}: the {self._kind} system {self.name!r} is read at its nominal "
             f"point {self._nominal_text()}, i.e. as the frozen system "
             "sys.at(sys.nominal), not as the LPV system; use sys.at(p) to "
             "choose the point (time responses: params={...})"
