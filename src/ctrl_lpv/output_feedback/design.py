@@ -98,8 +98,10 @@ _PARAMETERS = """\
         Relax the minimum bound by this fraction (default 0.2) and maximise
         the conditioning of the Lyapunov pair for a well-conditioned
         controller. None or 0: the raw optimum, or if its rebuilt
-        controller does not certify (``I - X Y`` too close to singular)
-        the least of the back-offs 1e-5, 1e-4 and 1e-3 that does.
+        controller does not certify at the optimum (``I - X Y`` too close
+        to singular) the least of the back-offs 1e-5, 1e-4 and 5e-4 that
+        does (the optimum's own controller when its certified bound fits
+        in it).
     margin : float, optional
         Margin of the strict LMIs relative to the data's norm (default
         1e-6).
