@@ -14,6 +14,7 @@ import time
 import warnings
 from pathlib import Path
 
+import control as ct
 import numpy as np
 import pytest
 
@@ -104,9 +105,10 @@ def test_reproduce_comparison_table(reproduction):
     rows = json.loads((out / "comparison.json").read_text())
     controllers = {"paper K", "LPV robust", "LPV scheduled", "backstepping"}
     scenarios = {"paper", "paper alpha step", "Tmax=2000", "Tmax=500"}
+    # The output-feedback design on both encoders runs the paper scenario.
     assert {(r["scenario"], r["controller"]) for r in rows} == {
         (s, c) for s in scenarios for c in controllers
-    }
+    } | {("paper", "OF motor+load encoders")}
     assert all(r["status"] == "ok" for r in rows)
     for r in rows:
         if r["torque_limit"] is not None:
@@ -121,6 +123,28 @@ def test_reproduce_comparison_table(reproduction):
     )
     table = (out / "comparison.md").read_text().splitlines()
     assert len(table) == 2 + len(rows)
+
+
+def test_reproduce_output_feedback_designs(reproduction):
+    """The encoder designs: certified, and their frozen loops rebuilt here
+    from the design (python-control, not the report) stable with norms
+    below the reported gamma."""
+    _, out, _ = reproduction
+    summaries = json.loads((out / "output_feedback.json").read_text())
+    assert [s["measured"] for s in summaries] == [["e_m", "e_l", "int_e_l"], ["e_m"]]
+    for s, sensors in zip(summaries, ("both", "motor")):
+        assert s["verified"]
+        assert s["max_closed_loop_real"] < 0
+        assert s["max_frozen_norm"] <= s["gamma"]
+        d = twomass.output_feedback_design(sensors=sensors)
+        assert s["gamma"] == pytest.approx(d.gamma, rel=1e-6)
+        loop = ct.interconnect(
+            [d.plant.system.at({"p": -0.5}), d.controller().at({"p": -0.5})],
+            inplist=d.plant.names("w"), outlist=d.plant.names("z"),
+        )  # fmt: skip
+        assert np.linalg.eigvals(loop.A).real.max() < 0
+        assert float(ct.linfnorm(loop)[0]) <= s["gamma"]
+    assert "## Output feedback on encoders" in (out / "report.md").read_text()
 
 
 def test_saved_designs_stabilize_the_model(reproduction):
@@ -905,8 +929,8 @@ def test_reproduce_markdown_tables_render(reproduction):
     _, out, _ = reproduction
     assert_tables_render((out / "comparison.md").read_text(), 1)
     assert_tables_render((out / "servo_comparison.md").read_text(), 1)
-    # Certified designs, LPV vs backstepping, servo.
-    assert_tables_render((out / "report.md").read_text(), 3)
+    # Certified designs, output feedback, LPV vs backstepping, servo.
+    assert_tables_render((out / "report.md").read_text(), 4)
 
 
 def readme_servo_rows():

@@ -98,8 +98,10 @@ _PARAMETERS = """\
         Relax the minimum bound by this fraction (default 0.2) and maximise
         the conditioning of the Lyapunov pair for a well-conditioned
         controller. None or 0: the raw optimum, or if its rebuilt
-        controller does not certify (``I - X Y`` too close to singular)
-        the least of the back-offs 1e-5, 1e-4 and 1e-3 that does.
+        controller does not certify at the optimum (``I - X Y`` too close
+        to singular) the least of the back-offs 1e-5, 1e-4 and 5e-4 that
+        does (the optimum's own controller when its certified bound fits
+        in it).
     margin : float, optional
         Margin of the strict LMIs relative to the data's norm (default
         1e-6).
@@ -246,20 +248,37 @@ def _solve(plant, objective, scheduled, backoff, margin, chain):
     # When the back-off stage itself fails (badly scaled data), the same
     # sequence, within the back-off asked for.
     failure = None
+    raw = backoff == 0
+    # backoff=None: the optimum's own controller often certifies a little
+    # above the optimum estimate (rounding through a nearly singular
+    # I - X Y). It is held, and returned as the answer of the first
+    # back-off it fits in: a back-off stage b certifies at (1 + b) times
+    # the estimate, no better (and at 1e-5 the stage is often too hard for
+    # the solvers, which then sent the design to the less accurate
+    # renormalised solve).
+    held = None
     for b in (backoff, *_RAW_BACKOFFS) if backoff > 0 else _RAW_BACKOFFS:
+        if held is not None and held.gamma <= (1.0 + b) * bound_opt * (1.0 + 1e-6):
+            return held, None, bound_opt
         # The decay margin is relative to the data's fastest rate: too much
         # for a stiff plant, then the back-off stage is tried without it.
         for decay in (_DECAY * b * rate, 0.0) if b else (0.0,):
             try:
                 point = _point(lmi, objective, optimal, b, bound_opt, decay, chain)
-                limit = (1.0 + max(b, backoff)) * bound_opt * (1.0 + 1e-6)
+                bmax = _RAW_BACKOFFS[-1] if raw and b == 0 else max(b, backoff)
+                limit = (1.0 + bmax) * bound_opt * (1.0 + 1e-6)
                 target = max((1.0 + b) * bound_opt,
                              objective.bound(point.level[0, 0]))  # fmt: skip
                 design = _design(plant, objective, point, hats, bound_opt,
                                  (target, limit), (margin, chain[:1]))  # fmt: skip
+                if raw and b == 0 and design.gamma > bound_opt * (1.0 + 1e-6):
+                    held = design
+                    continue
                 return design, None, bound_opt
             except CertificationError as exc:
                 failure = exc
+    if held is not None:
+        return held, None, bound_opt
     return None, failure, bound_opt
 
 

@@ -41,6 +41,7 @@ __all__ = [
     "comparison_controllers",
     "comparison_scenarios",
     "compare",
+    "scenario_row",
     "markdown_table",
     "CONTROLLERS",
     "METRICS",
@@ -209,25 +210,55 @@ def compare(
         if limit not in controllers:
             controllers[limit] = comparison_controllers(designs, limit)
         for name, controller in controllers[limit].items():
-            start = time.perf_counter()
-            row = {"scenario": scenario.name, "controller": name, "torque_limit": limit}
-            try:
-                response = simulate(controller, engine=engine, **scenario.simulate)
-                values = metrics(response).as_dict()
-                final = response.outputs[response.output_labels.index("theta_l")][-1]
-                row["status"] = "ok" if abs(final - 0.5) < 0.1 else "diverged"
-                if keep(scenario.name):
-                    responses[scenario.name, name] = response
-            except (RuntimeError, ValueError) as exc:  # integrator failure
-                values = dict.fromkeys(METRICS, math.nan)
-                row["status"] = f"failed: {exc}"
-            row.update({k: values[k] for k in METRICS})
-            row["seconds"] = time.perf_counter() - start
+            row, response = scenario_row(scenario, name, controller, engine)
             rows.append(row)
+            if keep(scenario.name) and response is not None:
+                responses[scenario.name, name] = response
             done += 1
             if progress is not None:
                 progress(done, total, f"{scenario.name}: {name}")
     return rows, responses
+
+
+def scenario_row(
+    scenario: Scenario, name: str, controller, engine: str = "control"
+) -> tuple[dict, object]:
+    """One row of the comparison: `controller` simulated in `scenario`.
+
+    Parameters
+    ----------
+    scenario : `Scenario`
+        The experiment (its torque limit is the controller's business).
+    name : str
+        Controller label of the row.
+    controller : `control.NonlinearIOSystem`
+        With the two-mass controller interface (see `simulate`).
+    engine : {"control", "fast"}, optional
+        Simulation engine of `simulate`.
+
+    Returns
+    -------
+    row : dict
+        As the rows of `compare`.
+    response : `control.TimeResponseData` or None
+        None when the simulation failed.
+    """
+    start = time.perf_counter()
+    row = {"scenario": scenario.name, "controller": name,
+           "torque_limit": scenario.torque_limit}  # fmt: skip
+    response = None
+    try:
+        response = simulate(controller, engine=engine, **scenario.simulate)
+        values = metrics(response).as_dict()
+        final = response.outputs[response.output_labels.index("theta_l")][-1]
+        row["status"] = "ok" if abs(final - 0.5) < 0.1 else "diverged"
+    except (RuntimeError, ValueError) as exc:  # integrator failure
+        values = dict.fromkeys(METRICS, math.nan)
+        row["status"] = f"failed: {exc}"
+        response = None
+    row.update({k: values[k] for k in METRICS})
+    row["seconds"] = time.perf_counter() - start
+    return row, response
 
 
 def markdown_table(rows: list[dict]) -> str:
