@@ -155,9 +155,9 @@ CASES = [
     ("ultimate_bound string decay",
      lambda: lpv.ultimate_bound(([[-1.0]], [[1.0]]), decay="1"),
      TypeError, r"^decay: expected a real number"),
-    ("ultimate_bound discrete",
+    ("ultimate_bound discrete unstable",
      lambda: lpv.ultimate_bound(unstable_plant(0.1)),
-     ValueError, r"^sys: discrete-time system"),
+     lpv.InfeasibleError, r"^sys: vertex \d is not Schur"),
     ("Ellipsoid.scaled string", lambda: Ellipsoid(np.eye(2)).scaled("2"),
      TypeError, r"^factor: expected a real number"),
     # PolytopicStateSpace

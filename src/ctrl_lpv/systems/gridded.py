@@ -18,17 +18,20 @@ import numpy as np
 from control import StateSpace
 
 from .._checks import signal_labels, signal_name
+from .frozen import FrozenDataMixin
 from .grid import ParameterGrid
 from .nominal import NominalPointMixin
 from .polytopic import PolytopicStateSpace
 from .scheduling import Scheduling, SchedulingMixin
 from .timebase import UNSET
-from .vertices import checked_vertex_data, combine_data
+from .vertices import checked_vertex_data
 
 __all__ = ["GriddedStateSpace", "gss"]
 
 
-class GriddedStateSpace(NominalPointMixin, SchedulingMixin, StateSpace):
+class GriddedStateSpace(
+    FrozenDataMixin, NominalPointMixin, SchedulingMixin, StateSpace
+):
     r"""LPV state-space system given at the points of a parameter grid.
 
     .. math::
@@ -213,72 +216,6 @@ class GriddedStateSpace(NominalPointMixin, SchedulingMixin, StateSpace):
         """The parameter grid (the `domain`)."""
         return self.domain
 
-    @property
-    def nparams(self) -> int:
-        """Number of scheduling parameters."""
-        return self.domain.nparams
-
-    @property
-    def param_names(self) -> tuple[str, ...]:
-        """Names of the scheduling parameters."""
-        return self.domain.names
-
-    @property
-    def physical_inputs(self) -> tuple[str, ...]:
-        """Input labels without the scheduling inputs."""
-        return self._physical_inputs
-
-    def weights(self, p, clip: bool = False) -> np.ndarray:
-        """Interpolation weights of `p` over the grid points.
-
-        Parameters
-        ----------
-        p : array_like or mapping
-            Parameter value.
-        clip : bool, optional
-            Project `p` onto the grid's box instead of raising.
-
-        Returns
-        -------
-        ndarray
-            Shape ``(N,)``: nonnegative, summing to one, nonzero only at the
-            corners of the cell containing `p`.
-        """
-        return self.domain.weights(p, clip=clip)
-
-    def _combine(self, delta: np.ndarray) -> tuple[np.ndarray, ...]:
-        return combine_data(self._data, delta)
-
-    def vertex_data(self) -> tuple[tuple[np.ndarray, ...], ...]:
-        """Matrices ``((A_i, B_i, C_i, D_i), ...)`` at the grid points."""
-        return tuple(tuple(m.copy() for m in d) for d in self._data)
-
-    def at(self, p, name: str | None = None) -> StateSpace:
-        """Frozen system at parameter value `p` (inside the grid).
-
-        Parameters
-        ----------
-        p : array_like or mapping
-            Parameter value.
-        name : str, optional
-            Name of the returned system.
-
-        Returns
-        -------
-        `control.StateSpace`
-            With the physical inputs, outputs and states of this system.
-        """
-        first = self.vertices[0]
-        return StateSpace(
-            *self._combine(self.weights(p)),
-            inputs=first.input_labels,
-            outputs=first.output_labels,
-            states=first.state_labels,
-            name=name,
-            dt=self.dt,
-            remove_useless_states=False,
-        )
-
     def cell(self, index) -> PolytopicStateSpace:
         """The grid cell `index` as a `PolytopicStateSpace`.
 
@@ -339,12 +276,6 @@ class GriddedStateSpace(NominalPointMixin, SchedulingMixin, StateSpace):
     __neg__ = __add__ = __radd__ = __sub__ = __rsub__ = _refuse
     __mul__ = __rmul__ = __truediv__ = __rtruediv__ = __pow__ = _refuse
     __getitem__ = feedback = append = lft = minreal = sample = _refuse
-
-    def _repr_html_(self):
-        return StateSpace._repr_html_(self)
-
-    def _repr_eval_(self):
-        return StateSpace._repr_eval_(self)
 
     def __str__(self) -> str:
         sched = ("params" if self.scheduling is None else

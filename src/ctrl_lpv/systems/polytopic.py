@@ -16,9 +16,10 @@ from collections.abc import Mapping
 import numpy as np
 from control import StateSpace
 
-from .._checks import flag, signal_labels, signal_name
+from .._checks import signal_labels, signal_name
 from ..polytope import ParameterBox
 from .arithmetic import OperationsMixin
+from .frozen import FrozenDataMixin
 from .nominal import NominalPointMixin
 from .sampling import SamplingMixin
 from .scheduling import Scheduling, SchedulingMixin
@@ -28,7 +29,6 @@ from .vertices import (
     as_domain,
     check_vertex_order,
     checked_vertex_data,
-    combine_data,
     ordered_vertices,
 )
 
@@ -36,7 +36,12 @@ __all__ = ["PolytopicStateSpace", "pss"]
 
 
 class PolytopicStateSpace(
-    NominalPointMixin, SchedulingMixin, OperationsMixin, SamplingMixin, StateSpace
+    FrozenDataMixin,
+    NominalPointMixin,
+    SchedulingMixin,
+    OperationsMixin,
+    SamplingMixin,
+    StateSpace,
 ):
     r"""Polytopic linear parameter-varying state-space system.
 
@@ -343,82 +348,6 @@ class PolytopicStateSpace(
     def nvertices(self) -> int:
         """Number of vertices ``N``."""
         return len(self._data)
-
-    @property
-    def nparams(self) -> int:
-        """Number of scheduling parameters."""
-        return self.domain.nparams
-
-    @property
-    def param_names(self) -> tuple[str, ...]:
-        """Names of the scheduling parameters."""
-        return self.domain.names
-
-    @property
-    def physical_inputs(self) -> tuple[str, ...]:
-        """Input labels without the scheduling inputs."""
-        return self._physical_inputs
-
-    def weights(self, p, clip: bool = False) -> np.ndarray:
-        """Convex coordinates ``delta(p)``, shape ``(N,)``.
-
-        Parameters
-        ----------
-        p : array_like or mapping
-            Parameter value (for a simplex domain: the coordinates).
-        clip : bool, optional
-            Project `p` onto the domain instead of raising.
-
-        Returns
-        -------
-        ndarray
-
-        Raises
-        ------
-        ValueError
-            If `p` has the wrong size or lies outside the domain.
-        """
-        return self.domain.weights(p, clip=flag(clip, "clip"))
-
-    def _combine(self, delta: np.ndarray) -> tuple[np.ndarray, ...]:
-        return combine_data(self._data, delta)
-
-    def at(self, p, name: str | None = None) -> StateSpace:
-        """Frozen system at parameter value `p`.
-
-        Parameters
-        ----------
-        p : array_like or mapping
-            Parameter value inside the domain.
-        name : str, optional
-            Name of the returned system.
-
-        Returns
-        -------
-        `control.StateSpace`
-            With the physical inputs, outputs and states of this system.
-        """
-        delta = self.weights(p)
-        first = self.vertices[0]
-        return StateSpace(
-            *self._combine(delta),
-            inputs=first.input_labels,
-            outputs=first.output_labels,
-            states=first.state_labels,
-            name=name,
-            dt=self.dt,
-            remove_useless_states=False,
-        )
-
-    def vertex_data(self) -> tuple[tuple[np.ndarray, ...], ...]:
-        """Vertex matrices ``((A_j, B_j, C_j, D_j), ...)`` as float arrays."""
-        return tuple(tuple(m.copy() for m in d) for d in self._data)
-
-    def _repr_html_(self):
-        return StateSpace._repr_html_(self)
-
-    def _repr_eval_(self):
-        return StateSpace._repr_eval_(self)
 
     def __str__(self) -> str:
         sched = (

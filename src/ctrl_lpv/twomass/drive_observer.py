@@ -151,10 +151,15 @@ def drive_observer(
     sensors : {"encoders", "motor"}, optional
         Motor and load encoders (default), or the motor encoder alone
         (refused: the load is not observable in the gap).
-    encoder_counts, shaft_torque_rate, load_torque_rate
-        As in `drive_model`.
+    encoder_counts : (int, int), optional
+        Counts per revolution of the motor and load encoders (their
+        quantization is the measurement noise the gains weigh).
+    shaft_torque_rate, load_torque_rate : float, optional
+        Intensities of the random walks of ``Ts`` and ``Td``, Nm/s: larger
+        values give faster, noisier estimates of the torques.
     backoff : float or None, optional
-        As in `ctrl_lpv.observer` (default 0.2).
+        Relax the minimal H2 bound by this fraction for a well-conditioned
+        Lyapunov matrix (default 0.2; None: the raw optimum).
 
     Returns
     -------

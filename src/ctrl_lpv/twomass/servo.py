@@ -36,9 +36,11 @@ import control as ct
 import numpy as np
 
 from .._checks import as_matrix, flag, real_number
+from ..estimation import ObserverDesign
 from ..interconnection import kernel_nlsys
 from ..synthesis import StateFeedbackDesign, hinf_state_feedback
 from ..systems import PolytopicStateSpace
+from .drive_observer import drive_observer, observer_matrices
 from .model import lpv_model
 from .parameters import Parameters
 from .servo_certificate import ServoCertificate, servo_certificate
@@ -51,6 +53,8 @@ from .servo_config import (
     positive_range,
 )
 from .servo_kernel import INPUTS, STATES, ServoTuning, servo_kernel
+from .servo_rest import rest_bound
+from .servo_sampled import SampledServo, sampled_servo
 from .trajectory import PEAK_ACCEL, move_duration
 
 __all__ = ["ServoDesign", "servo_design", "servo_polytope"]
@@ -134,6 +138,16 @@ class ServoDesign:
         Every number of the control law.
     certificate : `ServoCertificate`
         What is certified, with its float64 checks.
+    dt : float or None
+        Sample time of the controller, s (None: continuous time).
+    delay : int
+        Samples between reading the sensors and the command acting.
+    sensors : {"states", "encoders"}
+        What the controller reads.
+    sampling : `ctrl_lpv.twomass.servo_sampled.SampledServo` or None
+        The sampled law's numbers (None in continuous time).
+    observer : `ctrl_lpv.ObserverDesign` or None
+        The drive observer of an encoder design.
     """
 
     params: Parameters
@@ -145,6 +159,11 @@ class ServoDesign:
     feedback: StateFeedbackDesign | None
     tuning: ServoTuning
     certificate: ServoCertificate = field(repr=False)
+    dt: float | None = None
+    delay: int = 0
+    sensors: str = "states"
+    sampling: SampledServo | None = field(default=None, repr=False)
+    observer: ObserverDesign | None = field(default=None, repr=False)
 
     @property
     def accel_limit(self) -> float:
@@ -166,15 +185,22 @@ class ServoDesign:
         Returns
         -------
         `control.NonlinearIOSystem`
-            Inputs ``["theta_m", "omega_m", "theta_l", "omega_l",
-            "theta_r"]`` (``theta_r`` the commanded target; it may step at
-            any time), output ``["Tm"]`` within ``+-torque_limit``; states
-            as in `ctrl_lpv.twomass.servo_kernel.STATES`, all zero at rest
-            at the origin.  The output does not feed through from
-            ``theta_r``.
+            Continuous time: inputs ``["theta_m", "omega_m", "theta_l",
+            "omega_l", "theta_r"]`` (``theta_r`` the commanded target; it
+            may step at any time), output ``["Tm"]`` within
+            ``+-torque_limit``; states as in
+            `ctrl_lpv.twomass.servo_kernel.STATES`, all zero at rest at the
+            origin. The output does not feed through from ``theta_r``.
+            Sampled (`dt` set): a discrete-time system with inputs
+            ``["theta_m", "theta_l", "theta_r"]`` (the encoder angles),
+            whose output computed at ``t_k`` acts from ``t_{k + delay}``
+            (`ctrl_lpv.twomass.servo_sampled`); simulate it on the plant
+            with `ctrl_lpv.sampled_response` and the same ``delay``.
         """
         if not isinstance(name, str):
             raise TypeError(f"name: expected a string, got {type(name).__name__}")
+        if self.sampling is not None:
+            return sampled_servo(self.tuning, self.sampling, name)
         return kernel_nlsys(
             servo_kernel(self.tuning),
             inputs=INPUTS,
@@ -195,6 +221,9 @@ class ServoDesign:
             f"(0.5 rad in {self.move_duration(0.5):.3f} s, 1 rad in "
             f"{self.move_duration(1.0):.3f} s)",
             "  feedback K = " + np.array2string(self.gain, precision=4, separator=", "),
+            "  runs: continuous time, every state measured" if self.dt is None else
+            f"  runs: every {self.dt * 1e3:g} ms, {self.delay} sample(s) of delay, "
+            "on the motor and load encoders (drive observer)",
             "  anti-hunting: "
             + ("flank chosen by the asked shaft torque, gap estimate, contact-aware "
                "integral" if t.anti_hunting else "off"),
@@ -216,6 +245,10 @@ def servo_design(
     anti_hunting: ServoAntiHunting | None = None,
     estimator: ServoEstimator | None = None,
     certify: bool = True,
+    dt: float | None = None,
+    delay: int = 0,
+    sensors: str = "states",
+    encoder_counts=(2**20, 2**17),
 ) -> ServoDesign:
     """Design the torque-limited position servo of the two-mass drive.
 
@@ -254,6 +287,25 @@ def servo_design(
         torque, rates, observer bandwidth.
     certify : bool, optional
         Compute the ultimate bound of the certificate (default True).
+    dt : float, optional
+        Sample time, s: a discrete-time controller whose update and output
+        run once per sample (default None: continuous time). The feedback
+        gain is then designed on the zero-order-hold model.
+    delay : {0, 1}, optional
+        Samples of computation delay (with `dt`): ``1`` means the command
+        computed from the samples at ``t_k`` acts on ``[t_{k+1},
+        t_{k+2})``; the controller predicts the state at ``t_{k+1}`` from
+        the command already on its way.
+    sensors : {"states", "encoders", "motor"}, optional
+        ``"states"`` (continuous time: every state measured exactly);
+        ``"encoders"`` (needs `dt`): the motor and load angles only, the
+        speeds and torques estimated by `ctrl_lpv.twomass.drive_observer`;
+        ``"motor"``: the motor encoder alone (refused by the drive
+        observer: the load is not observable in the gap).
+    encoder_counts : (int, int), optional
+        Counts per revolution of the motor and load encoders (the
+        observer's measurement noise and the rest certificate's reading
+        error).
 
     Returns
     -------
@@ -266,8 +318,12 @@ def servo_design(
         use ``ServoAntiHunting(enabled=False)``), and values that are not
         real numbers or bools.
     ValueError
-        For non-positive limits, reversed ranges, or a torque budget that
-        leaves no acceleration.
+        For non-positive limits, reversed ranges, a torque budget that
+        leaves no acceleration, or `sensors`, `dt` and `delay` that do not
+        go together.
+    InfeasibleError
+        For ``sensors="motor"`` (the drive observer's refusal, naming the
+        gap and the load's unobservable angle).
     """
     params = Parameters() if params is None else params
     if not isinstance(params, Parameters):
@@ -281,6 +337,7 @@ def servo_design(
     anti_hunting = _settings(anti_hunting, ServoAntiHunting, "anti_hunting")
     estimator = _settings(estimator, ServoEstimator, "estimator")
     certify = flag(certify, "certify")
+    dt, delay = _sampling(dt, delay, sensors)
     budget = (1.0 - planner.torque_reserve) * torque_limit - Td_max
     if budget <= 0:
         raise ValueError(
@@ -296,6 +353,8 @@ def servo_design(
             torque_weight=synthesis.torque_weight,
             integral_weight=synthesis.integral_weight,
         )  # fmt: skip
+        if dt is not None:
+            model = model.sample(dt)
         feedback = hinf_state_feedback(model, w=["Td"], u=["Tm"])
         K = np.asarray(feedback.gains[0], float).reshape(1, -1)
     else:
@@ -318,15 +377,58 @@ def servo_design(
         integral_hold=anti_hunting.integral_hold,
         anti_hunting=anti_hunting.enabled, gap_estimate=estimator.gap_estimate,
     )  # fmt: skip
+    observer = sampling = rest = None
+    if dt is not None:
+        observer = drive_observer(
+            params, dt=dt, sensors=sensors, encoder_counts=encoder_counts
+        )
+        Phi, Gamma, M = observer_matrices(observer)
+        sampling = SampledServo(
+            dt=dt, delay=delay, Phi=Phi, Gamma=Gamma, M=M,
+            contact_torque=estimator.contact_torque,
+        )  # fmt: skip
+        if certify:
+            rest = rest_bound(
+                params, K, sampling, Jl_range=(lo, hi), encoder_counts=encoder_counts
+            )
     certificate = servo_certificate(
         params, K, feedback, alpha_max=alpha_max, Jl_range=(lo, hi),
-        Td_max=Td_max, torque_limit=torque_limit, bound=certify,
+        Td_max=Td_max, torque_limit=torque_limit, bound=certify and dt is None,
+        dt=dt, rest=rest,
     )  # fmt: skip
     return ServoDesign(
         params=params, torque_limit=torque_limit, alpha_max=alpha_max,
         Jl_range=(lo, hi), Td_max=Td_max, gain=K, feedback=feedback,
-        tuning=tuning, certificate=certificate,
+        tuning=tuning, certificate=certificate, dt=dt, delay=delay,
+        sensors=sensors, sampling=sampling, observer=observer,
     )  # fmt: skip
+
+
+def _sampling(dt, delay, sensors):
+    """Check that `dt`, `delay` and `sensors` go together."""
+    if sensors not in ("states", "encoders", "motor"):
+        raise ValueError(
+            f"sensors: expected 'states', 'encoders' or 'motor', got {sensors!r}"
+        )
+    if isinstance(delay, bool) or delay not in (0, 1):
+        raise ValueError(f"delay: expected 0 or 1 samples, got {delay!r}")
+    if dt is None:
+        if sensors != "states":
+            raise ValueError(
+                f"sensors: {sensors!r} needs a sample time dt (a drive reads its "
+                "encoders once per sample)"
+            )
+        if delay:
+            raise ValueError("delay: needs a sample time dt")
+        return None, 0
+    dt = real_number(dt, "dt", positive=True)
+    if sensors == "states":
+        raise ValueError(
+            "sensors: a sampled servo reads encoder angles; use "
+            "sensors='encoders' with dt (sensors='states' is the continuous, "
+            "full-state design, dt=None)"
+        )
+    return dt, int(delay)
 
 
 def _settings(value, cls, label: str):

@@ -36,6 +36,7 @@ from ..synthesis import StateFeedbackDesign
 from ..systems import pss
 from .model import lpv_model
 from .parameters import Parameters
+from .servo_rest import RestBound
 
 __all__ = ["ServoCertificate", "servo_certificate", "contact_loop"]
 
@@ -69,6 +70,9 @@ class ServoCertificate(Certificate):
         (generalized sector condition, both inertia vertices), with the
         feedback's share ``torque_limit - Td_max`` of the limit; None if it
         was not computed or did not certify.
+    rest : `ctrl_lpv.twomass.servo_rest.RestBound` or None
+        A sampled design's certified rest: the loop that runs (observer,
+        delay, encoder errors); None in continuous time.
     """
 
     feedback: Certificate | None = None
@@ -76,6 +80,17 @@ class ServoCertificate(Certificate):
     ultimate: UltimateBound | None = field(default=None, compare=False)
     w_max: np.ndarray = field(default_factory=lambda: np.ones(1), compare=False)
     region: SaturatedDesign | None = field(default=None, compare=False)
+    rest: RestBound | None = field(default=None, compare=False)
+
+    @property
+    def rest_error_bound(self) -> float | None:
+        """Certified ``|theta_l - theta_r|`` at rest of a sampled design, rad."""
+        return None if self.rest is None else self.rest.error_bound
+
+    @property
+    def rest_ripple_bound(self) -> float | None:
+        """Certified half peak-to-peak of the torque at rest (sampled), Nm."""
+        return None if self.rest is None else self.rest.ripple_bound
 
     @property
     def error_bound(self) -> float | None:
@@ -130,6 +145,8 @@ def servo_certificate(
     Td_max: float,
     torque_limit: float,
     bound: bool = True,
+    dt: float | None = None,
+    rest: RestBound | None = None,
 ) -> ServoCertificate:
     """Collect the servo's certified statements (see the module docstring).
 
@@ -145,6 +162,11 @@ def servo_certificate(
         As in `servo_design`.
     bound : bool, optional
         Compute the ultimate bound (an SDP line search, about a second).
+    dt : float, optional
+        Sample time of a sampled design (its gain certified on the
+        zero-order-hold model).
+    rest : `RestBound`, optional
+        A sampled design's certified rest.
 
     Returns
     -------
@@ -156,9 +178,14 @@ def servo_certificate(
     fb_cert = gamma = None
     if feedback is not None:
         fb_cert, gamma = feedback.certificate, feedback.gamma
+        where = (
+            "for every (p, Jl) of the design box, time-varying" if dt is None
+            else f"at the vertices of the design box sampled every {dt:g} s "
+            "(zero-order hold) and their convex hull"
+        )  # fmt: skip
         lines.append(
             f"  feedback: quadratic H-inf bound {gamma:.4g} from Td to (e_l, Tm_w, "
-            f"int_e_l_w) for every (p, Jl) of the design box, time-varying "
+            f"int_e_l_w) {where} "
             f"[{'verified' if fb_cert.verified else 'NOT verified'}]"
         )
     else:
@@ -184,6 +211,10 @@ def servo_certificate(
     if bound:
         region, text = _saturation_region(params, K, Jl_range, torque_limit, Td_max)
         lines.append(text)
+    if rest is not None:
+        lines.append(
+            f"  {rest} [{'verified' if rest.certificate.verified else 'NOT verified'}]"
+        )
     lines.append(
         "  not certified: the gap crossings, the planner, the flank choice, the "
         "gap estimate and the contact-aware, held integral (checked by "
@@ -193,13 +224,14 @@ def servo_certificate(
         "feedback": fb_cert,
         "ultimate bound": None if ultimate is None else ultimate.certificate,
         "region": None if region is None else region.certificate,
+        "rest": None if rest is None else rest.certificate,
     }
     whole = Certificate.combine(
         *(part.regrouped(name) for name, part in parts.items() if part is not None)
     )
     return ServoCertificate(
         whole.checks, "\n".join(lines), feedback=fb_cert, gamma=gamma,
-        ultimate=ultimate, w_max=w_max, region=region,
+        ultimate=ultimate, w_max=w_max, region=region, rest=rest,
     )  # fmt: skip
 
 

@@ -1,0 +1,107 @@
+"""What a system given by data at points of its parameter domain offers.
+
+`PolytopicStateSpace` (data at the vertices, combined with convex
+coordinates) and `GriddedStateSpace` (data at grid points, combined
+multilinearly) differ in their domain only: the domain's ``weights(p)``
+says how the point data combine at ``p``. `FrozenDataMixin` is the rest,
+written once: the parameters, the physical inputs, the weights, the frozen
+system at ``p`` and the point data.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from control import StateSpace
+
+from .._checks import flag
+from .vertices import combine_data
+
+__all__ = ["FrozenDataMixin"]
+
+
+class FrozenDataMixin:
+    """Parameters, weights and frozen systems of point data ``_data``.
+
+    For a `control.StateSpace` subclass with a ``domain`` (``weights(p,
+    clip)``, ``nparams``, ``names``), point data ``_data`` (``(A, B, C, D)``
+    per point, in the domain's order) and ``_physical_inputs``.
+    """
+
+    @property
+    def nparams(self) -> int:
+        """Number of scheduling parameters."""
+        return self.domain.nparams
+
+    @property
+    def param_names(self) -> tuple[str, ...]:
+        """Names of the scheduling parameters."""
+        return self.domain.names
+
+    @property
+    def physical_inputs(self) -> tuple[str, ...]:
+        """Input labels without the scheduling inputs."""
+        return self._physical_inputs
+
+    def weights(self, p, clip: bool = False) -> np.ndarray:
+        """Weights of the point data at `p`, shape ``(N,)``.
+
+        Nonnegative and summing to one: the convex coordinates of `p` for a
+        polytope, the multilinear interpolation weights (nonzero only at
+        the corners of the cell of `p`) for a grid.
+
+        Parameters
+        ----------
+        p : array_like or mapping
+            Parameter value (for a simplex domain: the coordinates).
+        clip : bool, optional
+            Project `p` onto the domain instead of raising.
+
+        Returns
+        -------
+        ndarray
+
+        Raises
+        ------
+        ValueError
+            If `p` has the wrong size or lies outside the domain.
+        """
+        return self.domain.weights(p, clip=flag(clip, "clip"))
+
+    def _combine(self, delta: np.ndarray) -> tuple[np.ndarray, ...]:
+        return combine_data(self._data, delta)
+
+    def at(self, p, name: str | None = None) -> StateSpace:
+        """Frozen system at parameter value `p`.
+
+        Parameters
+        ----------
+        p : array_like or mapping
+            Parameter value inside the domain.
+        name : str, optional
+            Name of the returned system.
+
+        Returns
+        -------
+        `control.StateSpace`
+            With the physical inputs, outputs and states of this system.
+        """
+        first = self.vertices[0]
+        return StateSpace(
+            *self._combine(self.weights(p)),
+            inputs=first.input_labels,
+            outputs=first.output_labels,
+            states=first.state_labels,
+            name=name,
+            dt=self.dt,
+            remove_useless_states=False,
+        )
+
+    def vertex_data(self) -> tuple[tuple[np.ndarray, ...], ...]:
+        """Point matrices ``((A_j, B_j, C_j, D_j), ...)`` as float arrays."""
+        return tuple(tuple(m.copy() for m in d) for d in self._data)
+
+    def _repr_html_(self):
+        return StateSpace._repr_html_(self)
+
+    def _repr_eval_(self):
+        return StateSpace._repr_eval_(self)

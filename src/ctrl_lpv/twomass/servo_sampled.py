@@ -1,0 +1,193 @@
+"""The servo as it runs on a drive: once per sample, on encoder angles.
+
+`sampled_servo` turns a `ServoTuning` into a discrete-time python-control
+system. Per sample ``t_k`` it reads the encoder angles ``theta_m``,
+``theta_l`` and the target ``theta_r`` and:
+
+1. corrects the drive observer's prediction with the readings
+   (`ctrl_lpv.twomass.drive_observer`: speeds, shaft and load torques,
+   scheduled on its own shaft-torque estimate);
+2. with ``delay=1`` predicts the state at ``t_{k+1}``, when the command
+   computed now will act, from the command already on its way (the
+   delay compensation of a Smith predictor); with ``delay=0`` uses the
+   corrected estimate;
+3. evaluates the continuous servo's law there (`servo_kernel`:
+   feedforward of the planned move, the backlash offset on the flank the
+   asked shaft torque needs, feedback with the discrete-time gain), with
+   the reference planned for the instant the command acts;
+4. advances the integral, the gap estimate and the planner by one sample.
+
+Two changes of the continuous law make it robust to sampling and to the
+encoders' quantization: the gap estimate learns from contacts during moves
+only (at rest the shaft-torque estimate is of the order of the quantization
+noise, and a wandering estimate moves the motor against the flank), and a
+contact asked for and not made probes a wider gap from the contact torque
+on (not twice it), so that the load is not left in a dead band of the gap
+estimate's error.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import control as ct
+import numpy as np
+
+from .servo_kernel import ServoTuning, _smoothstep
+from .trajectory import PEAK_ACCEL, planner_functions
+
+__all__ = ["SampledServo", "sampled_servo", "SAMPLED_STATES", "SAMPLED_INPUTS"]
+
+SAMPLED_STATES = [
+    "r", "v_r", "a_r", "j_r", "goal", "time_to_go",
+    "theta_m_hat", "omega_m_hat", "Ts_hat", "theta_l_hat", "omega_l_hat",
+    "Td_hat", "int_e_l", "alpha_hat_dev", "Tm_prev",
+]  # fmt: skip
+SAMPLED_INPUTS = ["theta_m", "theta_l", "theta_r"]
+_PLAN_SUBSTEPS = 4
+
+
+@dataclass(frozen=True)
+class SampledServo:
+    """The numbers of the sampled servo beyond the continuous law's.
+
+    Attributes
+    ----------
+    dt : float
+        Sample time, s.
+    delay : int
+        Samples between reading the encoders and the command acting (0 or
+        1).
+    Phi, Gamma, M : tuple of ndarray
+        The observer's sampled model and its filter gain ``Phi^-1 L`` at
+        the gap and in contact (`ctrl_lpv.twomass.drive_estimator`).
+    contact_torque : float
+        Shaft-torque estimate, Nm, below which the observer counts the gap.
+    """
+
+    dt: float
+    delay: int
+    Phi: tuple
+    Gamma: tuple
+    M: tuple
+    contact_torque: float
+
+
+def sampled_servo(
+    c: ServoTuning, s: SampledServo, name: str = "servo"
+) -> ct.NonlinearIOSystem:
+    """The servo law of `c`, sampled as `s` says, as a python-control system.
+
+    Returns
+    -------
+    `control.NonlinearIOSystem`
+        ``dt = s.dt``; inputs `SAMPLED_INPUTS`, output ``["Tm"]`` (within
+        the torque limit, acting from ``t_{k + delay}`` to the next
+        sample), states `SAMPLED_STATES`, all zero at rest at the origin.
+    """
+    Jm, Jl, cm, cl, ks, cs = c.Jm, c.Jl, c.cm, c.cl, c.ks, c.cs
+    k1, k2, k3, k4, k5 = c.gain
+    limit, dt, delayed = c.torque_limit, s.dt, s.delay == 1
+    snap_of, _ = planner_functions(c.accel_limit, c.min_duration, c.horizon_floor)
+    hmin = c.horizon_floor
+    a0, amax, teps, tc = c.alpha_initial, c.alpha_max, c.flank_width, c.contact_torque
+    leak, gam, probe, hold = (
+        c.integral_leak,
+        c.estimate_rate,
+        c.probe_rate,
+        c.integral_hold,
+    )
+    ratio = ks / k1
+    Phi, Gam, M = (np.asarray(m) for m in (s.Phi, s.Gamma, s.M))
+
+    def blend(pair, w):
+        return pair[0] + w * (pair[1] - pair[0])
+
+    def plan_step(plan, target):
+        """The planner one sample on: a new target re-plans the move."""
+        r, v, a, j, g, h = plan
+        if target != g:
+            distance = math.sqrt(PEAK_ACCEL * abs(target - r) / c.accel_limit)
+            g, h = target, max(c.min_duration, distance, 3.0 * abs(v) / c.accel_limit)
+        step = dt / _PLAN_SUBSTEPS
+
+        def rate(x):
+            r_, v_, a_, j_, h_ = x
+            dh = -1.0 if h_ > hmin else 0.0
+            return np.array([v_, a_, j_, snap_of(r_, v_, a_, j_, g, h_), dh])
+
+        x = np.array([r, v, a, j, h])
+        for _ in range(_PLAN_SUBSTEPS):  # RK4: the snap law is smooth
+            q1 = rate(x)
+            q2 = rate(x + 0.5 * step * q1)
+            q3 = rate(x + 0.5 * step * q2)
+            q4 = rate(x + step * q3)
+            x = x + step / 6.0 * (q1 + 2.0 * q2 + 2.0 * q3 + q4)
+            x[4] = max(x[4], hmin)
+        return [x[0], x[1], x[2], x[3], g, x[4]]
+
+    def law(x, y):
+        plan, xhat = list(x[0:6]), np.asarray(x[6:12])
+        xi, dah, u_prev = x[12], x[13], x[14]
+        contact = _smoothstep(abs(xhat[2]) / s.contact_torque - 1.0)
+        Ph, Gh = blend(Phi, contact), blend(Gam, contact)
+        filtered = xhat + blend(M, contact) @ (np.asarray(y[:2]) - xhat[[0, 3]])
+        at = Ph @ filtered + Gh * u_prev if delayed else filtered
+        tm, wm, tsh, tl, wl = at[:5]
+        r, v, a, j, g, h = plan
+        snap = snap_of(r, v, a, j, g, h)
+        # Flat feedforward of the contact model and the flank offset, as in
+        # the continuous law (`servo_kernel`).
+        F, F1, F2 = Jl * a + cl * v, Jl * j + cl * a, Jl * snap + cl * j
+        el, dl = tl - r, wl - v
+        ah = a0 + dah
+        tstar = F - ratio * (k3 * el + k4 * dl + k5 * xi) if c.anti_hunting else F
+        psi = math.copysign(_smoothstep(abs(tstar) / teps), tstar)
+        thm = r + F / ks + ah * psi
+        wmf = v + F1 / ks
+        tff = Jm * (a + F2 / ks) + cm * wmf + F
+        raw = tff - (k1 * (tm - thm) + k2 * (wm - wmf) + k3 * el + k4 * dl + k5 * xi)
+        u = min(max(raw, -limit), limit)
+
+        # Integral: conditional on saturation, in contact only, held in moves.
+        if (raw > limit and el < 0.0) or (raw < -limit and el > 0.0):
+            dxi = 0.0
+        elif c.anti_hunting:
+            dxi = contact * el - (1.0 - contact) * leak * xi
+        else:
+            dxi = el
+        dxi *= _smoothstep(1.0 - abs(v) / hold) if hold > 0.0 else 1.0
+        # Gap estimate: the flank at contacts during moves, probing at rest.
+        at_rest = h <= hmin * (1.0 + 1e-9) and abs(r - g) < 1e-6 and abs(v) < 1e-5
+        ddah = 0.0
+        if c.gap_estimate:
+            if not at_rest:
+                flank = math.copysign(1.0, tsh) * (
+                    (tm - tl) - (tsh - cs * (wm - wl)) / ks
+                )
+                ddah = gam * contact * (min(max(flank, 0.0), amax) - ah)
+            asked = _smoothstep(abs(tstar) / tc - 1.0)
+            still = _smoothstep(1.0 - (abs(v) + abs(wl)) / c.rest_speed)
+            ddah += probe * (1.0 - contact) * asked * still * (ah < amax)
+        applied = u_prev if delayed else u
+        predicted = Ph @ filtered + Gh * applied
+        state = [*plan_step(plan, y[2]), *predicted, xi + dt * dxi, dah + dt * ddah, u]
+        return u, np.asarray(state)
+
+    last = {}
+
+    def evaluate(t, x, u):
+        # update and output see the same (t, x, u): compute the law once.
+        key = (t, x.tobytes(), np.asarray(u, float).tobytes())
+        if key not in last:
+            last.clear()
+            last[key] = law(x, u)
+        return last[key]
+
+    return ct.NonlinearIOSystem(
+        lambda t, x, u, params=None: evaluate(t, x, u)[1],
+        lambda t, x, u, params=None: [evaluate(t, x, u)[0]],
+        inputs=SAMPLED_INPUTS, outputs=["Tm"], states=SAMPLED_STATES,
+        dt=s.dt, name=name,
+    )  # fmt: skip
