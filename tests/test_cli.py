@@ -959,3 +959,17 @@ def test_readme_servo_numbers_are_those_of_reproduce(reproduction):
         assert same == [c for i, c in enumerate(fresh) if not (tiny and i == 4)]
         if tiny:
             assert float(row[4]) < 1e-9
+
+
+def test_simulate_the_servo(tmp_path, capsys):
+    """``--controller servo``: the servo's step on the exact plant, within its
+    torque limit, read from the written response itself."""
+    out = tmp_path / "servo"
+    argv = ["simulate", "--controller", "servo", "--torque-limit", "400"]
+    assert main(argv + ["--T", "1", "--out", str(out), "--formats", "png"]) == 0
+    data = np.loadtxt(out / "response.csv", delimiter=",", skiprows=1)
+    labels = (out / "response.csv").read_text().splitlines()[0].split(",")
+    theta_l, torque = data[:, labels.index("theta_l")], data[:, labels.index("Tm")]
+    assert np.abs(torque).max() <= 400 + 1e-9
+    assert abs(theta_l[-1] - 0.5) < 1e-3  # settled within the second
+    assert "controller servo" in capsys.readouterr().out

@@ -114,12 +114,17 @@ def _controller(args):
                 "the backlash; drop the option or use vertex gains"
             )
 
-    if name in ("paper", "robust", "backstepping"):
+    if name in ("paper", "robust", "backstepping", "servo"):
         common(
             {"paper": "the published gain", "robust": "the robust design"}.get(
-                name, "backstepping"
+                name, name
             )
         )
+    if name == "servo":
+        from .twomass import servo_design
+
+        limit = {} if args.torque_limit is None else limit
+        return servo_design(certify=False, **limit).controller()
     if name == "paper":
         return lpv_controller(**limit)
     if name == "backstepping":
@@ -132,7 +137,7 @@ def _controller(args):
     if not path.is_file():
         raise ValueError(
             f"--controller: {name!r} is neither paper, robust, scheduled, "
-            "backstepping nor an existing gain file"
+            "backstepping, servo nor an existing gain file"
         )
     try:
         gains = load_gains(path)

@@ -295,8 +295,10 @@ def build_parser() -> argparse.ArgumentParser:
         default="paper",
         metavar="NAME|FILE",
         help="paper (published gain), robust, scheduled "
-        "(certified designs, computed now), backstepping, or a gain "
-        "file from 'ctrl-lpv design --save' (default paper)",
+        "(certified designs, computed now), backstepping, servo (the "
+        "torque-limited position servo, designed now; --torque-limit is its "
+        "limit, default 500 Nm), or a gain file from 'ctrl-lpv design --save' "
+        "(default paper)",
     )
     sim.add_argument(
         "--alpha",
