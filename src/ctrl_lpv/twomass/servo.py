@@ -383,10 +383,7 @@ def servo_design(
             params, dt=dt, sensors=sensors, encoder_counts=encoder_counts
         )
         Phi, Gamma, M = observer_matrices(observer)
-        sampling = SampledServo(
-            dt=dt, delay=delay, Phi=Phi, Gamma=Gamma, M=M,
-            contact_torque=estimator.contact_torque,
-        )  # fmt: skip
+        sampling = SampledServo(dt=dt, delay=delay, Phi=Phi, Gamma=Gamma, M=M)
         if certify:
             rest = rest_bound(
                 params, K, sampling, Jl_range=(lo, hi), encoder_counts=encoder_counts

@@ -61,9 +61,9 @@ class SampledServo:
         1).
     Phi, Gamma, M : tuple of ndarray
         The observer's sampled model and its filter gain ``Phi^-1 L`` at
-        the gap and in contact (`ctrl_lpv.twomass.drive_estimator`).
-    contact_torque : float
-        Shaft-torque estimate, Nm, below which the observer counts the gap.
+        the gap and in contact (`ctrl_lpv.twomass.drive_estimator`); the
+        observer counts the gap below the law's ``contact_torque`` of
+        shaft-torque estimate.
     """
 
     dt: float
@@ -71,7 +71,6 @@ class SampledServo:
     Phi: tuple
     Gamma: tuple
     M: tuple
-    contact_torque: float
 
 
 def sampled_servo(
@@ -130,7 +129,7 @@ def sampled_servo(
     def law(x, y):
         plan, xhat = list(x[0:6]), np.asarray(x[6:12])
         xi, dah, u_prev = x[12], x[13], x[14]
-        contact = _smoothstep(abs(xhat[2]) / s.contact_torque - 1.0)
+        contact = _smoothstep(abs(xhat[2]) / tc - 1.0)
         Ph, Gh = blend(Phi, contact), blend(Gam, contact)
         filtered = xhat + blend(M, contact) @ (np.asarray(y[:2]) - xhat[[0, 3]])
         at = Ph @ filtered + Gh * u_prev if delayed else filtered
