@@ -564,7 +564,7 @@ def test_gain_outside_the_interval_is_refused(gain_files):
 
 def test_reproduce_servo_comparison(reproduction):
     _, out, _ = reproduction
-    for stem in ("servo_500", "servo_2000"):
+    for stem in ("servo_500", "servo_2000", "servo_rest_500", "servo_rest_2000"):
         assert (out / f"{stem}.png").read_bytes()[:8] == PNG_MAGIC
     rows = json.loads((out / "servo_comparison.json").read_text())
     assert (out / "servo_comparison.md").stat().st_size > 0
@@ -578,6 +578,10 @@ def test_reproduce_servo_comparison(reproduction):
         assert servo["error_5s"] < 1e-5 < published["error_5s"]
         settle = published["settling"]
         assert servo["settling"] < (settle if settle is not None else np.inf)
+        # The servo as a drive runs it: sampled, on encoders, within the limit.
+        sampled = by[limit, "servo, 1 ms on encoders"]
+        assert sampled["peak_torque"] <= limit + 1e-9
+        assert sampled["settling"] <= 0.25 and sampled["error_5s"] < 2e-4
 
 
 # ----------------------------------------------------------------------

@@ -144,6 +144,8 @@ class ServoDesign:
         Samples between reading the sensors and the command acting.
     sensors : {"states", "encoders"}
         What the controller reads.
+    encoder_counts : (int, int) or None
+        Counts per revolution of the motor and load encoders (sampled).
     sampling : `ctrl_lpv.twomass.servo_sampled.SampledServo` or None
         The sampled law's numbers (None in continuous time).
     observer : `ctrl_lpv.ObserverDesign` or None
@@ -162,6 +164,7 @@ class ServoDesign:
     dt: float | None = None
     delay: int = 0
     sensors: str = "states"
+    encoder_counts: tuple | None = None
     sampling: SampledServo | None = field(default=None, repr=False)
     observer: ObserverDesign | None = field(default=None, repr=False)
 
@@ -398,6 +401,7 @@ def servo_design(
         Jl_range=(lo, hi), Td_max=Td_max, gain=K, feedback=feedback,
         tuning=tuning, certificate=certificate, dt=dt, delay=delay,
         sensors=sensors, sampling=sampling, observer=observer,
+        encoder_counts=None if dt is None else tuple(encoder_counts),
     )  # fmt: skip
 
 

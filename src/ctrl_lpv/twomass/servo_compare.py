@@ -35,6 +35,7 @@ from .trajectory import reference_generator
 __all__ = [
     "servo_loop",
     "run_servo_scenario",
+    "run_sampled_servo_scenario",
     "servo_metrics",
     "ServoMetrics",
     "servo_scenarios",
@@ -163,6 +164,72 @@ def run_servo_scenario(
     U = np.vstack([_target(theta_r, t), np.full_like(t, float(Td))])
     return simulate(
         loop, t, U, 0.0, method="LSODA", rtol=rtol, atol=atol, return_states=True
+    )
+
+
+def run_sampled_servo_scenario(
+    design: ServoDesign,
+    *,
+    params: Parameters | None = None,
+    alpha=0.03,
+    Jl: float = 1.0,
+    Td: float = 8.0,
+    theta_r: float = 0.5,
+    T: float = 5.0,
+    noise: float = 0.5,
+    seed=0,
+) -> ct.TimeResponseData:
+    """Simulate a sampled servo on the exact plant read by its encoders.
+
+    `ctrl_lpv.sampled_response` of ``design.controller()`` (a sampled
+    design, ``dt`` set) on the exact plant, with the design's delay and
+    encoders of its counts per revolution and `noise` counts of Gaussian
+    noise.
+
+    Parameters
+    ----------
+    design : `ServoDesign`
+        A sampled design (``servo_design(dt=..., sensors="encoders")``).
+    params, alpha, Jl, Td, theta_r, T
+        As in `run_servo_scenario` (a constant target).
+    noise : float, optional
+        Encoder noise, counts (standard deviation).
+    seed : int, optional
+        Seed of the noise.
+
+    Returns
+    -------
+    `control.TimeResponseData`
+        At the sampling instants, with the outputs of `servo_loop`
+        (``theta_l``, ``Tm``, ``Tm_cmd``, ``theta_m``, ``omega_m``,
+        ``omega_l``, ``Ts``), so that `servo_metrics` reads it.
+    """
+    from ..sampled import sampled_response
+    from ..sensors import Encoder
+
+    if design.dt is None:
+        raise ValueError("design: a continuous-time design; use run_servo_scenario")
+    params = Parameters() if params is None else params
+    loop_plant = plant(params.replace(Jl=Jl * params.Jl), alpha=alpha)
+    sensors = {
+        name: Encoder(c, noise)
+        for name, c in zip(("theta_m", "theta_l"), design.encoder_counts)
+    }
+    res = sampled_response(
+        loop_plant, design.controller(), T, inputs={"Td": Td, "theta_r": theta_r},
+        delay=design.delay, sensors=sensors, seed=seed,
+    )  # fmt: skip
+    p = res.plant
+    out = {name: p.outputs[p.output_labels.index(name)] for name in p.output_labels}
+    torque = p.inputs[p.input_labels.index("Tm")]
+    labels = ["theta_l", "Tm", "Tm_cmd", "theta_m", "omega_m", "omega_l", "Ts"]
+    columns = [out["theta_l"], torque, torque] + [out[n] for n in labels[3:]]
+    return ct.TimeResponseData(
+        p.time,
+        np.vstack(columns),
+        output_labels=labels,
+        issiso=False,
+        sysname="sampled servo",
     )
 
 

@@ -10,6 +10,7 @@ __all__ = [
     "servo_rows",
     "servo_markdown_table",
     "servo_figure",
+    "servo_rest_figure",
     "markdown_row",
     "markdown_rule",
     "SERVO_LIMITS",
@@ -33,7 +34,12 @@ def servo_rows(limits=SERVO_LIMITS, progress=None):
     """
     from .scenarios import alpha_step
     from .servo import servo_design
-    from .servo_compare import comparison_controllers, run_servo_scenario, servo_metrics
+    from .servo_compare import (
+        comparison_controllers,
+        run_sampled_servo_scenario,
+        run_servo_scenario,
+        servo_metrics,
+    )
 
     rows, responses = [], {}
     for limit in limits:
@@ -50,6 +56,17 @@ def servo_rows(limits=SERVO_LIMITS, progress=None):
             responses[limit, name] = r
             if progress is not None:
                 progress(f"servo comparison |Tm| <= {limit:g} Nm: {name}")
+        # The servo as a drive runs it: 1 ms, one sample of delay, encoders.
+        sampled = servo_design(
+            torque_limit=limit, dt=1e-3, delay=1, sensors="encoders", certify=False
+        )
+        name = "servo, 1 ms on encoders"
+        r = run_sampled_servo_scenario(sampled, alpha=alpha_step(), Td=8.0, T=5.0)
+        row = {"torque_limit": limit, "controller": name}
+        row.update(servo_metrics(r).as_dict())
+        row["success"] = True
+        rows.append(row)
+        responses[limit, name] = r
     return rows, responses
 
 
@@ -100,7 +117,7 @@ def _series(response, name):
     labels = list(response.output_labels)
     if name in labels:
         return np.asarray(response.outputs)[labels.index(name)]
-    for i, lab in enumerate(response.state_labels):
+    for i, lab in enumerate(response.state_labels or ()):
         if lab.endswith(name):
             return np.asarray(response.states)[i]
     return None
@@ -160,6 +177,30 @@ def servo_figure(responses, limit, alpha_initial, title=None):
     return fig
 
 
+def servo_rest_figure(responses, names, window=(4.0, 5.0)):
+    """Load error and torque at rest (the last second): the ripple of each."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(2, 1, figsize=(8.0, 5.5), sharex=True)
+    for i, name in enumerate(names):
+        r, st = responses[name], controller_style(i)
+        t = r.time
+        rest = (t >= window[0]) & (t <= window[1])
+        e = _series(r, "theta_l")[rest] - _TARGET
+        tm = _series(r, "Tm")[rest]
+        ax[0].plot(t[rest], 1e6 * e, lw=1.0, label=name, **st)
+        ax[1].plot(t[rest], tm - tm.mean(), lw=1.0,
+                   label=f"{name}: std {tm.std():.2g} Nm", **st)  # fmt: skip
+    ax[0].set_ylabel("e_l (urad)")
+    ax[1].set_ylabel("Tm - mean (Nm)")
+    ax[1].set_xlabel("time (s)")
+    for a in ax:
+        a.grid(True, lw=0.4, alpha=0.6)
+        a.legend(fontsize="x-small", loc="upper right")
+    ax[0].set_title("At rest, paper scenario: continuous vs sampled on encoders")
+    fig.tight_layout()
+    return fig
+
+
 def write_servo(out, formats, progress=None):
     """Write servo_comparison.{md,json} and servo_<limit> figures into `out`."""
     import json
@@ -175,4 +216,6 @@ def write_servo(out, formats, progress=None):
         pick = {n: r for (lim, n), r in responses.items() if lim == limit}
         fig = servo_figure(pick, limit, responses["alpha_initial", limit])
         files += save_figure(fig, out / f"servo_{limit:g}", formats)
+        rest = servo_rest_figure(pick, ["servo", "servo, 1 ms on encoders"])
+        files += save_figure(rest, out / f"servo_rest_{limit:g}", formats)
     return rows, files
