@@ -117,3 +117,44 @@ def test_scheduled_nonlinear_loop_converges_under_fast_speed_changes(steering):
     assert np.abs(resp.outputs[4]).max() < 0.5  # no steering saturation
     assert np.abs(y[-100:]).max() < 1e-3 * 0.3
     assert np.abs(theta[-100:]).max() < 1e-3
+
+
+@pytest.fixture(scope="module")
+def comfort(steering):
+    """LQR weighting the lateral acceleration v**2 phi / l: gains ~ 1 / v**2."""
+    plant = steering[0]
+    gains = [ct.lqr(linearized(v)[:, ["v", "phi"]], np.eye(3),
+                    np.diag([1.0, (v**2 / L) ** 2]))[0] for v in SPEEDS]  # fmt: skip
+    ctrl, clsys = ct.create_statefbk_iosystem(
+        VEHICLE, (gains, SPEEDS), ud_labels=["vd", "phid"],
+        control_indices=["v", "phi"], gainsched_indices=["vd"],
+        gainsched_method="linear")  # fmt: skip
+    verdict = lpv.certify(ctrl, plant, counterexample=False)
+    return plant, ctrl, clsys, verdict
+
+
+def test_comfort_schedule_has_a_finite_certified_acceleration(comfort):
+    plant, ctrl, clsys, verdict = comfort
+    for v in np.linspace(2.01, 19.99, 91):
+        loop = clsys.linearize([0.0, 0.0, 0.0], [0.0, 0.0, 0.0, v, 0.0, 0.0])
+        assert loop.poles().real.max() < -1e-3, v
+    assert not verdict.certified
+    nu = verdict.rate_bound["v"]
+    assert 0.0 < nu < np.inf and verdict.certificate.verified, str(verdict)
+    given = lpv.certify(ctrl, plant, rate_bounds={"v": 0.9 * nu})
+    assert given.certified and given.certificate.verified
+
+
+def test_comfort_schedule_converges_within_the_certified_acceleration(comfort):
+    """The nonlinear loop, speed swinging over the range at 0.9 times the
+    certified acceleration."""
+    clsys, nu = comfort[2], comfort[3].rate_bound["v"]
+    w = 0.9 * nu / 8.9
+    T = np.linspace(0.0, 40.0, 4001)
+    vd = 11.0 - 8.9 * np.cos(w * T)
+    xd = np.vstack([11.0 * T - 8.9 / w * np.sin(w * T), 0 * T, 0 * T])
+    resp = ct.input_output_response(clsys, T, np.vstack([xd, vd, 0 * T, 0 * T]),
+                                    [0.0, 0.3, 0.0])  # fmt: skip
+    assert np.abs(resp.outputs[4]).max() < 0.5
+    assert np.abs(resp.outputs[1][-100:]).max() < 1e-3 * 0.3
+    assert np.abs(resp.outputs[2][-100:]).max() < 1e-3
