@@ -254,3 +254,80 @@ def test_l2_bound_covers_the_frozen_norms_on_polytopic_and_gridded_plants():
         assert c.certified and c.certificate.verified, str(c)
         assert c.bound >= worst
     assert on_grid.bound == pytest.approx(on_polytope.bound, rel=1e-3)
+
+
+# ------------------------------------- rate bounds with B_u and K varying
+
+
+def bilinear_pair():
+    """x' = (1 + p) u with K(0) = -A1, K(1) = -A2 / 2: the loop
+    -(1 + p) K(p) is A1 at p = 0, A2 at p = 1 and quadratic in p between
+    (B_u and the gains both vary); no quadratic Lyapunov function exists
+    (the switched pair's vertices are among the loops)."""
+    base = ct.ss(np.zeros((2, 2)), np.eye(2), np.eye(2), 0, inputs=["u0", "u1"])
+    plant = lpv.PolytopicStateSpace.from_affine(
+        base, {"p": (np.zeros((2, 2)), np.eye(2), 0, 0)}, {"p": (0.0, 1.0)}
+    )
+    gains = [-A1, -A2 / 2.0]
+
+    def loop(p):
+        return -(1.0 + p) * ((1.0 - p) * gains[0] + p * gains[1])
+
+    return plant, gains, loop
+
+
+@pytest.fixture(scope="module")
+def bilinear():
+    plant, gains, loop = bilinear_pair()
+    return lpv.certify((gains, [0.0, 1.0]), plant), loop
+
+
+def test_bilinear_schedule_gets_a_finite_certified_rate(bilinear):
+    verdict, loop = bilinear
+    for p in np.linspace(0.0, 1.0, 101):  # frozen-stable everywhere
+        assert np.linalg.eigvals(loop(p)).real.max() < 0
+    assert not verdict.certified
+    assert 0.0 < verdict.rate_bound["p"] < np.inf, str(verdict)
+    assert verdict.certificate.verified
+
+
+def test_bilinear_counterexample_diverges_in_simulation(bilinear):
+    """The trajectory, simulated with the exact (quadratic) loop."""
+    verdict, loop = bilinear
+    traj = verdict.counterexample
+    assert isinstance(traj, ParameterTrajectory)
+    assert traj.rate > verdict.rate_bound["p"]
+    periods = 10
+    sol = solve_ivp(lambda t, x: loop(traj([t])[0, 0]) @ x,
+                    (0.0, periods * traj.period), [1.0, 0.0], rtol=1e-9,
+                    atol=1e-12, max_step=0.01)  # fmt: skip
+    growth = np.linalg.norm(sol.y[:, -1])
+    assert growth > 0.5 * traj.growth**periods > 1
+
+
+def test_bilinear_rate_bounded_trajectories_decay(bilinear):
+    verdict, loop = bilinear
+    nu = 0.9 * verdict.rate_bound["p"]
+    rng = np.random.default_rng(3)
+    for _ in range(4):
+        r, w, phase = rng.uniform(0.2, 1.0, (3, 3))
+        a = 0.5 * r / r.sum()
+        w = w * nu / np.sum(a * w)
+
+        def p(t, a=a, w=w, phase=2 * np.pi * phase):
+            return 0.5 + np.sum(a * np.sin(w * t + phase))
+
+        sol = solve_ivp(lambda t, x: loop(p(t)) @ x, (0.0, 200.0), [1.0, 0.0],
+                        rtol=1e-8, atol=1e-12, max_step=0.05)  # fmt: skip
+        assert np.linalg.norm(sol.y[:, -1]) < 1e-3
+
+
+def test_bilinear_given_rate_is_checked_not_bisected(bilinear):
+    """rate_bounds: below the certified rate certified, far above refused."""
+    verdict, _ = bilinear
+    plant, gains, _ = bilinear_pair()
+    nu = verdict.rate_bound["p"]
+    below = lpv.certify((gains, [0.0, 1.0]), plant, rate_bounds={"p": 0.5 * nu})
+    above = lpv.certify((gains, [0.0, 1.0]), plant, rate_bounds={"p": 100 * nu})
+    assert below.certified and below.certificate.verified
+    assert not above.certified and above.rate_bound == {"p": 0.0}

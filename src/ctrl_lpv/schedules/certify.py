@@ -319,18 +319,28 @@ class _ClosedLoops(RateSearch):
         """``(start, end, nodes, loops)``: pairs of points of a cell (the
         loop is affine between them when the rate-bounded analysis
         applies; see `destabilising_trajectory`)."""
-        return [
-            (self.points[a], self.points[b], [0.0, 1.0], [self.Acl[a], self.Acl[b]])
-            for cell in self.schedule.cells
-            for a, b in itertools.combinations(cell, 2)
-        ]
+        if not self.bilinear:
+            return [
+                (self.points[a], self.points[b], [0.0, 1.0], [self.Acl[a], self.Acl[b]])
+                for cell in self.schedule.cells
+                for a, b in itertools.combinations(cell, 2)
+            ]
+        # B_u(p) K(p) is quadratic along a segment: sampled at 33 nodes, the
+        # loop interpolated between them (evidence only; it is simulated).
+        nodes = np.linspace(0.0, 1.0, 33)
+        out = []
+        for c, cell in enumerate(self.schedule.cells):
+            for a, b in itertools.combinations(range(len(cell)), 2):
+                lams = np.zeros((nodes.size, len(cell)))
+                lams[:, a], lams[:, b] = 1.0 - nodes, nodes
+                out.append((self.points[cell[a]], self.points[cell[b]], nodes,
+                            [self.at(c, lam) for lam in lams]))  # fmt: skip
+        return out
 
     def rate_refusal(self) -> str | None:
         """Why the rate-bounded analysis does not apply (None: it does)."""
         if not self.continuous:
             return "in discrete time"
-        if self.bilinear:
-            return "when B_u and the gains both vary"
         return None
 
     def bound(self, objective, margin):
@@ -491,6 +501,9 @@ class _ClosedLoops(RateSearch):
                     dP = [sum(g * P for g, P in zip(grad[d], Ps)) for d in range(k)]
                     return sum(s * v.nu[d] * dP[d] for d, s in enumerate(signs))
 
+                if self.bilinear:
+                    self._cubic_terms(lmi, c, cell, signs, G)
+                    continue
                 for i in cell:
                     lmi.add(f"cell {c} vertex {i} rates {signs}",
                             lambda v, i=i, G=G: [[2 * (A[i].T @ getattr(v, f"P{i}"))
@@ -504,6 +517,28 @@ class _ClosedLoops(RateSearch):
                             + 2 * (A[j].T @ getattr(v, f"P{i}")) + 2 * G(v)]],
                     )  # fmt: skip
         return lmi
+
+    def _cubic_terms(self, lmi, c, cell, signs, G):
+        """The rate-bounded LMIs of a cell where ``B_u`` and ``K`` both vary.
+
+        With ``M_ij = A_i - B_i K_j`` the loop is ``sum_ij l_i l_j M_ij``
+        and ``P = sum_k l_k P_k``, so (``sum l = 1`` making ``dP/dt`` cubic
+        too) ``dV/dt = x' (sum_ijk l_i l_j l_k (He(M_ij' P_k) + G)) x``: a
+        cubic form in ``l >= 0``, negative when, for every multiset
+        ``{i, j, k}`` of the cell's points, the sum of its terms over the
+        multiset's distinct orderings is (Oliveira and Peres 2007).
+        """
+        for triple in itertools.combinations_with_replacement(cell, 3):
+            orders = sorted(set(itertools.permutations(triple)))
+
+            def term(v, orders=orders, G=G):
+                total = len(orders) * G(v)
+                for i, j, k in orders:
+                    M = self.A[i] - self.B[i] @ self.K[j]
+                    total = total + 2 * (M.T @ getattr(v, f"P{k}"))
+                return [[total]]
+
+            lmi.add(f"cell {c} triple {triple} rates {signs}", term)
 
 
 def _plant_points(schedule, plant, parameters):
