@@ -132,7 +132,10 @@ def sampled_servo(
         contact = _smoothstep(abs(xhat[2]) / tc - 1.0)
         Ph, Gh = blend(Phi, contact), blend(Gam, contact)
         filtered = xhat + blend(M, contact) @ (np.asarray(y[:2]) - xhat[[0, 3]])
-        at = Ph @ filtered + Gh * u_prev if delayed else filtered
+        # With delay=1 the command computed now acts from the next sample, on
+        # the state the command already on its way leads to.
+        ahead = Ph @ filtered + Gh * u_prev
+        at = ahead if delayed else filtered
         tm, wm, tsh, tl, wl = at[:5]
         r, v, a, j, g, h = plan
         snap = snap_of(r, v, a, j, g, h)
@@ -169,8 +172,7 @@ def sampled_servo(
             asked = _smoothstep(abs(tstar) / tc - 1.0)
             still = _smoothstep(1.0 - (abs(v) + abs(wl)) / c.rest_speed)
             ddah += probe * (1.0 - contact) * asked * still * (ah < amax)
-        applied = u_prev if delayed else u
-        predicted = Ph @ filtered + Gh * applied
+        predicted = ahead if delayed else Ph @ filtered + Gh * u
         state = [*plan_step(plan, y[2]), *predicted, xi + dt * dxi, dah + dt * ddah, u]
         return u, np.asarray(state)
 
