@@ -389,8 +389,9 @@ def servo_design(
         sampling = SampledServo(dt=dt, delay=delay, Phi=Phi, Gamma=Gamma, M=M)
         if certify:
             rest = rest_bound(
-                params, K, sampling, Jl_range=(lo, hi), encoder_counts=encoder_counts
-            )
+                params, K, sampling, Jl_range=(lo, hi), encoder_counts=encoder_counts,
+                flank_width=tuning.flank_width, contact_torque=tuning.contact_torque,
+            )  # fmt: skip
     certificate = servo_certificate(
         params, K, feedback, alpha_max=alpha_max, Jl_range=(lo, hi),
         Td_max=Td_max, torque_limit=torque_limit, bound=certify and dt is None,

@@ -63,6 +63,11 @@ class RestBound:
         Load inertias certified, multiples of the nominal.
     counts_error : float
         The encoder reading error allowed for, in counts.
+    min_load_torque : float
+        The statement holds for a load torque ``|Td|`` at least this, Nm:
+        then the shaft stays in contact, the observer's contact schedule at
+        1 and the flank choice saturated along every admissible run (their
+        deviations from the equilibrium are bounded the same way).
     certificate : `ctrl_lpv.Certificate`
         The float64 checks of every analysis, grouped by inertia.
     """
@@ -71,12 +76,13 @@ class RestBound:
     ripple_bound: float
     inertias: tuple
     counts_error: float
+    min_load_torque: float
     certificate: Certificate
 
     def __str__(self) -> str:
         inertias = ", ".join(f"{j:g}" for j in self.inertias)
         return (
-            f"rest (sampled loop held in contact by |Td| >= 2 contact_torque, "
+            f"rest (sampled loop in contact, |Td| >= {self.min_load_torque:.3g} Nm, "
             f"encoder error <= {self.counts_error:g} "
             f"counts, Jl = {inertias} x nominal): |theta_l - theta_r| <= "
             f"{self.error_bound:.3g} rad, torque ripple |Tm - mean| <= "
@@ -92,6 +98,8 @@ def rest_bound(
     Jl_range: tuple[float, float],
     encoder_counts=(2**20, 2**17),
     counts_error: float = 2.0,
+    flank_width: float,
+    contact_torque: float,
 ) -> RestBound:
     """Certify the sampled servo's rest (see the module docstring).
 
@@ -112,6 +120,10 @@ def rest_bound(
     counts_error : float, optional
         Largest reading error, counts (default 2: half a count of rounding
         and three standard deviations of half a count of noise).
+    flank_width, contact_torque : float
+        The law's flank width and contact torque, Nm (`ServoTuning`): the
+        load torque must keep the flank choice and the contact schedule
+        saturated.
 
     Returns
     -------
@@ -120,13 +132,13 @@ def rest_bound(
     Raises
     ------
     CertificationError
-        If the loop at some inertia is not certified (not Schur, or no
-        ellipsoid found), naming the inertia.
+        If the loop at some inertia is not certified (not Schur, or the
+        impulse response's tail not negligible), naming the inertia.
     """
     K = np.asarray(gain, float).reshape(5)
     steps = 2.0 * math.pi / np.asarray(encoder_counts, float)
     inertias = (float(Jl_range[0]), 1.0, float(Jl_range[1]))
-    errors, ripples, parts = [], [], []
+    errors, ripples, floors, parts = [], [], [], []
     for scale in inertias:
         loop = _rest_loop(params.replace(Jl=scale * params.Jl), K, sampling)
         bounds, checks = _peak_to_peak(loop, counts_error * steps)
@@ -139,10 +151,17 @@ def rest_bound(
             )
         errors.append(bounds[0])
         ripples.append(bounds[1])
+        # The load torque that keeps the switches where the loop has them:
+        # T* beyond the flank width, the estimate beyond twice the contact
+        # torque, the shaft torque of one sign.
+        floors.append(max(
+            flank_width + bounds[2], 2.0 * contact_torque + bounds[3], bounds[4]
+        ))  # fmt: skip
         parts.extend(checks)
     return RestBound(
         error_bound=max(errors), ripple_bound=max(ripples), inertias=inertias,
-        counts_error=float(counts_error), certificate=Certificate(tuple(parts)),
+        counts_error=float(counts_error), min_load_torque=max(floors),
+        certificate=Certificate(tuple(parts)),
     )  # fmt: skip
 
 
@@ -201,11 +220,22 @@ def _rest_loop(plant: Parameters, K: np.ndarray, sampling) -> ct.StateSpace:
     An[ixi] = np.eye(n)[ixi] + dt * Xa[3]
     En[ixi] = dt * Ea[3]
     An[iu], En[iu] = U, Eu
-    C = np.vstack([np.eye(n)[2], U])
-    D = np.vstack([np.zeros(2), Eu])
+    # Outputs: the load error, the torque, and what the law's switches read:
+    # the asked shaft torque T* (flank choice), the predicted shaft-torque
+    # estimate (contact schedule) and the shaft torque itself (contact).
+    ratio = ks / K[0]
+    tstar = -ratio * (K[2] * Xa[3] + K[3] * Xa[4])
+    tstar[ixi] -= ratio * K[4]
+    shaft = np.zeros(n)
+    shaft[ip] = [ks, cs, -ks, -cs]
+    C = np.vstack([np.eye(n)[2], U, tstar, np.eye(n)[4 + 2], shaft])
+    D = np.vstack([
+        np.zeros(2), Eu, -ratio * (K[2] * Ea[3] + K[3] * Ea[4]), np.zeros(2),
+        np.zeros(2),
+    ])  # fmt: skip
     return ct.ss(
-        An, En, C, D, dt=dt, inputs=["n_m", "n_l"], outputs=["e_l", "Tm"],
-        name="servo_rest",
+        An, En, C, D, dt=dt, inputs=["n_m", "n_l"],
+        outputs=["e_l", "Tm", "T_asked", "Ts_hat", "Ts"], name="servo_rest",
     )  # fmt: skip
 
 
