@@ -22,7 +22,7 @@ to ``T^-1 X T^-1`` and ``Y`` to ``T Y T`` (``X Y`` is only similar): ``t_i
 a balanced realization. ``X`` and ``Y`` are estimated before any LMI from
 the H2 (LQR and Kalman) Riccati equations of the centre of the polytope,
 regularised as in the state-feedback engine
-(`ctrl_lpv.synthesis.scaling.lqr_riccati`). Then ``su`` normalises the
+(``ctrl_lpv.synthesis.scaling.lqr_riccati``). Then ``su`` normalises the
 columns of ``[B2; D12]`` and ``sy`` the rows of ``[C2, D21]``.
 
 The prescaled problem only shapes the solver's data: the certificate is
