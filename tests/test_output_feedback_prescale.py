@@ -16,7 +16,7 @@ from scipy.linalg import solve_continuous_are
 import ctrl_lpv as lpv
 import ctrl_lpv.output_feedback.design as design_module
 from _hinf_of_reference import optimal_gamma
-from ctrl_lpv import CertificationError
+from ctrl_lpv import CertificationError, twomass
 from ctrl_lpv.output_feedback.plant import OutputFeedbackPlant
 from ctrl_lpv.output_feedback.prescale import Prescaling
 from ctrl_lpv.output_feedback.reconstruct import closed_loop
@@ -137,3 +137,25 @@ def test_prescaled_against_unscaled_on_the_random_corpus(seeds, monkeypatch):
     for seed in seeds:
         if ("none", seed) in results:
             assert ("Riccati", seed) in results, seed
+
+
+def test_prescaled_twomass_design_is_no_worse_than_unscaled(monkeypatch):
+    """The two-mass drive on both encoders, each prescaling alone: the
+    prescaled design's certified bound is at most the unscaled one's
+    (measured: 0.0365 against 0.923), and its frozen closed loops, built by
+    name by python-control, are stable with norms below it."""
+    gammas = {}
+    for kind in ("Riccati", "none"):
+        monkeypatch.setattr(design_module, "prescalings", lambda plant, k=kind: [k])
+        gammas[kind] = d = twomass.output_feedback_design(sensors="both")
+        assert d.certificate.verified
+    d = gammas["Riccati"]
+    assert d.gamma <= gammas["none"].gamma
+    plant = d.plant
+    for p in np.linspace(-0.95, 0.0, 5):
+        loop = ct.interconnect(
+            [plant.system.at({"p": p}), d.controller().at({"p": p})],
+            inplist=plant.names("w"), outlist=plant.names("z"),
+        )  # fmt: skip
+        assert np.linalg.eigvals(loop.A).real.max() < 0
+        assert float(ct.linfnorm(loop)[0]) <= d.gamma
