@@ -210,13 +210,20 @@ def _output_feedback(objective, sys, w, u, z, y, gains, backoff, margin, solvers
         _require_stabilizable_detectable(plant)
     settings = (gains == "scheduled", backoff, margin, chain)
     # The prescalings in turn (`ctrl_lpv.output_feedback.prescale`); the
-    # refusal reported is the first one's.
+    # refusal reported is the first one's, naming what else was tried.
+    kinds = prescalings(plant)
     first = None
-    for kind in prescalings(plant):
+    for kind in kinds:
         design, failure = _prescaled(plant, objective, kind, settings)
         if design is not None:
             return design
         first = first or failure
+    if len(kinds) > 1 and isinstance(first, CertificationError):
+        raise CertificationError(
+            f"{first} (with the Riccati-balanced prescaling; without it, "
+            "in the plant's own coordinates, refused as well)",
+            first.attempts,
+        ) from None
     raise first
 
 
