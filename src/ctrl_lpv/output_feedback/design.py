@@ -33,7 +33,12 @@ from . import lmis
 from .checks import closed_loop_analysis, closed_loop_certificate
 from .objectives import H2Objective, HinfObjective
 from .plant import OutputFeedbackPlant
-from .reconstruct import closed_loop_lyapunov, controller_matrices, factor
+from .prescale import Prescaling, prescalings
+from .reconstruct import (
+    closed_loop_lyapunov,
+    controller_matrices,
+    factor,
+)
 from .results import OutputFeedbackDesign
 
 __all__ = ["hinf_output_feedback", "h2_output_feedback"]
@@ -204,31 +209,73 @@ def _output_feedback(objective, sys, w, u, z, y, gains, backoff, margin, solvers
     if plant.continuous:
         _require_stabilizable_detectable(plant)
     settings = (gains == "scheduled", backoff, margin, chain)
-    design, failure, bound_opt = _solve(plant, objective, *settings)
+    # The prescalings in turn (`ctrl_lpv.output_feedback.prescale`); the
+    # refusal reported is the first one's, naming what else was tried.
+    kinds = prescalings(plant)
+    first = None
+    for kind in kinds:
+        design, failure = _prescaled(plant, objective, kind, settings)
+        if design is not None:
+            return design
+        first = first or failure
+    if len(kinds) > 1 and isinstance(first, CertificationError):
+        raise CertificationError(
+            f"{first} (with the Riccati-balanced prescaling; without it, "
+            "in the plant's own coordinates, refused as well)",
+            first.attempts,
+        ) from None
+    raise first
+
+
+def _prescaled(plant, objective, kind, settings):
+    """``(design, None)`` or ``(None, refusal)`` in one prescaling."""
+    design, failure, bound_opt = _in_units(plant, objective, kind, 1.0, settings)
     if design is None and bound_opt is not None and not 0.5 <= bound_opt <= 2.0:
         # Renormalised so that the bound is near 1 (z scaled by s: the
         # controllers are the same, the bound scales by s): then certified
         # again on the plant itself.
-        scale = 1.0 / bound_opt
-        scaled, _, _ = _solve(plant.scaled(scale), objective, *settings)
-        if scaled is not None:
-            P, values = objective.rescaled(scaled.P, scaled.values, scale)
-            limit = (1.0 + backoff) * bound_opt * (1.0 + 1e-3)
-            try:
-                design = _certified(plant, objective, scaled.controllers, P, values,
-                                    scaled.gamma_opt / scale, limit,
-                                    (margin, chain[:1]), scaled.condition)  # fmt: skip
-            except CertificationError as exc:
-                failure = exc
-    if design is None:
-        raise failure
-    return design
+        design, _, _ = _in_units(plant, objective, kind, 1.0 / bound_opt, settings,
+                                 bound_opt)  # fmt: skip
+    return design, None if design is not None else failure
 
 
-def _solve(plant, objective, scheduled, backoff, margin, chain):
-    """``(design, None, bound_opt)``, or ``(None, refusal, bound_opt)``."""
-    lmi, hats = _problem(plant, objective, scheduled, margin)
-    rate = max(np.linalg.norm(A, 2) for A in plant.A) if plant.continuous else 1.0
+def _in_units(plant, objective, kind, scale, settings, known=None):
+    """`_solve` on `plant` with ``z`` scaled by `scale`, certified on `plant`.
+
+    ``(design, refusal, bound_opt)``, the optimum in the plant's units;
+    the design's bound is limited relative to the `known` optimum (that of
+    an earlier solve) when there is one.
+    """
+    if scale == 1.0:
+        return _solve(plant, kind, objective, *settings)
+    _, backoff, margin, chain = settings
+    scaled, failure, bound_opt = _solve(plant.scaled(scale), kind, objective,
+                                        *settings)  # fmt: skip
+    bound_opt = None if bound_opt is None else bound_opt / scale
+    if scaled is None:
+        return None, failure, bound_opt
+    P, values = objective.rescaled(scaled.P, scaled.values, scale)
+    limit = (1.0 + backoff) * (known or bound_opt) * (1.0 + 1e-3)
+    try:
+        design = _certified(plant, objective, scaled.controllers, P, values,
+                            scaled.gamma_opt / scale, limit,
+                            (margin, chain[:1]), scaled.condition)  # fmt: skip
+    except CertificationError as exc:
+        return None, exc, bound_opt
+    return design, None, bound_opt
+
+
+def _solve(plant, kind, objective, scheduled, backoff, margin, chain):
+    """``(design, None, bound_opt)``, or ``(None, refusal, bound_opt)``.
+
+    The LMIs are posed on `plant` prescaled (`kind`, computed on `plant`,
+    whose ``z`` may have been scaled: that moves the balance of ``X`` and
+    ``Y``); the design is certified on `plant` itself.
+    """
+    prescaling = Prescaling.of(kind, plant)
+    scaled = prescaling.apply(plant)
+    lmi, hats = _problem(scaled, objective, scheduled, margin)
+    rate = max(np.linalg.norm(A, 2) for A in scaled.A) if plant.continuous else 1.0
     # A trace term far below the solver's tolerance on the level keeps X and
     # Y bounded in the directions the bound does not constrain (there the
     # central path drifts to 1e5 and the solve ends inaccurate).
@@ -269,8 +316,9 @@ def _solve(plant, objective, scheduled, backoff, margin, chain):
                 limit = (1.0 + bmax) * bound_opt * (1.0 + 1e-6)
                 target = max((1.0 + b) * bound_opt,
                              objective.bound(point.level[0, 0]))  # fmt: skip
-                design = _design(plant, objective, point, hats, bound_opt,
-                                 (target, limit), (margin, chain[:1]))  # fmt: skip
+                design = _design(plant, prescaling, objective, point, hats,
+                                 bound_opt, (target, limit),
+                                 (margin, chain[:1]))  # fmt: skip
                 if raw and b == 0 and design.gamma > bound_opt * (1.0 + 1e-6):
                     held = design
                     continue
@@ -372,8 +420,9 @@ def _problem(plant, objective, scheduled, margin):
     return lmi, hats
 
 
-def _design(plant, objective, point, hats, bound_opt, bounds, analysis):
-    """The controllers rebuilt from `point`, certified on the closed loop."""
+def _design(plant, prescaling, objective, point, hats, bound_opt, bounds, analysis):
+    """The controllers rebuilt from `point` (a point of the prescaled
+    problem), mapped back to `plant` and certified on its closed loop."""
     X, Y = point.X, point.Y
     target, limit = bounds
     try:
@@ -385,11 +434,12 @@ def _design(plant, objective, point, hats, bound_opt, bounds, analysis):
             point.attempts,
         ) from None
     v = _Values(point.values)
+    scaled = prescaling.apply(plant)
     controllers = tuple(
-        controller_matrices(plant, j, X, Y, hats(v, j), factors)
+        prescaling.controller(controller_matrices(scaled, j, X, Y, hats(v, j), factors))
         for j in range(plant.nvertices)
     )
-    P = closed_loop_lyapunov(X, Y, factors)
+    P = prescaling.lyapunov(closed_loop_lyapunov(X, Y, factors))
     values = dict(point.values, level=objective.level(target))
     condition = float(np.linalg.cond(np.eye(plant.n) - X @ Y))
     return _certified(plant, objective, controllers, P, values, bound_opt, limit,

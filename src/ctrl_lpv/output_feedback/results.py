@@ -44,7 +44,9 @@ class OutputFeedbackDesign:
     certificate : `ctrl_lpv.Certificate`
         Float64 checks on the closed loop with the returned controller.
     condition : float
-        Condition number of ``I - X Y`` (the controller's reconstruction).
+        Condition number of ``I - X Y`` (the controller's reconstruction),
+        in the prescaled coordinates the LMIs were posed in
+        (`ctrl_lpv.output_feedback.prescale`).
     """
 
     plant: OutputFeedbackPlant

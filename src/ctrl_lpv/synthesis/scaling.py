@@ -152,6 +152,32 @@ class Scaling:
         )
 
 
+def lqr_riccati(A, B, C, D, continuous: bool = True):
+    """``(X, K)``: the stabilizing LQR solution of ``(A, B)`` with output ``C x + D u``.
+
+    The weights ``C'C``, ``D'D`` and cross term ``C'D`` are regularised
+    by 1e-6 of their norms (identities when ``C`` has no rows), so that the
+    equation has a stabilizing solution whenever ``(A, B)`` is
+    stabilizable; ``X`` is symmetrised and ``u = -K x``. With `continuous`
+    False the discrete-time equation. Raises ValueError or LinAlgError
+    (scipy's) when there is no usable solution.
+    """
+    n, m = B.shape
+    if C.shape[0]:
+        Q, R, S = C.T @ C, D.T @ D, C.T @ D
+    else:
+        Q, R, S = np.eye(n), np.eye(m), np.zeros((n, m))
+    Q = Q + 1e-6 * max(1.0, np.linalg.norm(Q, 2)) * np.eye(n)
+    R = R + 1e-6 * max(1.0, np.linalg.norm(R, 2)) * np.eye(m)
+    if continuous:
+        X = solve_continuous_are(A, B, Q, R, s=S)
+        K = np.linalg.solve(R, B.T @ X + S.T)
+    else:
+        X = solve_discrete_are(A, B, Q, R, s=S)
+        K = np.linalg.solve(R + B.T @ X @ B, B.T @ X @ A + S.T)
+    return 0.5 * (X + X.T), K
+
+
 def riccati_scaling(original, base: Scaling, continuous: bool = True) -> Scaling | None:
     """`base` followed by coordinates from a Riccati solution at the centre.
 
@@ -171,23 +197,12 @@ def riccati_scaling(original, base: Scaling, continuous: bool = True) -> Scaling
     """
     data = [base.apply(v) for v in original]
     A, B1, B2, C, _, D2 = (sum(v[i] for v in data) / len(data) for i in range(6))
-    n, m = B2.shape
-    if C.shape[0]:
-        Q, R, S = C.T @ C, D2.T @ D2, C.T @ D2
-    else:
-        Q, R, S = np.eye(n), np.eye(m), np.zeros((n, m))
-    Q = Q + 1e-6 * max(1.0, np.linalg.norm(Q, 2)) * np.eye(n)
-    R = R + 1e-6 * max(1.0, np.linalg.norm(R, 2)) * np.eye(m)
+    m = B2.shape[1]
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            if continuous:
-                X = solve_continuous_are(A, B2, Q, R, s=S)
-                K = np.linalg.solve(R, B2.T @ X + S.T)
-            else:
-                X = solve_discrete_are(A, B2, Q, R, s=S)
-                K = np.linalg.solve(R + B2.T @ X @ B2, B2.T @ X @ A + S.T)
-            W0 = np.linalg.inv(0.5 * (X + X.T))
+            X, K = lqr_riccati(A, B2, C, D2, continuous)
+            W0 = np.linalg.inv(X)
             if B1.size:
                 Acl, BB = A - B2 @ K, B1 @ B1.T
                 W0 = W0 + (
