@@ -13,10 +13,35 @@ from __future__ import annotations
 import numpy as np
 from control import StateSpace
 
-from .._checks import flag
+from .._checks import flag, signal_labels, signal_name
 from .vertices import combine_data
 
-__all__ = ["FrozenDataMixin"]
+__all__ = ["FrozenDataMixin", "signal_names"]
+
+
+def signal_names(points, data, kwargs: dict):
+    """``(inputs, outputs, states, name)`` of a system of point data.
+
+    The labels given in `kwargs` (popped from it), else those of the first
+    point given as a `control.StateSpace`, else counts; checked here,
+    because python-control's own message for a repeated or missing name is
+    a dimension mismatch of A, B or C. Any other keyword is a `TypeError`.
+    """
+    first = next((v for v in points if isinstance(v, StateSpace)), None)
+    n, m = data[0][1].shape
+    ny = data[0][2].shape[0]
+    inputs = kwargs.pop("inputs", first.input_labels if first else m)
+    outputs = kwargs.pop("outputs", first.output_labels if first else ny)
+    states = kwargs.pop("states", first.state_labels if first else n)
+    name = kwargs.pop("name", None)
+    if kwargs:
+        raise TypeError(f"unexpected keyword arguments: {sorted(kwargs)}")
+    inputs = signal_labels(inputs, m, "inputs") or inputs
+    outputs = signal_labels(outputs, ny, "outputs") or outputs
+    states = signal_labels(states, n, "states") or states
+    if name is not None:
+        signal_name(name, "name")
+    return inputs, outputs, states, name
 
 
 class FrozenDataMixin:

@@ -17,8 +17,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 from control import StateSpace
 
-from .._checks import signal_labels, signal_name
-from .frozen import FrozenDataMixin
+from .frozen import FrozenDataMixin, signal_names
 from .grid import ParameterGrid
 from .nominal import NominalPointMixin
 from .polytopic import PolytopicStateSpace
@@ -157,20 +156,7 @@ class GriddedStateSpace(
             raise ValueError(f"nominal: {self.nominal} is outside {grid!r}")
         self._set_scheduling(scheduling)
 
-        first = next((s for s in flat if isinstance(s, StateSpace)), None)
-        n, m = data[0][1].shape
-        ny = data[0][2].shape[0]
-        inputs = kwargs.pop("inputs", first.input_labels if first else m)
-        outputs = kwargs.pop("outputs", first.output_labels if first else ny)
-        states = kwargs.pop("states", first.state_labels if first else n)
-        name = kwargs.pop("name", None)
-        if kwargs:
-            raise TypeError(f"unexpected keyword arguments: {sorted(kwargs)}")
-        inputs = signal_labels(inputs, m, "inputs") or inputs
-        outputs = signal_labels(outputs, ny, "outputs") or outputs
-        states = signal_labels(states, n, "states") or states
-        if name is not None:
-            signal_name(name, "name")
+        inputs, outputs, states, name = signal_names(flat, data, kwargs)
 
         A0, B0, C0, D0 = self._combine(grid._weights(self.nominal))
         frozen = StateSpace(A0, B0, C0, D0, inputs=inputs, outputs=outputs,
@@ -195,9 +181,9 @@ class GriddedStateSpace(
         k = len(sched_inputs)
         super().__init__(
             A0,
-            np.hstack([B0, np.zeros((n, k))]),
+            np.hstack([B0, np.zeros((A0.shape[0], k))]),
             C0,
-            np.hstack([D0, np.zeros((ny, k))]),
+            np.hstack([D0, np.zeros((C0.shape[0], k))]),
             inputs=list(frozen.input_labels) + sched_inputs,
             outputs=frozen.output_labels,
             states=frozen.state_labels,

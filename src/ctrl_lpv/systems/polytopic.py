@@ -16,10 +16,9 @@ from collections.abc import Mapping
 import numpy as np
 from control import StateSpace
 
-from .._checks import signal_labels, signal_name
 from ..polytope import ParameterBox
 from .arithmetic import OperationsMixin
-from .frozen import FrozenDataMixin
+from .frozen import FrozenDataMixin, signal_names
 from .nominal import NominalPointMixin
 from .sampling import SamplingMixin
 from .scheduling import Scheduling, SchedulingMixin
@@ -222,22 +221,7 @@ class PolytopicStateSpace(
             raise ValueError(f"nominal: {self.nominal} is outside {self.domain!r}")
         self._set_scheduling(scheduling)
 
-        first = next((v for v in vertices if isinstance(v, StateSpace)), None)
-        n, m = data[0][1].shape
-        ny = data[0][2].shape[0]
-        inputs = kwargs.pop("inputs", first.input_labels if first else m)
-        outputs = kwargs.pop("outputs", first.output_labels if first else ny)
-        states = kwargs.pop("states", first.state_labels if first else n)
-        name = kwargs.pop("name", None)
-        if kwargs:
-            raise TypeError(f"unexpected keyword arguments: {sorted(kwargs)}")
-        # python-control's own message for a repeated or missing name is a
-        # dimension mismatch of A, B or C: check the names here instead.
-        inputs = signal_labels(inputs, m, "inputs") or inputs
-        outputs = signal_labels(outputs, ny, "outputs") or outputs
-        states = signal_labels(states, n, "states") or states
-        if name is not None:
-            signal_name(name, "name")
+        inputs, outputs, states, name = signal_names(vertices, data, kwargs)
 
         # Physical signal names, checked by building the nominal system once.
         delta0 = self.domain._weights(self.nominal)
@@ -272,9 +256,9 @@ class PolytopicStateSpace(
         k = len(sched_inputs)
         super().__init__(
             A0,
-            np.hstack([B0, np.zeros((n, k))]),
+            np.hstack([B0, np.zeros((A0.shape[0], k))]),
             C0,
-            np.hstack([D0, np.zeros((ny, k))]),
+            np.hstack([D0, np.zeros((C0.shape[0], k))]),
             inputs=list(frozen.input_labels) + sched_inputs,
             outputs=frozen.output_labels,
             states=frozen.state_labels,
