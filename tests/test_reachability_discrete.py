@@ -23,6 +23,8 @@ def test_scalar_bound_is_the_reachable_set(a):
     res = lpv.ultimate_bound(ct.ss([[a]], [[1.0]], [[1.0]], [[0.0]], dt=0.1))
     exact = 1.0 / (1.0 - abs(a))
     assert res.certificate.verified
+    # The summary speaks of the discrete-time spectrum: |z| - 1 of the loop.
+    assert f"max |z| - 1 = {abs(a) - 1:.4g}" in res.certificate.summary
     assert exact <= res.bounds[0] <= exact * (1 + 1e-3)
     # The worst input sequence, w_k = sign(a)^(N - 1 - k), reaches the bound.
     x, N = 0.0, 400

@@ -109,11 +109,13 @@ class DesignCertificate(Certificate):
         worst = self.worst_lmi
         if not self.verified or worst is None:
             return super().summary
+        eigenvalues = [c for c in self.group(CLOSED_LOOP) if c.what == EIGENVALUES]
+        discrete = bool(eigenvalues) and eigenvalues[0].units == "modulus - 1"
         return (
             f"verified: {len(self.lmi_checks)} LMIs, worst {worst.what} "
             f"lambda_max = {worst.value:.3g} (margin {self.margin:.1g}); "
-            f"closed loop max Re = {self.max_closed_loop_real:.4g} over "
-            f"{self.npoints} points"
+            f"closed loop max {'|z| - 1' if discrete else 'Re'} = "
+            f"{self.max_closed_loop_real:.4g} over {self.npoints} points"
         )
 
 
