@@ -331,3 +331,14 @@ def test_bilinear_given_rate_is_checked_not_bisected(bilinear):
     above = lpv.certify((gains, [0.0, 1.0]), plant, rate_bounds={"p": 100 * nu})
     assert below.certified and below.certificate.verified
     assert not above.certified and above.rate_bound == {"p": 0.0}
+
+
+def test_one_state_polytopic_plant():
+    """x' = -(a + k(a)) x: with k >= 0 every loop decays (V = x^2 serves for
+    any variation), and the schedule of a one-state plant is certified."""
+    plant = lpv.pss(
+        [ct.ss([[-a]], [[1.0]], [[1.0]], 0, inputs="u") for a in (1.0, 2.0)],
+        {"a": (1.0, 2.0)},
+    )
+    cert = lpv.certify(([np.array([[1.0]]), np.array([[2.0]])], [1.0, 2.0]), plant)
+    assert cert.certified and cert.certificate.verified

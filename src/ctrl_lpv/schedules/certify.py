@@ -41,11 +41,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._checks import real_number
-from ..certificate import Certificate, Check
+from ..certificate import Certificate
 from ..exceptions import SynthesisError
 from ..lmi import LMIProblem
 from ..systems import GriddedStateSpace, PolytopicStateSpace
 from .objective import checked_objective
+from .quadratic import quadratic_certificate
 from .rates import RateSearch
 from .schedule import GainSchedule, schedule_of
 
@@ -457,26 +458,12 @@ class _ClosedLoops(RateSearch):
         return None
 
     def quadratic(self, margin):
-        from ..analysis import quadratic_stability
-
-        loop = PolytopicStateSpace(
-            [(A, np.zeros((A.shape[0], 0)), np.zeros((0, A.shape[0])), np.zeros((0, 0)))
-             for A in self.spanning()],
-            dt=self.plant.dt,
-        )  # fmt: skip
-        try:
-            result = quadratic_stability(loop, margin)
-        except SynthesisError:
-            return None
-        checks = tuple(
-            Check.from_lmi_check(c, group="quadratic") for c in result.checks
-        )
-        return Certificate(
-            checks,
-            statement=(
-                "stable for arbitrarily fast parameters in the points' convex hull "
-                "(one quadratic Lyapunov function of the closed loops at the points)"
-            ),
+        return quadratic_certificate(
+            list(self.spanning()),
+            self.plant.dt,
+            margin,
+            "stable for arbitrarily fast parameters in the points' convex hull "
+            "(one quadratic Lyapunov function of the closed loops at the points)",
         )
 
     def _rate_problem(self, margin):

@@ -41,8 +41,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linprog
 
-from ..certificate import Certificate, Check
-from ..exceptions import SynthesisError
+from .quadratic import quadratic_certificate
 from .rates import RateSearch
 
 __all__ = ["GriddedLoops"]
@@ -391,25 +390,14 @@ class GriddedLoops(RateSearch):
         return complex(worst) if bad else None
 
     def quadratic(self, margin):
-        from ..analysis import quadratic_stability
-        from ..systems import PolytopicStateSpace
-
-        n = self.A.shape[1]
-        loop = PolytopicStateSpace(
-            [(M, np.zeros((n, 1)), np.zeros((1, n)), np.zeros((1, 1)))
-             for M in self.spanning()],
-            dt=self.plant.dt,
-        )  # fmt: skip
-        try:
-            result = quadratic_stability(loop, margin)
-        except SynthesisError:
-            return None
-        checks = tuple(Check.from_lmi_check(c, group="quadratic")
-                       for c in result.checks)  # fmt: skip
-        return Certificate(checks, statement=(
+        return quadratic_certificate(
+            list(self.spanning()),
+            self.plant.dt,
+            margin,
             "stable for arbitrarily fast parameters on the plant's grid cells "
             "within the schedule's points (one quadratic Lyapunov function of "
-            "the closed-loop products spanning every piece)"))  # fmt: skip
+            "the closed-loop products spanning every piece)",
+        )
 
     def bound(self, objective, margin):
         """``(bound, certificate)`` of the `Hinf` or `H2` objective, constant P.

@@ -130,3 +130,24 @@ class FrozenDataMixin:
 
     def _repr_eval_(self):
         return StateSpace._repr_eval_(self)
+
+    # Text: the class, its points (`_points_text`) and the nominal system.
+    def __str__(self) -> str:
+        sched = ("params" if self.scheduling is None else
+                 "inputs" if self.scheduling == "inputs" else "callable")  # fmt: skip
+        head = (
+            f"{type(self).__name__}: {self.name}, {self._points_text()} over "
+            f"{self.domain!r}, scheduled by {sched}\n"
+            f"Nominal p = {dict(zip(self.domain.names, self.nominal.tolist()))} "
+            "(the A, B, C, D below)\n"
+        )
+        return head + StateSpace.__str__(self)
+
+    def __repr__(self) -> str:
+        return (
+            f"<{type(self).__name__} {self.name}: {self._points_repr()}, "
+            f"{self.nstates} states, inputs {list(self.input_labels)}, "
+            f"outputs {list(self.output_labels)}"
+            + (f", dt={self.dt}" if self.isdtime(strict=True) else "")
+            + ">"
+        )

@@ -263,25 +263,11 @@ class GriddedStateSpace(
     __mul__ = __rmul__ = __truediv__ = __rtruediv__ = __pow__ = _refuse
     __getitem__ = feedback = append = lft = minreal = sample = _refuse
 
-    def __str__(self) -> str:
-        sched = ("params" if self.scheduling is None else
-                 "inputs" if self.scheduling == "inputs" else "callable")  # fmt: skip
-        head = (
-            f"GriddedStateSpace: {self.name}, {len(self.vertices)} grid points over "
-            f"{self.domain!r}, scheduled by {sched}\n"
-            f"Nominal p = {dict(zip(self.domain.names, self.nominal.tolist()))} "
-            "(the A, B, C, D below)\n"
-        )
-        return head + StateSpace.__str__(self)
+    def _points_text(self) -> str:
+        return f"{len(self.vertices)} grid points"
 
-    def __repr__(self) -> str:
-        return (
-            f"<GriddedStateSpace {self.name}: grid {self.domain.shape} of "
-            f"{list(self.domain.names)}, {self.nstates} states, inputs "
-            f"{list(self.input_labels)}, outputs {list(self.output_labels)}"
-            + (f", dt={self.dt}" if self.isdtime(strict=True) else "")
-            + ">"
-        )
+    def _points_repr(self) -> str:
+        return f"grid {self.domain.shape} of {list(self.domain.names)}"
 
 
 def gss(systems, grid, **kwargs) -> GriddedStateSpace:

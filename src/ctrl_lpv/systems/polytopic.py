@@ -333,30 +333,11 @@ class PolytopicStateSpace(
         """Number of vertices ``N``."""
         return len(self._data)
 
-    def __str__(self) -> str:
-        sched = (
-            "params"
-            if self.scheduling is None
-            else "inputs"
-            if self.scheduling == "inputs"
-            else "callable"
-        )
-        head = (
-            f"PolytopicStateSpace: {self.name}, {self.nvertices} vertices over "
-            f"{self.domain!r}, scheduled by {sched}\n"
-            f"Nominal p = {dict(zip(self.domain.names, self.nominal.tolist()))} "
-            "(the A, B, C, D below)\n"
-        )
-        return head + StateSpace.__str__(self)
+    def _points_text(self) -> str:
+        return f"{self.nvertices} vertices"
 
-    def __repr__(self) -> str:
-        return (
-            f"<PolytopicStateSpace {self.name}: {self.nvertices} vertices, "
-            f"{self.nstates} states, inputs {list(self.input_labels)}, "
-            f"outputs {list(self.output_labels)}"
-            + (f", dt={self.dt}" if self.isdtime(strict=True) else "")
-            + ">"
-        )
+    def _points_repr(self) -> str:
+        return f"{self.nvertices} vertices"
 
 
 def pss(vertices, domain=None, **kwargs) -> PolytopicStateSpace:
