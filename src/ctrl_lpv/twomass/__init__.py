@@ -64,6 +64,7 @@ _EXPORTS = {
     "ServoSynthesis": "servo_config",
     "ServoAntiHunting": "servo_config",
     "ServoEstimator": "servo_config",
+    "ServoStream": "servo_config",
     "servo_loop": "servo_compare",
     "run_servo_scenario": "servo_compare",
     "servo_metrics": "servo_compare",
