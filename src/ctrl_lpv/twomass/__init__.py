@@ -65,6 +65,8 @@ _EXPORTS = {
     "ServoAntiHunting": "servo_config",
     "ServoEstimator": "servo_config",
     "ServoStream": "servo_config",
+    "cascade_design": "cascade",
+    "CascadeDesign": "cascade",
     "servo_loop": "servo_compare",
     "run_servo_scenario": "servo_compare",
     "servo_metrics": "servo_compare",

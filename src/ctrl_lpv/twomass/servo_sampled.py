@@ -48,7 +48,14 @@ from .servo_kernel import ServoTuning, _smoothstep
 from .stream import jerk_model
 from .trajectory import PEAK_ACCEL, planner_functions
 
-__all__ = ["SampledServo", "sampled_servo", "SAMPLED_STATES", "SAMPLED_INPUTS"]
+__all__ = [
+    "SampledServo",
+    "sampled_servo",
+    "plan_stepper",
+    "flat_feedforward",
+    "SAMPLED_STATES",
+    "SAMPLED_INPUTS",
+]
 
 SAMPLED_STATES = [
     "r", "v_r", "a_r", "j_r", "goal", "time_to_go",
@@ -93,36 +100,19 @@ class SampledServo:
     stream_gain: tuple | None = None
 
 
-def sampled_servo(
-    c: ServoTuning, s: SampledServo, name: str = "servo"
-) -> ct.NonlinearIOSystem:
-    """The servo law of `c`, sampled as `s` says, as a python-control system.
+def plan_stepper(c: ServoTuning, dt: float):
+    """The servo's planner advanced by one sample of `dt`.
 
     Returns
     -------
-    `control.NonlinearIOSystem`
-        ``dt = s.dt``; inputs `SAMPLED_INPUTS`, output ``["Tm"]`` (within
-        the torque limit, acting from ``t_{k + delay}`` to the next
-        sample), states `SAMPLED_STATES`, all zero at rest at the origin.
+    callable
+        ``plan_step(plan, target) -> next plan`` on ``plan = [r, v_r, a_r,
+        j_r, goal, time_to_go]`` (the first six of `SAMPLED_STATES`): a new
+        target re-plans the move from the present plan (RK4 substeps of
+        the minimum-snap law of `ctrl_lpv.twomass.trajectory`).
     """
-    Jm, Jl, cm, cl, ks, cs = c.Jm, c.Jl, c.cm, c.cl, c.ks, c.cs
-    k1, k2, k3, k4, k5 = c.gain
-    limit, dt, delayed = c.torque_limit, s.dt, s.delay == 1
     snap_of, _ = planner_functions(c.accel_limit, c.min_duration, c.horizon_floor)
     hmin = c.horizon_floor
-    a0, amax, teps, tc = c.alpha_initial, c.alpha_max, c.flank_width, c.contact_torque
-    leak, gam, probe, hold = (
-        c.integral_leak,
-        c.estimate_rate,
-        c.probe_rate,
-        c.integral_hold,
-    )
-    ratio = ks / k1
-    slip = c.slip_speed
-    Phi, Gam, M = (np.asarray(m) for m in (s.Phi, s.Gamma, s.M))
-
-    def blend(pair, w):
-        return pair[0] + w * (pair[1] - pair[0])
 
     def plan_step(plan, target):
         """The planner one sample on: a new target re-plans the move."""
@@ -147,6 +137,60 @@ def sampled_servo(
             x[4] = max(x[4], hmin)
         return [x[0], x[1], x[2], x[3], g, x[4]]
 
+    return plan_step
+
+
+def flat_feedforward(c: ServoTuning, v, a, j, snap):
+    """Flat feedforward of the contact model along a reference (``cs``
+    neglected, as in `servo_kernel`).
+
+    Returns
+    -------
+    F : float
+        The shaft torque that moves the load along the reference, Nm.
+    wmf : float
+        The motor speed that gives it, rad/s.
+    tff : float
+        The motor torque, Nm.
+    """
+    F, F1, F2 = c.Jl * a + c.cl * v, c.Jl * j + c.cl * a, c.Jl * snap + c.cl * j
+    wmf = v + F1 / c.ks
+    return F, wmf, c.Jm * (a + F2 / c.ks) + c.cm * wmf + F
+
+
+def sampled_servo(
+    c: ServoTuning, s: SampledServo, name: str = "servo"
+) -> ct.NonlinearIOSystem:
+    """The servo law of `c`, sampled as `s` says, as a python-control system.
+
+    Returns
+    -------
+    `control.NonlinearIOSystem`
+        ``dt = s.dt``; inputs `SAMPLED_INPUTS`, output ``["Tm"]`` (within
+        the torque limit, acting from ``t_{k + delay}`` to the next
+        sample), states `SAMPLED_STATES`, all zero at rest at the origin.
+    """
+    ks, cs = c.ks, c.cs
+    k1, k2, k3, k4, k5 = c.gain
+    limit, dt, delayed = c.torque_limit, s.dt, s.delay == 1
+    snap_of, _ = planner_functions(c.accel_limit, c.min_duration, c.horizon_floor)
+    hmin = c.horizon_floor
+    a0, amax, teps, tc = c.alpha_initial, c.alpha_max, c.flank_width, c.contact_torque
+    leak, gam, probe, hold = (
+        c.integral_leak,
+        c.estimate_rate,
+        c.probe_rate,
+        c.integral_hold,
+    )
+    ratio = ks / k1
+    slip = c.slip_speed
+    Phi, Gam, M = (np.asarray(m) for m in (s.Phi, s.Gamma, s.M))
+
+    def blend(pair, w):
+        return pair[0] + w * (pair[1] - pair[0])
+
+    plan_step = plan_stepper(c, dt)
+
     streamed = s.reference == "stream"
     if streamed:
         Lz, Pz = np.asarray(s.stream_gain, float), jerk_model(dt)
@@ -155,26 +199,20 @@ def sampled_servo(
         # hold applies it over a whole sample).
         to_act, to_hold = jerk_model(s.delay * dt), jerk_model((s.delay + 0.5) * dt)
 
-    def feedforward(r, v, a, j, snap):
-        """Flat feedforward of the contact model (as in `servo_kernel`)."""
-        F, F1, F2 = Jl * a + cl * v, Jl * j + cl * a, Jl * snap + cl * j
-        wmf = v + F1 / ks
-        return F, wmf, Jm * (a + F2 / ks) + cm * wmf + F
-
     def reference(plan, target):
         """The reference where the command acts, its torque, the next plan."""
         if not streamed:
             r, v, a, j, g, h = plan
             snap = snap_of(r, v, a, j, g, h)
-            F, wmf, tff = feedforward(r, v, a, j, snap)
+            F, wmf, tff = flat_feedforward(c, v, a, j, snap)
             return (r, v, F, wmf, tff, g, h), plan_step(plan, target)
         # Streamed: correct the tracker with the sample, extrapolate it (the
         # constant-jerk model has no snap), no planning.
         predicted = np.asarray(plan[:4])
         z = predicted + Lz * (target - predicted[0])
         r, v, a, j = to_act @ z
-        F, wmf, _ = feedforward(r, v, a, j, 0.0)
-        tff = feedforward(*(to_hold @ z), 0.0)[2]
+        F, wmf, _ = flat_feedforward(c, v, a, j, 0.0)
+        tff = flat_feedforward(c, *(to_hold @ z)[1:], 0.0)[2]
         return (r, v, F, wmf, tff, target, hmin), [*(Pz @ z), target, hmin]
 
     def law(x, y):
