@@ -184,9 +184,13 @@ def stream_design():
     )
 
 
-def _stream_error(design, *, Td, alpha, T, seed=1):
+def _stream_error(design, *, Td, alpha, T, Jl=1.0, seed=1):
     """Load error to the sine fed in, from the plant's own load angle."""
-    plant = twomass.plant(alpha=twomass.alpha_step() if alpha is None else alpha)
+    params = twomass.Parameters()
+    plant = twomass.plant(
+        params.replace(Jl=Jl * params.Jl),
+        alpha=twomass.alpha_step() if alpha is None else alpha,
+    )
     res = sampled_response(
         plant, design.controller(), T, inputs={"Td": Td, "theta_r": _sine},
         delay=design.delay, sensors=ENCODERS, seed=seed,
@@ -241,11 +245,12 @@ def test_streamed_sine_is_tracked_without_replanning(stream_design, design):
 
 @pytest.mark.slow
 @pytest.mark.parametrize(
-    "Td, alpha",
-    [(8.0, None), (8.0, 0.03), (0.0, 0.03), (0.0, 0.06), (0.0, 0.0), (8.0, 0.06)],
-)
-def test_streamed_sine_grid(stream_design, Td, alpha):
+    "Td, alpha, Jl",
+    [(8.0, None, 1.0), (8.0, 0.03, 1.0), (0.0, 0.03, 1.0), (0.0, 0.06, 1.0),
+     (0.0, 0.0, 1.0), (8.0, 0.06, 1.0), (8.0, None, 1.2), (-8.0, 0.045, 0.8)],
+)  # fmt: skip
+def test_streamed_sine_grid(stream_design, Td, alpha, Jl):
     """Issue 22's streamed sine (alpha None: the paper's gap step at 2.5 s)."""
-    err, peak = _stream_error(stream_design, Td=Td, alpha=alpha, T=5.0)
+    err, peak = _stream_error(stream_design, Td=Td, alpha=alpha, T=5.0, Jl=Jl)
     assert err <= 5e-3
     assert peak <= stream_design.torque_limit + 1e-9

@@ -120,6 +120,11 @@ class CascadeDesign:
     def controller(self, name: str = "cascade") -> ct.NonlinearIOSystem:
         """The cascade as a discrete-time python-control system.
 
+        Parameters
+        ----------
+        name : str, optional
+            System name (default ``"cascade"``).
+
         Returns
         -------
         `control.NonlinearIOSystem`

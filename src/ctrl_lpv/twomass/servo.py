@@ -228,7 +228,10 @@ class ServoDesign:
             f"Td <= {self.Td_max:g} Nm",
             f"  moves: minimum-snap, peak acceleration {t.accel_limit:.3g} rad/s^2 "
             f"(0.5 rad in {self.move_duration(0.5):.3f} s, 1 rad in "
-            f"{self.move_duration(1.0):.3f} s)",
+            f"{self.move_duration(1.0):.3f} s)"
+            if self.reference == "plan" else
+            "  reference: a set-point streamed every sample (tracker of its "
+            "speed, acceleration and jerk, no planning)",
             "  feedback K = " + np.array2string(self.gain, precision=4, separator=", "),
             "  runs: continuous time, every state measured" if self.dt is None else
             f"  runs: every {self.dt * 1e3:g} ms, {self.delay} sample(s) of delay, "
