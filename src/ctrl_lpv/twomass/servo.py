@@ -328,8 +328,12 @@ def servo_design(
         tracker of `ctrl_lpv.twomass.stream` (`stream` settings) gives its
         speed, acceleration and jerk; the feedforward of the contact model
         is evaluated on them one sample ahead (``delay=1``) and the torque
-        half a sample more (the hold); the feedback, the flank offset and
-        the drive observer are those of ``"plan"``.
+        half a sample more (the hold), with the drive observer's load
+        torque added (the integral is held while the set-point moves);
+        the feedback, the flank offset and
+        the drive observer are those of ``"plan"``. The set-point should be
+        smooth: the tracker follows cubics without lag and so overshoots a
+        step by 20 % (targets that jump are for ``"plan"``).
     stream : `ServoStream`, optional
         The tracker's bandwidth (``reference="stream"``).
 
