@@ -342,3 +342,114 @@ def test_one_state_polytopic_plant():
     )
     cert = lpv.certify(([np.array([[1.0]]), np.array([[2.0]])], [1.0, 2.0]), plant)
     assert cert.certified and cert.certificate.verified
+
+
+# ------------------------------------------- an L2 gain under a rate bound
+
+BW = np.array([1.0, 0.5])
+
+
+def switched_channel_plant(points=None):
+    """The switched pair with a disturbance ``w`` (``B_w`` = `BW`) and the
+    state as output; polytopic, or gridded on `points`."""
+    base = ct.ss(np.zeros((2, 2)), np.column_stack([np.eye(2), BW]), np.eye(2), 0,
+                 inputs=["u0", "u1", "w"], outputs=["y0", "y1"])  # fmt: skip
+    if points is None:
+        return lpv.PolytopicStateSpace.from_affine(
+            base, {"p": (np.zeros((2, 2)), 0, 0, 0)}, {"p": (0.0, 1.0)}
+        )
+    return lpv.gss(lambda p: base, {"p": points})
+
+
+def l2_ratio(p_of_t, w_of_t, T):
+    """sqrt(int z'z / int w'w) from rest, z = y0, w on [0, T/2], then free."""
+
+    def rhs(t, s):
+        x, w = s[:2], w_of_t(t)
+        dx = closed_loop(float(p_of_t(t))) @ x + BW * w
+        return np.concatenate([dx, [x[0] ** 2, w**2]])
+
+    sol = solve_ivp(rhs, (0.0, T), np.zeros(4), rtol=1e-9, atol=1e-12, max_step=0.01)
+    return np.sqrt(sol.y[2, -1] / sol.y[3, -1])
+
+
+@pytest.fixture(scope="module")
+def bounded_under_rate(switched):
+    nu = 0.5 * switched.rate_bound["p"]
+    hinf = lpv.Hinf(w="w", z="y0")
+    table = ([-A1, -A2], [0.0, 1.0])
+    polytopic = lpv.certify(table, switched_channel_plant(), objective=hinf,
+                            rate_bounds={"p": nu})  # fmt: skip
+    gridded = lpv.certify(table, switched_channel_plant([0.0, 1.0]), objective=hinf,
+                          rate_bounds={"p": nu})  # fmt: skip
+    return nu, polytopic, gridded
+
+
+def test_l2_gain_under_a_rate_bound_covers_frozen_norms(bounded_under_rate):
+    """The schedule has no common Lyapunov function, so no bound holds for
+    arbitrary rates; under half its certified rate the L2 gain is bounded,
+    above every frozen loop's H-infinity norm (control's), and the polytopic
+    and gridded models of the same plant (one cell) give the same bound."""
+    nu, polytopic, gridded = bounded_under_rate
+    worst = max(
+        float(ct.linfnorm(ct.ss(closed_loop(p), BW[:, None], [[1.0, 0.0]], 0))[0])
+        for p in np.linspace(0.0, 1.0, 41)
+    )
+    for c in (polytopic, gridded):
+        assert c.certified and c.certificate.verified, str(c)
+        assert c.rate_bound == {"p": nu}
+        assert worst <= c.bound < np.inf
+    assert gridded.bound == pytest.approx(polytopic.bound, rel=1e-3)
+
+
+def test_l2_gain_under_a_rate_bound_holds_in_simulation(bounded_under_rate):
+    """From rest, random parameter trajectories within the rate bound and
+    random disturbances: the output's energy ratio stays below the bound."""
+    nu, polytopic, _ = bounded_under_rate
+    rng = np.random.default_rng(3)
+    worst = 0.0
+    for _ in range(4):
+        r, w, phase = rng.uniform(0.2, 1.0, (3, 3))
+        a = 0.5 * r / r.sum()
+        w = w * nu / np.sum(a * w)
+        freq, amp = rng.uniform(0.2, 3.0, 4), rng.standard_normal(4)
+
+        def p(t, a=a, w=w, phase=2 * np.pi * phase):
+            return 0.5 + np.sum(a * np.sin(w * t + phase))
+
+        def dist(t, freq=freq, amp=amp):
+            return float(amp @ np.sin(freq * t)) if t < 40.0 else 0.0
+
+        worst = max(worst, l2_ratio(p, dist, 80.0))
+    assert 0.0 < worst <= polytopic.bound
+
+
+def test_l2_gain_at_rate_zero_is_the_worst_frozen_norm(switched):
+    """Frozen parameters (rate 0): the bound is at least, and on this one-
+    parameter schedule within 1 % of, the largest frozen H-infinity norm."""
+    hinf = lpv.Hinf(w="w", z="y0")
+    table = ([-A1, -A2], [0.0, 1.0])
+    c = lpv.certify(table, switched_channel_plant(), objective=hinf,
+                    rate_bounds={"p": 0.0})  # fmt: skip
+    worst = max(
+        float(ct.linfnorm(ct.ss(closed_loop(p), BW[:, None], [[1.0, 0.0]], 0))[0])
+        for p in np.linspace(0.0, 1.0, 201)
+    )
+    assert c.certified and worst <= c.bound <= 1.01 * worst
+
+
+def test_h2_under_a_rate_bound_says_it_is_not_bounded(switched):
+    c = lpv.certify(([-A1, -A2], [0.0, 1.0]), switched_channel_plant(),
+                    objective=lpv.H2(w="w", z="y0"),
+                    rate_bounds={"p": 0.5 * switched.rate_bound["p"]})  # fmt: skip
+    assert not c.certified and c.bound is None
+    assert "only the L2 gain" in " ".join(c.tried)
+
+
+def test_objective_without_rate_bounds_asks_for_them(switched):
+    hinf = lpv.Hinf(w="w", z="y0")
+    c = lpv.certify(([-A1, -A2], [0.0, 1.0]), switched_channel_plant(),
+                    objective=hinf, counterexample=False)  # fmt: skip
+    assert not c.certified and c.bound is None
+    assert c.rate_bound["p"] == pytest.approx(switched.rate_bound["p"], rel=0.1)
+    assert "pass rate_bounds=" in " ".join(c.tried)

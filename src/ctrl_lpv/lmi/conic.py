@@ -224,7 +224,8 @@ def _clarabel(c, data: ConicData, b, options) -> ConicResult:
     x = np.array(solution.x, float) if status in SOLVED else None
     duals = data.matrices(np.array(solution.z, float))
     objective = float(solution.obj_val) if status in SOLVED else None
-    gap = abs(solution.obj_val - solution.obj_val_dual) / max(1.0, abs(solution.obj_val))
+    primal, dual = solution.obj_val, solution.obj_val_dual
+    gap = abs(primal - dual) / max(1.0, abs(primal))
     converged = status == OPTIMAL or (
         status == OPTIMAL_INACCURATE
         and max(gap, solution.r_prim, solution.r_dual) <= NEAR_OPTIMAL

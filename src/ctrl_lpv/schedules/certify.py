@@ -25,7 +25,11 @@ with a `ScheduleCertificate`. For a polytopic plant:
    trajectory that destabilises the loop;
 4. **objective** (`Hinf` or `H2` of a named channel): the bound with one
    Lyapunov matrix for the channel's terms spanning the loops (arbitrary
-   rates; `ctrl_lpv.schedules.objective`).
+   rates; `ctrl_lpv.schedules.objective`); with ``rate_bounds``, the L2
+   gain under them too (the bounded-real form of step 3,
+   `ctrl_lpv.schedules.rates.family_lmis`), the smaller of the two
+   reported. Without a common Lyapunov function only the rate-bounded L2
+   gain exists, so it needs ``rate_bounds``.
 
 For a `ctrl_lpv.GriddedStateSpace` the same steps run on the pieces of
 grid cells and schedule simplices, with the terms and the multilinear
@@ -47,7 +51,7 @@ from ..lmi import LMIProblem
 from ..systems import GriddedStateSpace, PolytopicStateSpace
 from .objective import checked_objective
 from .quadratic import quadratic_certificate
-from .rates import RateSearch
+from .rates import RateSearch, family_lmis, rate_variables
 from .schedule import GainSchedule, schedule_of
 
 __all__ = ["certify", "ScheduleCertificate", "FrozenCounterexample"]
@@ -96,8 +100,9 @@ class ScheduleCertificate:
         What was tried, in order.
     bound : float or None
         With an `objective`: the certified bound of its channel (L2 gain for
-        `Hinf`, H2 for `H2`) for arbitrarily fast parameters; None otherwise
-        or when it is not certified (then `certified` is False).
+        `Hinf`, H2 for `H2`) for the rates of `rate_bound` (arbitrarily fast
+        parameters where they are ``inf``); None otherwise or when it is not
+        certified (then `certified` is False).
     """
 
     certified: bool
@@ -157,9 +162,12 @@ def certify(
         ``nu`` for every parameter (per time unit).
     objective : `Hinf` or `H2`, optional
         A channel ``Hinf(w=..., z=...)`` (or `H2`) whose bound to certify
-        (L2 gain, or H2), for arbitrarily fast parameters: `certified`
-        then also requires the bound, reported in ``.bound``. Its ``w`` are
-        plant inputs, its ``z`` plant outputs; ``bound=`` must be None.
+        (L2 gain, or H2): `certified` then also requires the bound,
+        reported in ``.bound``. For arbitrarily fast parameters where one
+        Lyapunov matrix exists; with `rate_bounds` also the L2 gain under
+        them (continuous time, ``B_u`` or ``D_zu`` constant where the gains
+        vary), the smaller one reported with its rates. Its ``w`` are plant
+        inputs, its ``z`` plant outputs; ``bound=`` must be None.
     margin : float, optional
         Relative margin of the strict LMIs.
     samples : int, optional
@@ -223,46 +231,51 @@ def certify(
     if frozen is not None:
         return ScheduleCertificate(False, {n: 0.0 for n in loops.names}, frozen,
                                    Certificate(()), tuple(tried))  # fmt: skip
+    nu = None
+    if rate_bounds is not None:
+        nu = np.array([real_number(rate_bounds.get(n, math.inf), f"rate_bounds[{n!r}]",
+                                   minimum=0.0) for n in loops.names])  # fmt: skip
     quadratic = loops.quadratic(margin)
     tried.append("one quadratic Lyapunov function (arbitrary rates)")
     if quadratic is not None:
         rates = {n: math.inf for n in loops.names}
         if objective is None:
             return ScheduleCertificate(True, rates, None, quadratic, tuple(tried))
-        name = type(objective).__name__
-        tried.append(f"{name} bound from {list(objective.w)} to "
-                     f"{list(objective.z)}, one Lyapunov matrix")  # fmt: skip
-        try:
-            bound, certificate = loops.bound(objective, margin)
-        except SynthesisError as err:
-            tried.append(f"{name} bound not certified: {str(err).splitlines()[0]}")
+        found = _arbitrary_rate_bound(loops, objective, margin, tried)
+        if nu is not None and np.all(np.isfinite(nu)) and _rate_analysis(loops, tried):
+            # The rates asked for may give a smaller bound than any rate.
+            under = _rate_bound(loops, objective, nu, margin, tried)
+            if under is not None and (found is None or under[0] < found[0]):
+                rates, found = dict(zip(loops.names, nu.tolist())), under
+        if found is None:
             return ScheduleCertificate(False, rates, None, quadratic, tuple(tried))
+        bound, certificate = found
         return ScheduleCertificate(True, rates, None, quadratic + certificate,
                                    tuple(tried), bound)  # fmt: skip
-    if objective is not None:
-        tried.append(
-            "the objective's bound: not certified (it needs one Lyapunov "
-            "matrix for arbitrary rates, and none exists)"
-        )
-        return ScheduleCertificate(False, {n: 0.0 for n in loops.names}, None,
-                                   Certificate(()), tuple(tried))  # fmt: skip
-    refusal = loops.rate_refusal()
-    if refusal is not None:
-        tried.append(f"rate-bounded analysis: not implemented {refusal}")
-        return ScheduleCertificate(False, {n: 0.0 for n in loops.names},
-                                   None, Certificate(()), tuple(tried))  # fmt: skip
-    if rate_bounds is not None:
-        nu = np.array([real_number(rate_bounds.get(n, math.inf), f"rate_bounds[{n!r}]",
-                                   minimum=0.0) for n in loops.names])  # fmt: skip
+    none = {n: 0.0 for n in loops.names}
+    if not _rate_analysis(loops, tried):
+        return ScheduleCertificate(False, none, None, Certificate(()), tuple(tried))
+    if nu is not None:
         found = loops.rate_bounded(nu, margin)
         tried.append(f"parameter-dependent P(p), rates {nu.tolist()}")
-        certificate = Certificate(()) if found is None else found
-        rates = dict(zip(loops.names, nu if found is not None else 0 * nu))
-        return ScheduleCertificate(found is not None, rates, None, certificate,
-                                   tuple(tried))  # fmt: skip
+        if found is None:
+            return ScheduleCertificate(False, none, None, Certificate(()), tuple(tried))
+        rates = dict(zip(loops.names, nu.tolist()))
+        if objective is None:
+            return ScheduleCertificate(True, rates, None, found, tuple(tried))
+        under = _rate_bound(loops, objective, nu, margin, tried)
+        if under is None:
+            return ScheduleCertificate(False, rates, None, found, tuple(tried))
+        return ScheduleCertificate(True, rates, None, found + under[1], tuple(tried),
+                                   under[0])  # fmt: skip
     scale, certificate = loops.largest_rate(margin)
     tried.append("parameter-dependent P(p), bisection on the rate")
     rates = {n: float(scale) for n in loops.names}
+    if objective is not None:
+        tried.append(
+            "the objective's bound: not computed (no Lyapunov matrix holds for "
+            "arbitrary rates; pass rate_bounds= for the L2 gain under a rate bound)"
+        )
     example = None
     if counterexample and scale < math.inf:
         from .counterexample import destabilising_trajectory
@@ -271,6 +284,39 @@ def certify(
         tried.append("periodic parameter trajectories above the certified rate")
     certificate = certificate or Certificate(())
     return ScheduleCertificate(False, rates, example, certificate, tuple(tried))
+
+
+def _rate_analysis(loops, tried) -> bool:
+    """Whether the rate-bounded analysis applies (else why, in `tried`)."""
+    refusal = loops.rate_refusal()
+    if refusal is not None:
+        tried.append(f"rate-bounded analysis: not implemented {refusal}")
+    return refusal is None
+
+
+def _arbitrary_rate_bound(loops, objective, margin, tried):
+    """``(bound, certificate)`` of the objective for any rate, or None."""
+    name = type(objective).__name__
+    tried.append(f"{name} bound from {list(objective.w)} to {list(objective.z)}, "
+                 "one Lyapunov matrix")  # fmt: skip
+    try:
+        return loops.bound(objective, margin)
+    except SynthesisError as err:
+        tried.append(f"{name} bound not certified: {str(err).splitlines()[0]}")
+        return None
+
+
+def _rate_bound(loops, objective, nu, margin, tried):
+    """``(bound, certificate)`` of the L2 gain under the rates `nu`, or None."""
+    what = (f"L2 gain from {list(objective.w)} to {list(objective.z)} with P(p), "
+            f"rates {nu.tolist()}")  # fmt: skip
+    try:
+        found = loops.rate_bound(objective, nu, margin)
+    except ValueError as err:
+        tried.append(f"{what}: {err}")
+        return None
+    tried.append(what + ("" if found is not None else ": not certified"))
+    return found
 
 
 def _gridded_loops(schedule, plant, controller, parameters):
@@ -344,16 +390,14 @@ class _ClosedLoops(RateSearch):
             return "in discrete time"
         return None
 
-    def bound(self, objective, margin):
-        """``(bound, certificate)`` of the objective's channel, one P.
+    def _channel_loops(self, objective):
+        """``(loops, bilinear, w, z)``: the channel's matrices at the points.
 
-        On a cell the channel's matrices are affine in ``p`` (checked) and
-        ``K`` too: the loop is ``sum_ij l_i l_j T(i, j)`` with ``T(i, j)``
-        the loop of point ``i`` under gain ``j``, a convex combination of
-        the ``T(i, i)`` and, when ``K`` and ``B_u`` or ``D_zu`` vary, of the
-        ``(T(i, j) + T(j, i)) / 2`` of the cell's pairs.
+        On a cell ``C`` and ``D`` must be affine in ``p`` (checked), as
+        ``A`` and ``B_u`` are; `bilinear` says whether ``K`` varies with
+        ``B_u`` or ``D_zu`` (then the loop is quadratic on a cell).
         """
-        from .objective import certified_bound, channel
+        from .objective import channel
 
         iw, iz, of, dzu = channel(objective, self.plant, self._u)
         data = [tuple(np.asarray(M) for M in _frozen(self.plant, p))
@@ -370,17 +414,44 @@ class _ClosedLoops(RateSearch):
                         f"{c} (points {self.points[cell].tolist()}): refine the "
                         "schedule's points"
                     )
-        loops = [of(d, K) for d, K in zip(data, self.K)]
         Dzu = np.array([dzu(d) for d in data])
-        if _varies(self.K) and (_varies(self.B) or _varies(Dzu)):
+        bilinear = _varies(self.K) and (_varies(self.B) or _varies(Dzu))
+        loops = [of(d, K) for d, K in zip(data, self.K)]
+        if bilinear:
             for cell in self.schedule.cells:
                 for i, j in itertools.combinations(cell, 2):
                     ij, ji = of(data[i], self.K[j]), of(data[j], self.K[i])
                     loops.append(tuple(0.5 * (a + b) for a, b in zip(ij, ji)))
         w = [self.plant.physical_inputs[i] for i in iw]
         z = [self.plant.output_labels[i] for i in iz]
+        return loops, bilinear, w, z
+
+    def bound(self, objective, margin):
+        """``(bound, certificate)`` of the objective's channel, one P.
+
+        On a cell the channel's matrices are affine in ``p`` (checked) and
+        ``K`` too: the loop is ``sum_ij l_i l_j T(i, j)`` with ``T(i, j)``
+        the loop of point ``i`` under gain ``j``, a convex combination of
+        the ``T(i, i)`` and, when ``K`` and ``B_u`` or ``D_zu`` vary, of the
+        ``(T(i, j) + T(j, i)) / 2`` of the cell's pairs.
+        """
+        from .objective import certified_bound
+
+        loops, _, w, z = self._channel_loops(objective)
         return certified_bound(loops, objective, self.plant.dt, margin, w, z,
                                "in the points' convex hull")  # fmt: skip
+
+    def rate_channel(self, objective):
+        """``(B_w, C_z, D_zw)`` of each cell's points, with ``w`` and ``z``."""
+        loops, bilinear, w, z = self._channel_loops(objective)
+        if bilinear:
+            raise ValueError(
+                "objective: a bound under a rate bound is not implemented when "
+                "the gains vary together with B_u or D_zu (the loop is quadratic "
+                "on a cell); pass rate_bounds=None for the bound at arbitrary rates"
+            )
+        return [tuple([loops[i][k] for i in cell] for k in (1, 2, 3))
+                for cell in self.schedule.cells], w, z  # fmt: skip
 
     @classmethod
     def of(cls, schedule, plant, controller, parameters):
@@ -466,18 +537,12 @@ class _ClosedLoops(RateSearch):
             "(one quadratic Lyapunov function of the closed loops at the points)",
         )
 
-    def _rate_problem(self, margin):
+    def _rate_problem(self, margin, channel=None):
         n = self.Acl.shape[1]
         M, k = self.points.shape
         scale = max(1.0, float(max(np.linalg.norm(A, 2) for A in self.Acl)))
         lmi = LMIProblem(margin=margin * scale)
-        for i in range(M):
-            lmi.variable(f"P{i}", (n, n), symmetric=True)
-            lmi.add(f"P{i} > 0", lambda v, i=i: [[-getattr(v, f"P{i}")]])
-            lmi.add(f"P{i} <= I", lambda v, i=i: [[getattr(v, f"P{i}") - np.eye(n)]],
-                    strict=False, normalization=True)  # fmt: skip
-        lmi.parameter("nu", (k,), value=np.zeros(k), nonneg=True)
-        A = self.Acl
+        rate_variables(lmi, range(M), n, k, bounded=channel is not None)
         for c, cell in enumerate(self.schedule.cells):
             grad = _gradients(self.points[cell])  # (k, k+1): dlambda_i/dp
             for signs in itertools.product((-1.0, 1.0), repeat=k):
@@ -491,18 +556,13 @@ class _ClosedLoops(RateSearch):
                 if self.bilinear:
                     self._cubic_terms(lmi, c, cell, signs, G)
                     continue
-                for i in cell:
-                    lmi.add(f"cell {c} vertex {i} rates {signs}",
-                            lambda v, i=i, G=G: [[2 * (A[i].T @ getattr(v, f"P{i}"))
-                                                  + G(v)]])  # fmt: skip
-                for a, b in itertools.combinations(range(len(cell)), 2):
-                    i, j = cell[a], cell[b]
-                    lmi.add(
-                        f"cell {c} pair {i},{j} rates {signs}",
-                        lambda v, i=i, j=j, G=G: [[
-                            2 * (A[i].T @ getattr(v, f"P{j}"))
-                            + 2 * (A[j].T @ getattr(v, f"P{i}")) + 2 * G(v)]],
-                    )  # fmt: skip
+                family_lmis(
+                    lmi, f"cell {c} rates {signs}", list(cell),
+                    [self.Acl[i] for i in cell],
+                    lambda v, a, cell=cell: getattr(v, f"P{cell[a]}"),
+                    lambda v, a, G=G: G(v),
+                    None if channel is None else channel[c],
+                )  # fmt: skip
         return lmi
 
     def _cubic_terms(self, lmi, c, cell, signs, G):

@@ -42,7 +42,7 @@ import numpy as np
 from scipy.optimize import linprog
 
 from .quadratic import quadratic_certificate
-from .rates import RateSearch
+from .rates import RateSearch, family_lmis, rate_variables
 
 __all__ = ["GriddedLoops"]
 
@@ -294,7 +294,31 @@ class GriddedLoops(RateSearch):
                     out.setdefault(key, (ends[0], ends[1], nodes, M))
         return list(out.values())
 
-    def _rate_problem(self, margin):
+    def rate_channel(self, objective):
+        """``(B_w, C_z, D_zw)`` of each family's corners, with ``w``, ``z``."""
+        from .objective import channel
+
+        iw, iz, of, dzu = channel(objective, self.plant, self.u)
+        data = self.plant.vertex_data()
+        Dzu = np.array([dzu(d) for d in data])
+        out = []
+        for piece, _ in self.families():
+            if not _constant(self.K[list(piece.points)]) and not _constant(
+                Dzu[list(piece.corners)]
+            ):
+                raise ValueError(
+                    "objective: a bound under a rate bound is not implemented when "
+                    "the gains and D_zu both vary on a grid cell; pass "
+                    "rate_bounds=None for the bound at arbitrary rates"
+                )
+            K = self.corner_gains(piece)
+            loops = [of(data[i], K[a]) for a, i in enumerate(piece.corners)]
+            out.append(tuple([T[k] for T in loops] for k in (1, 2, 3)))
+        w = [self.plant.physical_inputs[i] for i in iw]
+        z = [self.plant.output_labels[i] for i in iz]
+        return out, w, z
+
+    def _rate_problem(self, margin, channel=None):
         from ..lmi import LMIProblem
 
         grid, n = self.grid, self.A.shape[1]
@@ -303,20 +327,18 @@ class GriddedLoops(RateSearch):
         scale = max(1.0, max(float(np.linalg.norm(M, 2))
                              for _, Ms in families for M in Ms))  # fmt: skip
         lmi = LMIProblem(margin=margin * scale)
-        for i in sorted({int(i) for piece, _ in families for i in piece.corners}):
-            lmi.variable(f"P{i}", (n, n), symmetric=True)
-            lmi.add(f"P{i} > 0", lambda v, i=i: [[-getattr(v, f"P{i}")]])
-            lmi.add(f"P{i} <= I", lambda v, i=i: [[getattr(v, f"P{i}") - np.eye(n)]],
-                    strict=False, normalization=True)  # fmt: skip
-        lmi.parameter("nu", (k,), value=np.zeros(k), nonneg=True)
+        used = sorted({int(i) for piece, _ in families for i in piece.corners})
+        rate_variables(lmi, used, n, k, bounded=channel is not None)
         bits = grid._bits
         # across[a][d]: the corner position across axis d from position a.
         weights = 2 ** np.arange(k - 1, -1, -1)
         across = [[int((bits[a] ^ np.eye(k, dtype=int)[d]) @ weights)
                    for d in range(k)] for a in range(len(bits))]  # fmt: skip
         seen = set()
-        for piece, M in families:
-            key = (piece.cell, M.tobytes())
+        for f, (piece, M) in enumerate(families):
+            extra = None if channel is None else channel[f]
+            parts = () if extra is None else [X for part in extra for X in part]
+            key = (piece.cell, M.tobytes(), *(X.tobytes() for X in parts))
             if key in seen:
                 continue
             seen.add(key)
@@ -339,19 +361,8 @@ class GriddedLoops(RateSearch):
                     return sum(s * v.nu[d] * edge(v, a, d) / h[d]
                                for d, s in enumerate(signs))  # fmt: skip
 
-                def sym(X):
-                    return X + X.T
-
-                where = f"cell {list(piece.cell)} rates {signs}"
-                for a in range(len(corners)):
-                    name = f"{where} loop {len(seen)} corner {corners[a]}"
-                    lmi.add(name, lambda v, a=a, M=M, P=P, D=D:
-                            [[sym(M[a].T @ P(v, a)) + D(v, a)]])  # fmt: skip
-                for a, b in itertools.combinations(range(len(corners)), 2):
-                    name = f"{where} loop {len(seen)} pair {corners[a]},{corners[b]}"
-                    lmi.add(name, lambda v, a=a, b=b, M=M, P=P, D=D:
-                            [[sym(M[a].T @ P(v, b)) + sym(M[b].T @ P(v, a))
-                              + D(v, a) + D(v, b)]])  # fmt: skip
+                family_lmis(lmi, f"cell {list(piece.cell)} rates {signs} loop "
+                                 f"{len(seen)}", corners, M, P, D, extra)  # fmt: skip
         return lmi
 
     # ------------------------------------------------------------------
