@@ -45,6 +45,7 @@ from ..certificate import Certificate
 from ..exceptions import SynthesisError
 from ..lmi import LMIProblem
 from ..systems import GriddedStateSpace, PolytopicStateSpace
+from .dynamic import DynamicLoops, is_dynamic
 from .objective import checked_objective
 from .quadratic import quadratic_certificate
 from .rates import RateSearch
@@ -201,6 +202,14 @@ def certify(
     >>> c.certified, round(c.bound, 3)
     (True, 0.667)
     """
+    margin = real_number(margin, "margin", positive=True, below=1.0)
+    objective = checked_objective(objective)
+    if is_dynamic(controller):
+        loops = DynamicLoops(controller, plant, parameters)
+        where = (f"{len(loops.points)} points and {samples} samples per "
+                 f"{'grid cell' if loops.gridded else 'domain'}")  # fmt: skip
+        return _verdict(loops, where, rate_bounds, objective, margin, samples,
+                        counterexample)  # fmt: skip
     if isinstance(controller, GainSchedule):
         schedule = controller
     else:
@@ -210,16 +219,20 @@ def certify(
             k = np.asarray(controller[1], float).reshape(len(controller[1]), -1)
             names = plant.param_names[: k.shape[1]]
         schedule = schedule_of(controller, names=names)
-    margin = real_number(margin, "margin", positive=True, below=1.0)
-    objective = checked_objective(objective)
     if isinstance(plant, GriddedStateSpace):
         loops = _gridded_loops(schedule, plant, controller, parameters)
     else:
         loops = _ClosedLoops.of(schedule, plant, controller, parameters)
+    where = f"{len(schedule.points)} points and {samples} samples per cell"
+    return _verdict(loops, where, rate_bounds, objective, margin, samples,
+                    counterexample)  # fmt: skip
+
+
+def _verdict(loops, where, rate_bounds, objective, margin, samples, counterexample):
+    """The steps of `certify` on closed loops of either kind."""
     tried = []
     frozen = loops.frozen_counterexample(samples)
-    tried.append(f"frozen closed loops at {len(schedule.points)} points and "
-                 f"{samples} samples per cell")  # fmt: skip
+    tried.append(f"frozen closed loops at {where}")
     if frozen is not None:
         return ScheduleCertificate(False, {n: 0.0 for n in loops.names}, frozen,
                                    Certificate(()), tuple(tried))  # fmt: skip
