@@ -18,10 +18,11 @@ from ctrl_lpv.schedules import FrozenCounterexample, ParameterTrajectory
 W, Z = ["w0", "w1"], ["z0", "z1"]
 
 
-def plant(seed, vertices=1, n=3):
+def plant(seed, vertices=1, n=3, dt=0):
     """A stable normalised plant (``D12 = [0; 1]``, ``D21 = [0, 1]``: the
     assumptions of `control.hinfsyn`), ``B2`` and ``C2`` common to the
-    vertices; over ``p`` in [0, 1] with two vertices."""
+    vertices; over ``p`` in [0, 1] with two vertices, over ``(p, q)`` in
+    [0, 1]^2 with four."""
     rng = np.random.default_rng(seed)
     B2 = rng.standard_normal((n, 1))
     C2 = rng.standard_normal((1, n))
@@ -29,12 +30,17 @@ def plant(seed, vertices=1, n=3):
     D = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
     out = []
     for _ in range(vertices):
-        A = rng.standard_normal((n, n)) / np.sqrt(n) - 1.5 * np.eye(n)
+        A = rng.standard_normal((n, n)) / np.sqrt(n)
+        if dt:
+            A = A / (1.2 * np.abs(np.linalg.eigvals(A)).max())
+        else:
+            A = A - 1.5 * np.eye(n)
         B1 = np.hstack([rng.standard_normal((n, 1)) / np.sqrt(n), np.zeros((n, 1))])
         C1 = np.vstack([rng.standard_normal((1, n)) / np.sqrt(n), np.zeros((1, n))])
-        out.append(ct.ss(A, np.hstack([B1, B2]), np.vstack([C1, C2]), D,
+        out.append(ct.ss(A, np.hstack([B1, B2]), np.vstack([C1, C2]), D, dt,
                          inputs=W + ["u"], outputs=Z + ["y"]))  # fmt: skip
-    domain = {"p": (0.0, 1.0)} if vertices == 2 else None
+    domain = {1: None, 2: {"p": (0.0, 1.0)},
+              4: {"p": (0.0, 1.0), "q": (0.0, 1.0)}}[vertices]  # fmt: skip
     return lpv.PolytopicStateSpace(out, domain=domain)
 
 
@@ -79,6 +85,30 @@ def test_the_design_and_its_controller_system_agree(of_design):
     b = lpv.certify(d.controller(), G, objective=objective)
     assert a.certified == b.certified
     assert a.bound == pytest.approx(b.bound, rel=1e-6)
+
+
+def test_two_parameter_design_bound_holds_at_dense_frozen_points():
+    """Multilinear weights on a box: the products of plant and controller
+    coordinates (``w_i w_j``) span the loop."""
+    G = plant(11, vertices=4)
+    d = lpv.hinf_output_feedback(G, W, "u", Z, "y")
+    c = lpv.certify(d, G, objective=lpv.Hinf(w=W, z=Z))
+    K = d.controller()
+    grid = np.linspace(0.0, 1.0, 21)
+    worst = max(float(ct.linfnorm(loop(G.at({"p": p, "q": q}),
+                                       K.at({"p": p, "q": q})))[0])
+                for p in grid for q in grid)  # fmt: skip
+    assert c.certified and worst <= c.bound <= 1.5 * d.gamma
+
+
+def test_discrete_time_design_bound_holds_at_dense_frozen_points():
+    G = plant(4, vertices=2, dt=0.1)
+    d = lpv.hinf_output_feedback(G, W, "u", Z, "y")
+    c = lpv.certify(d, G, objective=lpv.Hinf(w=W, z=Z))
+    K = d.controller()
+    worst = max(float(ct.linfnorm(loop(G.at({"p": p}), K.at({"p": p})))[0])
+                for p in np.linspace(0.0, 1.0, 101))  # fmt: skip
+    assert c.certified and worst <= c.bound <= 1.5 * d.gamma
 
 
 # ------------------------------------------------------------ LTI controllers
@@ -269,3 +299,17 @@ def test_algebraic_loop_and_time_base_are_refused():
         lpv.certify(K, looped)
     with pytest.raises(ValueError, match="time base"):
         lpv.certify(ct.ss([], [], [], [[-1.0]], 0.1, inputs="y", outputs="u"), G)
+
+
+def test_controller_domain_not_holding_the_plant_is_refused():
+    G = plant(7, vertices=2)
+    vertices = [ct.ss([[-1.0]], [[0.0]], [[0.0]], [[g]], inputs="y", outputs="u")
+                for g in (-1.0, -2.0)]  # fmt: skip
+    K = lpv.PolytopicStateSpace(vertices, domain={"p": (0.2, 1.0)})
+    with pytest.raises(ValueError, match="does not hold the plant"):
+        lpv.certify(K, G)
+    # The same segment as a polytope: its (least-squares) weights are not
+    # the box's by construction, so it is refused rather than assumed.
+    hull = lpv.PolytopicStateSpace(vertices, domain=lpv.Polytope([[0.0], [1.0]], ["p"]))
+    with pytest.raises(ValueError, match="expected the plant's domain"):
+        lpv.certify(hull, G)

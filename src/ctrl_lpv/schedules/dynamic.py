@@ -108,6 +108,7 @@ class DynamicLoops(RateSearch):
             self.corners = [np.arange(len(self.points))]
         self.box = hasattr(domain, "lower") and hasattr(domain, "_bits")
         self.G = [tuple(np.asarray(M, float) for M in d) for d in plant.vertex_data()]
+        self._check_domain()
         self.K = [self._controller_at(p) for p in self.points]
         for i, (_, _, _, D) in enumerate(self.G):
             Dyu = D[np.ix_(self.iy, self.iu)]
@@ -183,12 +184,47 @@ class DynamicLoops(RateSearch):
                 ) from None
         return tuple(np.asarray(M, float) for M in ct.ssdata(system))
 
-    def _check_interpolation(self):
-        """The controller is ``sum_j w_j K_j`` in the plant's weights (checked).
+    def _check_domain(self):
+        """The controller is ``sum_j w_j K_j`` in the plant's weights.
 
-        Where it is not (another kind of domain than the plant's, a box not
-        aligned with the plant's grid), the products would not span the loop.
+        Exactly so on the plant's own domain (the same weights), and on a
+        box holding the plant's box or grid (its multilinear weights are
+        multilinear in ``p``, which the plant's multilinear weights
+        reproduce on each cell); anything else is refused, since the
+        products would not span the loop. The identity is also checked
+        numerically at a few points of every cell.
         """
+        if not _scheduled(self.controller):
+            return
+        from ..polytope import ParameterBox
+
+        own, domain = self.controller.domain, self.plant.domain
+        inverse = {q: c for c, q in self._rename.items()}
+        order = [list(own.names).index(inverse[q]) for q in self.names]
+        tol = 1e-12 * max(1.0, float(np.abs(domain.points).max()))
+        same = (type(own) is type(domain)
+                and own.points.shape == domain.points.shape
+                and np.allclose(own.points[:, order], domain.points, rtol=0,
+                                atol=tol))  # fmt: skip
+        if not same:
+            if not isinstance(own, ParameterBox) or not hasattr(domain, "lower"):
+                raise ValueError(
+                    f"controller: scheduled on {own!r}, the plant on {domain!r}; "
+                    "expected the plant's domain, or a box holding the plant's "
+                    "box or grid"
+                )
+            slack = 1e-9 * (domain.upper - domain.lower)
+            lower, upper = own.lower[order], own.upper[order]
+            if np.any(lower > domain.lower + slack) or np.any(
+                upper < domain.upper - slack
+            ):
+                raise ValueError(
+                    f"controller: its box {own!r} does not hold the plant's "
+                    f"domain {domain!r}"
+                )
+
+    def _check_interpolation(self):
+        """`_check_domain`'s identity, numerically at a few points per cell."""
         if not _scheduled(self.controller):
             return
         rng = np.random.default_rng(1)
