@@ -29,7 +29,9 @@ with a `ScheduleCertificate`. For a polytopic plant:
 
 For a `ctrl_lpv.GriddedStateSpace` the same steps run on the pieces of
 grid cells and schedule simplices, with the terms and the multilinear
-``P(p)`` of `ctrl_lpv.schedules.gridded`.
+``P(p)`` of `ctrl_lpv.schedules.gridded`. A dynamic (output-feedback)
+controller is closed with the plant by signal names and analysed the same
+way, with the terms of `ctrl_lpv.schedules.dynamic`.
 """
 
 from __future__ import annotations
@@ -62,8 +64,9 @@ class FrozenCounterexample:
     ----------
     point : dict
         The parameter value.
-    cell : int
-        The schedule's cell containing it.
+    cell : int or tuple
+        The schedule's cell containing it (a grid cell's lower corner on a
+        gridded plant; 0 for a dynamic controller on a polytopic plant).
     eigenvalue : complex
         The closed loop's eigenvalue with the largest real part (modulus in
         discrete time).
@@ -135,14 +138,26 @@ def certify(
 
     Parameters
     ----------
-    controller : NonlinearIOSystem, tuple, `StateFeedbackDesign` or `GainSchedule`
-        A scheduled state feedback ``u = -K(p) x`` from
+    controller : gain schedule or dynamic controller
+        A scheduled state feedback ``u = -K(p) x``: a controller from
         `control.create_statefbk_iosystem` (``gain=(gains, points)``,
         ``gainsched_method="linear"``), a table ``(gains, points)``, a
-        design of this library (certified on another plant, e.g. the true
-        one), or a `GainSchedule`. Its outputs (for a table: ``u``, the
+        `StateFeedbackDesign` of this library (certified on another plant,
+        e.g. the true one), or a `GainSchedule`. Its outputs (for a table: ``u``, the
         plant's inputs in order) are plant inputs; ``K`` acts on the plant's
         states.
+
+        Or a dynamic (output-feedback) controller ``xk' = Ak xk + Bk y``,
+        ``u = Ck xk + Dk y`` (python-control's sign: it outputs ``u``): an
+        LTI `control.StateSpace`, a scheduled `PolytopicStateSpace` (as
+        `OutputFeedbackDesign.controller` returns it; on the plant's domain,
+        or on a box holding the plant's box or grid) or an
+        `OutputFeedbackDesign`. The loop is closed by signal names, as
+        `control.interconnect` would: its inputs are plant outputs, its
+        outputs plant inputs, of the same names; the loop's state is
+        ``(x, xk)``. The plant's feedthrough from ``u`` to ``y`` must be
+        zero. See `ctrl_lpv.schedules.dynamic` for why the products of
+        plant and controller coordinates span the loop.
     plant : `PolytopicStateSpace` or `GriddedStateSpace`
         The plant over a box of named parameters, or on a grid of them
         (e.g. linearizations at trim points, `ctrl_lpv.gss`); then every
@@ -152,7 +167,8 @@ def certify(
         the relaxation is sound).
     parameters : mapping of str to str, optional
         ``{scheduling variable: plant parameter}``; default: the same names,
-        or else in order.
+        or else in order. For a scheduled dynamic controller ``{controller
+        parameter: plant parameter}``, default the same names (required).
     rate_bounds : mapping of str to float, optional
         Rates to certify, ``{parameter: nu}``; default: find the largest
         ``nu`` for every parameter (per time unit).
@@ -160,7 +176,8 @@ def certify(
         A channel ``Hinf(w=..., z=...)`` (or `H2`) whose bound to certify
         (L2 gain, or H2), for arbitrarily fast parameters: `certified`
         then also requires the bound, reported in ``.bound``. Its ``w`` are
-        plant inputs, its ``z`` plant outputs; ``bound=`` must be None.
+        plant inputs (with a dynamic controller: not those it drives), its
+        ``z`` plant outputs; ``bound=`` must be None.
     margin : float, optional
         Relative margin of the strict LMIs.
     samples : int, optional
@@ -179,7 +196,11 @@ def certify(
         not match, points outside the plant's domain, a polytopic plant
         whose ``A`` or ``B_u`` (with an objective also ``C``, ``D``) is not
         affine in the parameters on a cell, or an objective that is not an
-        `Hinf` or `H2` naming its channel.
+        `Hinf` or `H2` naming its channel. For a dynamic controller: an
+        output that is not a plant input or an input that is not a plant
+        output (named), another time base, a nonzero ``D_yu``, or a
+        scheduled controller on another domain than the plant's (or a box
+        holding it).
 
     Examples
     --------
@@ -201,6 +222,14 @@ def certify(
     ...                 objective=lpv.Hinf(w="w", z="y"))
     >>> c.certified, round(c.bound, 3)
     (True, 0.667)
+
+    A dynamic controller, closed by signal names (here LTI, ``u = -2 y``
+    through a first-order filter):
+
+    >>> K = ct.ss([[-10.0]], [[10.0]], [[-2.0]], 0, inputs="y", outputs="u")
+    >>> c = lpv.certify(K, G, objective=lpv.Hinf(w="w", z="y"))
+    >>> c.certified, c.rate_bound
+    (True, {'a': inf})
     """
     margin = real_number(margin, "margin", positive=True, below=1.0)
     objective = checked_objective(objective)
