@@ -218,6 +218,20 @@ def test_switched_dynamic_counterexample_diverges(switched_certificate):
     assert growth > 1.5
 
 
+def test_gridded_rate_agrees_with_the_state_feedback_path():
+    """The switched loop on a 5-point grid, by both analyses (P(p)
+    piecewise linear on the grid): the same rate. (This comparison found
+    the state-feedback path's dP/dt reading another cell's P.)"""
+    _, K = switched()
+    G = lpv.gss(lambda p: ct.ss(np.zeros((2, 2)), np.eye(2), np.eye(2), 0,
+                                inputs=["u0", "u1"], outputs=["y0", "y1"]),
+                {"p": np.linspace(0.0, 1.0, 5)})  # fmt: skip
+    dynamic = lpv.certify(K, G, counterexample=False)
+    table = lpv.certify(([-A1, -A2], [0.0, 1.0]), G, counterexample=False)
+    assert 0.0 < dynamic.rate_bound["p"] < np.inf
+    assert dynamic.rate_bound["p"] == pytest.approx(table.rate_bound["p"], rel=1e-9)
+
+
 # ------------------------------------------------------------ gridded plants
 
 
