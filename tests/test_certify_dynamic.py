@@ -232,6 +232,39 @@ def test_gridded_rate_agrees_with_the_state_feedback_path():
     assert dynamic.rate_bound["p"] == pytest.approx(table.rate_bound["p"], rel=1e-9)
 
 
+def test_rate_bounded_lyapunov_function_recomputed_with_numpy():
+    """The rate-bounded LMIs' solution on a two-parameter box, with the loop
+    quadratic in the weights (plant and controller vary): ``dV/dt < 0`` at
+    dense frozen points and every corner of the rate box, with the loop
+    formed by python-control and ``P(p)``, ``dP/dp`` from the weights."""
+    from ctrl_lpv.schedules.dynamic import DynamicLoops
+
+    G = plant(11, vertices=4)
+    design = lpv.hinf_output_feedback(G, W, "u", Z, "y")
+    K = design.controller()
+    nu = 3.0
+    lmi = DynamicLoops(design, G)._rate_problem(1e-6)
+    lmi.set_parameter("nu", [nu, nu])
+    P = np.array([lmi.solve().values[f"P{i}"] for i in range(4)])
+
+    def weights(p, q):
+        return G.weights({"p": p, "q": q})
+
+    worst = -np.inf
+    for p in np.linspace(0.0, 1.0, 11):
+        for q in np.linspace(0.0, 1.0, 11):
+            A = loop(G.at({"p": p, "q": q}), K.at({"p": p, "q": q})).A
+            V = np.tensordot(weights(p, q), P, axes=1)
+            # The weights are affine in each parameter: exact differences.
+            dp = np.tensordot(weights(1.0, q) - weights(0.0, q), P, axes=1)
+            dq = np.tensordot(weights(p, 1.0) - weights(p, 0.0), P, axes=1)
+            for sp in (-nu, nu):
+                for sq in (-nu, nu):
+                    F = A.T @ V + V @ A + sp * dp + sq * dq
+                    worst = max(worst, float(np.linalg.eigvalsh(F).max()))
+    assert worst < 0
+
+
 # ------------------------------------------------------------ gridded plants
 
 
