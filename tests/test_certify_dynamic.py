@@ -134,6 +134,13 @@ def test_h2syn_controller_bound_is_the_closed_loop_h2_norm():
     assert true * (1 - 1e-7) <= c.bound <= true * (1 + 1e-3)
 
 
+def test_h2_of_a_loop_with_feedthrough_is_refused_naming_the_signals():
+    """u = -y passes w1 (through y) to z1 (through u): H2 is infinite."""
+    K = ct.ss([], [], [], [[-1.0]], inputs="y", outputs="u")
+    with pytest.raises(ValueError, match="from 'w1' to 'z1'"):
+        lpv.certify(K, plant(1), objective=lpv.H2(w=W, z=Z))
+
+
 def test_lti_controller_on_a_polytopic_plant_bounds_every_frozen_loop():
     G = plant(7, vertices=2)
     K = lti_controller(ct.hinfsyn(ct.ss(*ct.ssdata(G.at({"p": 0.5}))), 1, 1)[0])
