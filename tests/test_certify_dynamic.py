@@ -111,6 +111,20 @@ def test_discrete_time_design_bound_holds_at_dense_frozen_points():
     assert c.certified and worst <= c.bound <= 1.5 * d.gamma
 
 
+def test_observer_based_controller_bound_holds_at_dense_frozen_points():
+    vertices = [ct.ss([[0.0, 1.0], [-a, 0.1]], [[0.0, 0.0], [1.0, 1.0]],
+                      [[1.0, 0.0], [1.0, 0.0]], 0, inputs=["u", "w"],
+                      outputs=["y", "z"]) for a in (1.0, 3.0)]  # fmt: skip
+    G = lpv.PolytopicStateSpace(vertices, domain={"a": (1.0, 3.0)})
+    combined = lpv.observer_based(lpv.synthesize(G, "u"),
+                                  lpv.observer(G, "y", u="u"))  # fmt: skip
+    c = lpv.certify(combined, G, objective=lpv.Hinf(w="w", z="z"))
+    K = combined.controller()
+    worst = max(float(ct.linfnorm(loop(G.at({"a": a}), K.at({"a": a}), "w", "z"))[0])
+                for a in np.linspace(1.0, 3.0, 101))  # fmt: skip
+    assert c.certified and c.bound >= worst
+
+
 # ------------------------------------------------------------ LTI controllers
 
 

@@ -151,8 +151,9 @@ def certify(
         ``u = Ck xk + Dk y`` (python-control's sign: it outputs ``u``): an
         LTI `control.StateSpace`, a scheduled `PolytopicStateSpace` (as
         `OutputFeedbackDesign.controller` returns it; on the plant's domain,
-        or on a box holding the plant's box or grid) or an
-        `OutputFeedbackDesign`. The loop is closed by signal names, as
+        or on a box holding the plant's box or grid), an
+        `OutputFeedbackDesign` or an `ObserverBasedController` (their
+        ``.controller()``). The loop is closed by signal names, as
         `control.interconnect` would: its inputs are plant outputs, its
         outputs plant inputs, of the same names; the loop's state is
         ``(x, xk)``. The plant's feedthrough from ``u`` to ``y`` must be

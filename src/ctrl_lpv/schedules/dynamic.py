@@ -4,7 +4,8 @@
 ``xk' = Ak xk + Bk y``, ``u = Ck xk + Dk y`` (python-control's sign: the
 controller outputs ``u`` itself): an LTI `control.StateSpace`, a scheduled
 `ctrl_lpv.PolytopicStateSpace` (as `OutputFeedbackDesign.controller`
-returns it) or an `OutputFeedbackDesign`. The loop is closed by signal
+returns it), an `OutputFeedbackDesign` or an `ObserverBasedController`
+(their ``.controller()``). The loop is closed by signal
 names, as `control.interconnect` would: the controller's inputs are plant
 outputs of the same names, its outputs plant inputs; the loop's state is
 ``(x, xk)``, its inputs the plant inputs the controller does not drive.
@@ -56,13 +57,17 @@ from .rates import RateSearch
 __all__ = ["DynamicLoops", "is_dynamic"]
 
 
-def is_dynamic(controller) -> bool:
-    """Whether `controller` is a dynamic controller `certify` closes by name."""
+def _designs():
+    """The designs whose ``.controller()`` is a dynamic controller."""
+    from ..estimation import ObserverBasedController
     from ..output_feedback import OutputFeedbackDesign
 
-    if isinstance(controller, OutputFeedbackDesign):
-        return True
-    return isinstance(controller, ct.StateSpace)
+    return OutputFeedbackDesign, ObserverBasedController
+
+
+def is_dynamic(controller) -> bool:
+    """Whether `controller` is a dynamic controller `certify` closes by name."""
+    return isinstance(controller, (ct.StateSpace, *_designs()))
 
 
 def _scheduled(system) -> bool:
@@ -74,17 +79,19 @@ class DynamicLoops(RateSearch):
 
     Parameters
     ----------
-    controller : `control.StateSpace`, `PolytopicStateSpace` or `OutputFeedbackDesign`
+    controller : dynamic controller
+        A `control.StateSpace`, a `PolytopicStateSpace`, or an
+        `OutputFeedbackDesign` or `ObserverBasedController` (their
+        ``.controller()``).
     plant : `PolytopicStateSpace` or `GriddedStateSpace`
     parameters : mapping of str to str, optional
         ``{controller parameter: plant parameter}``; default the same names.
     """
 
     def __init__(self, controller, plant, parameters=None):
-        from ..output_feedback import OutputFeedbackDesign
         from ..systems import GriddedStateSpace, PolytopicStateSpace
 
-        if isinstance(controller, OutputFeedbackDesign):
+        if isinstance(controller, _designs()):
             controller = controller.controller()
         if not isinstance(plant, (PolytopicStateSpace, GriddedStateSpace)):
             raise TypeError(
