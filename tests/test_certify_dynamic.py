@@ -327,6 +327,19 @@ def test_gridded_plant_with_a_scheduled_controller_on_a_box_holding_it():
     assert c.certified and c.bound >= worst
 
 
+def test_destabilising_controller_on_a_grid_gives_the_cell_and_eigenvalue():
+    G = lpv.gss(grid_point, {"a": [1.0, 2.0, 4.0], "b": [0.0, 1.0]})
+    K = ct.ss([], [], [], [[3.0]], inputs="y", outputs="u")  # u = 3 y
+    c = lpv.certify(K, G)
+    ce = c.counterexample
+    assert not c.certified and isinstance(ce, FrozenCounterexample)
+    assert ce.cell in {(0, 0), (1, 0)}
+    eig = np.linalg.eigvals(loop(grid_point(ce.point["a"], ce.point["b"]), K,
+                                 "w", "z").A)  # fmt: skip
+    assert ce.eigenvalue == pytest.approx(eig[np.argmax(eig.real)], rel=1e-9)
+    assert ce.eigenvalue.real >= 0
+
+
 # ---------------------------------------------------------------- bad input
 
 
