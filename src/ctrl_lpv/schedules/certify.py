@@ -236,8 +236,9 @@ def certify(
     objective = checked_objective(objective)
     if is_dynamic(controller):
         loops = DynamicLoops(controller, plant, parameters)
-        where = (f"{len(loops.points)} points and {samples} samples per "
-                 f"{'grid cell' if loops.gridded else 'domain'}")  # fmt: skip
+        where = (f"the plant's {len(loops.points)} points and {samples} samples "
+                 f"{'per grid cell' if loops.gridded else 'in its domain'}, with "
+                 "the dynamic controller")  # fmt: skip
         return _verdict(loops, where, rate_bounds, objective, margin, samples,
                         counterexample)  # fmt: skip
     if isinstance(controller, GainSchedule):
