@@ -234,3 +234,33 @@ def test_block_function_trusted_by_its_code_is_checked_with_other_data():
     exact = _dense(lmi._pieces(active, exact=True), lmi._nfree())
     for a, b in zip(fast, exact):
         np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-14)
+
+
+# Clarabel's full-accuracy tolerances set out of reach: it stalls and ends
+# "AlmostSolved" at its reduced ones (tight by default, loose and cut short
+# in the second case).
+_STALLED = {"tol_gap_abs": 1e-15, "tol_gap_rel": 1e-15, "tol_feas": 1e-15}
+_CUT_SHORT = {
+    **_STALLED,
+    "reduced_tol_gap_abs": 1e-2,
+    "reduced_tol_gap_rel": 1e-2,
+    "reduced_tol_feas": 1e-2,
+    "max_step_fraction": 0.5,
+    "max_iter": 15,
+}
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_an_almost_solved_point_counts_as_converged_only_near_the_optimum(seed):
+    A, B, C, D = stable_system(seed)
+    norm = ct.linfnorm(ct.ss(A, B, C, D))[0]
+    for options, converged in ((_STALLED, True), (_CUT_SHORT, False)):
+        lmi = bounded_real(A, B, C, D)
+        sol = lmi.solve(
+            lambda v: v.g[0, 0], solvers=solver_chain([("CLARABEL", options)])
+        )
+        attempt = sol.attempts[-1]
+        assert attempt.status == "optimal_inaccurate"
+        assert attempt.converged is converged
+        if converged:
+            assert sol.g[0, 0] == pytest.approx(norm, rel=1e-6)

@@ -84,6 +84,7 @@ def solve_cvxpy(solver: str, c, data: ConicData, margin: float, options) -> Coni
         float(problem.value) if solved else None,
         seconds,
         setup,
+        converged=status == "optimal",
     )
 
 

@@ -333,7 +333,9 @@ class LMIProblem(ConicReading, DualCertificates):
         if factor != 1.0:
             message = f"margin x{factor:g}" + (f"; {message}" if message else "")
         seconds = time.perf_counter() - start
-        attempt = SolveAttempt(solver, status, seconds, certified, message, posing)
+        attempt = SolveAttempt(
+            solver, status, seconds, certified, message, posing, result.converged
+        )
         logger.debug(
             "stage '%s': %s %s in %.3g s (%.3g s posing)%s", stage, solver,
             status, seconds, attempt.compile_seconds, f": {message}" if message else "",

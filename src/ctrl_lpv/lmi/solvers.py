@@ -37,6 +37,9 @@ class SolveAttempt:
         Part of `seconds` spent before the solver iterated: assembling the
         conic data and handing it over (cvxpy's compilation, for solvers
         called through cvxpy).
+    converged : bool
+        Whether the solver reached its full accuracy
+        (`ctrl_lpv.lmi.conic.ConicResult.converged`).
     """
 
     solver: str
@@ -45,6 +48,7 @@ class SolveAttempt:
     certified: bool
     message: str = ""
     compile_seconds: float = 0.0
+    converged: bool = False
 
 
 @functools.cache

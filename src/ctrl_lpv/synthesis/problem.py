@@ -137,6 +137,13 @@ class Problem:
         return any(s.fixes_scale for s in self.specs)
 
 
+# The sizes of a structure's strict LMIs (the size guard reads them), by
+# structure: they depend on the shapes alone, and reading them evaluates
+# every block once (measured: 8 % of a warm n = 4, N = 16 design).
+_STRICT_SIZES: dict = {}
+_KEPT_STRUCTURES = 64
+
+
 @dataclass(frozen=True)
 class Structure:
     """What fixes a compiled problem (the cache key; see the module doc).
@@ -180,15 +187,20 @@ class Structure:
                 for s, i in zip(problem.specs, problem.channels)
             ),
         )  # fmt: skip
-        zero = _declarations(problem, key).zeros()
-        strict = [
-            assemble(blocks(zero)).shape[0]
-            for _, blocks, is_strict, _, _ in _inequalities(problem, key, zero)
-            if is_strict
-        ]
+        sizes = _STRICT_SIZES.pop(key, None)
+        if sizes is None:
+            zero = _declarations(problem, key).zeros()
+            sizes = [
+                assemble(blocks(zero)).shape[0]
+                for _, blocks, is_strict, _, _ in _inequalities(problem, key, zero)
+                if is_strict
+            ]
+        _STRICT_SIZES[key] = sizes  # the most recent last
+        if len(_STRICT_SIZES) > _KEPT_STRUCTURES:
+            del _STRICT_SIZES[next(iter(_STRICT_SIZES))]
         return dataclasses.replace(
-            key, entries=sum(k * k for k in strict), nlmis=len(strict),
-            largest=max(strict, default=0),
+            key, entries=sum(k * k for k in sizes), nlmis=len(sizes),
+            largest=max(sizes, default=0),
         )  # fmt: skip
 
     def shape(self, problem: Problem) -> Shape:

@@ -48,6 +48,7 @@ from .servo_config import (
     ServoAntiHunting,
     ServoEstimator,
     ServoPlanner,
+    ServoStream,
     ServoSynthesis,
     interval,
     positive_range,
@@ -55,6 +56,7 @@ from .servo_config import (
 from .servo_kernel import INPUTS, STATES, ServoTuning, servo_kernel
 from .servo_rest import rest_bound
 from .servo_sampled import SampledServo, sampled_servo
+from .stream import stream_gain
 from .trajectory import PEAK_ACCEL, move_duration
 
 __all__ = ["ServoDesign", "servo_design", "servo_polytope"]
@@ -144,6 +146,9 @@ class ServoDesign:
         Samples between reading the sensors and the command acting.
     sensors : {"states", "encoders"}
         What the controller reads.
+    reference : {"plan", "stream"}
+        What ``theta_r`` is: a target reached by a planned move, or a
+        set-point streamed every sample (sampled designs).
     encoder_counts : (int, int) or None
         Counts per revolution of the motor and load encoders (sampled).
     sampling : `ctrl_lpv.twomass.servo_sampled.SampledServo` or None
@@ -164,6 +169,7 @@ class ServoDesign:
     dt: float | None = None
     delay: int = 0
     sensors: str = "states"
+    reference: str = "plan"
     encoder_counts: tuple | None = None
     sampling: SampledServo | None = field(default=None, repr=False)
     observer: ObserverDesign | None = field(default=None, repr=False)
@@ -222,7 +228,10 @@ class ServoDesign:
             f"Td <= {self.Td_max:g} Nm",
             f"  moves: minimum-snap, peak acceleration {t.accel_limit:.3g} rad/s^2 "
             f"(0.5 rad in {self.move_duration(0.5):.3f} s, 1 rad in "
-            f"{self.move_duration(1.0):.3f} s)",
+            f"{self.move_duration(1.0):.3f} s)"
+            if self.reference == "plan" else
+            "  reference: a set-point streamed every sample (tracker of its "
+            "speed, acceleration and jerk, no planning)",
             "  feedback K = " + np.array2string(self.gain, precision=4, separator=", "),
             "  runs: continuous time, every state measured" if self.dt is None else
             f"  runs: every {self.dt * 1e3:g} ms, {self.delay} sample(s) of delay, "
@@ -252,6 +261,8 @@ def servo_design(
     delay: int = 0,
     sensors: str = "states",
     encoder_counts=(2**20, 2**17),
+    reference: str = "plan",
+    stream: ServoStream | None = None,
 ) -> ServoDesign:
     """Design the torque-limited position servo of the two-mass drive.
 
@@ -309,6 +320,22 @@ def servo_design(
         Counts per revolution of the motor and load encoders (the
         observer's measurement noise and the rest certificate's reading
         error).
+    reference : {"plan", "stream"}, optional
+        What ``theta_r`` is. ``"plan"`` (default): a target; each change
+        starts an online rest-to-rest move (at least ``min_duration``
+        long). ``"stream"`` (needs `dt`): a position set-point updated every
+        sample by a motion controller, followed without re-planning: the
+        tracker of `ctrl_lpv.twomass.stream` (`stream` settings) gives its
+        speed, acceleration and jerk; the feedforward of the contact model
+        is evaluated on them one sample ahead (``delay=1``) and the torque
+        half a sample more (the hold), with the drive observer's load
+        torque added (the integral is held while the set-point moves);
+        the feedback, the flank offset and
+        the drive observer are those of ``"plan"``. The set-point should be
+        smooth: the tracker follows cubics without lag and so overshoots a
+        step by 20 % (targets that jump are for ``"plan"``).
+    stream : `ServoStream`, optional
+        The tracker's bandwidth (``reference="stream"``).
 
     Returns
     -------
@@ -341,6 +368,14 @@ def servo_design(
     estimator = _settings(estimator, ServoEstimator, "estimator")
     certify = flag(certify, "certify")
     dt, delay = _sampling(dt, delay, sensors)
+    stream = _settings(stream, ServoStream, "stream")
+    if reference not in ("plan", "stream"):
+        raise ValueError(f"reference: expected 'plan' or 'stream', got {reference!r}")
+    if reference == "stream" and dt is None:
+        raise ValueError(
+            "reference: 'stream' needs a sample time dt (a set-point streamed "
+            "once per sample)"
+        )
     budget = (1.0 - planner.torque_reserve) * torque_limit - Td_max
     if budget <= 0:
         raise ValueError(
@@ -386,7 +421,13 @@ def servo_design(
             params, dt=dt, sensors=sensors, encoder_counts=encoder_counts
         )
         Phi, Gamma, M = observer_matrices(observer)
-        sampling = SampledServo(dt=dt, delay=delay, Phi=Phi, Gamma=Gamma, M=M)
+        tracker = None
+        if reference == "stream":
+            tracker = tuple(float(v) for v in stream_gain(dt, stream.bandwidth))
+        sampling = SampledServo(
+            dt=dt, delay=delay, Phi=Phi, Gamma=Gamma, M=M, reference=reference,
+            stream_gain=tracker,
+        )  # fmt: skip
         if certify:
             rest = rest_bound(
                 params, K, sampling, Jl_range=(lo, hi), encoder_counts=encoder_counts,
@@ -401,7 +442,7 @@ def servo_design(
         params=params, torque_limit=torque_limit, alpha_max=alpha_max,
         Jl_range=(lo, hi), Td_max=Td_max, gain=K, feedback=feedback,
         tuning=tuning, certificate=certificate, dt=dt, delay=delay,
-        sensors=sensors, sampling=sampling, observer=observer,
+        sensors=sensors, reference=reference, sampling=sampling, observer=observer,
         encoder_counts=None if dt is None else tuple(encoder_counts),
     )  # fmt: skip
 

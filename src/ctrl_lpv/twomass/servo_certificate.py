@@ -216,7 +216,8 @@ def servo_certificate(
             f"  {rest} [{'verified' if rest.certificate.verified else 'NOT verified'}]"
         )
     lines.append(
-        "  not certified: the gap crossings, the planner, the flank choice, the "
+        "  not certified: the gap crossings, the planner or the set-point "
+        "tracker, the flank choice, the "
         "gap estimate and the contact-aware, held integral (checked by "
         "simulation)"
     )

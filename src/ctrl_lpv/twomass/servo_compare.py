@@ -188,8 +188,10 @@ def run_sampled_servo_scenario(
 
     Parameters
     ----------
-    design : `ServoDesign`
-        A sampled design (``servo_design(dt=..., sensors="encoders")``).
+    design : `ServoDesign` or `ctrl_lpv.twomass.cascade.CascadeDesign`
+        A sampled design (``servo_design(dt=..., sensors="encoders")``, or
+        the cascade reference ``cascade_design(servo)``): anything with
+        ``controller()``, ``dt``, ``delay`` and ``encoder_counts``.
     params, alpha, Jl, Td, theta_r, T
         As in `run_servo_scenario` (a constant target).
     noise : float, optional
@@ -207,7 +209,7 @@ def run_sampled_servo_scenario(
     from ..sampled import sampled_response
     from ..sensors import Encoder
 
-    if design.dt is None:
+    if getattr(design, "dt", None) is None:
         raise ValueError("design: a continuous-time design; use run_servo_scenario")
     params = Parameters() if params is None else params
     loop_plant = plant(params.replace(Jl=Jl * params.Jl), alpha=alpha)

@@ -32,6 +32,7 @@ def servo_rows(limits=SERVO_LIMITS, progress=None):
     responses : dict
         ``{(limit, controller): response}`` and ``("alpha_initial", limit)``.
     """
+    from .cascade import cascade_design
     from .scenarios import alpha_step
     from .servo import servo_design
     from .servo_compare import (
@@ -60,13 +61,21 @@ def servo_rows(limits=SERVO_LIMITS, progress=None):
         sampled = servo_design(
             torque_limit=limit, dt=1e-3, delay=1, sensors="encoders", certify=False
         )
-        name = "servo, 1 ms on encoders"
-        r = run_sampled_servo_scenario(sampled, alpha=alpha_step(), Td=8.0, T=5.0)
-        row = {"torque_limit": limit, "controller": name}
-        row.update(servo_metrics(r).as_dict())
-        row["success"] = True
-        rows.append(row)
-        responses[limit, name] = r
+        # The industrial reference on the same terms: the cascade P/PI with
+        # the servo's trajectory, feedforward, sampling, delay and encoders.
+        sampled_rows = (
+            ("servo, 1 ms on encoders", sampled),
+            ("cascade P/PI, 1 ms on encoders", cascade_design(sampled)),
+        )
+        for name, runs in sampled_rows:
+            r = run_sampled_servo_scenario(runs, alpha=alpha_step(), Td=8.0, T=5.0)
+            row = {"torque_limit": limit, "controller": name}
+            row.update(servo_metrics(r).as_dict())
+            row["success"] = True
+            rows.append(row)
+            responses[limit, name] = r
+            if progress is not None:
+                progress(f"servo comparison |Tm| <= {limit:g} Nm: {name}")
     return rows, responses
 
 
@@ -216,6 +225,9 @@ def write_servo(out, formats, progress=None):
         pick = {n: r for (lim, n), r in responses.items() if lim == limit}
         fig = servo_figure(pick, limit, responses["alpha_initial", limit])
         files += save_figure(fig, out / f"servo_{limit:g}", formats)
-        rest = servo_rest_figure(pick, ["servo", "servo, 1 ms on encoders"])
+        rest = servo_rest_figure(
+            pick,
+            ["servo", "servo, 1 ms on encoders", "cascade P/PI, 1 ms on encoders"],
+        )
         files += save_figure(rest, out / f"servo_rest_{limit:g}", formats)
     return rows, files

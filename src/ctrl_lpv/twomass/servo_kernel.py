@@ -57,6 +57,9 @@ class ServoTuning:
     integral_leak: float
     observer_bandwidth: float
     rest_speed: float = 0.01
+    # Relative motor-load speed, rad/s, above which the sampled law's gap
+    # estimate does not learn (the motor is crossing the gap).
+    slip_speed: float = 1.0
     flank_lead: float = 0.0
     integral_hold: float = 0.0
     goal_rate: float = 2000.0

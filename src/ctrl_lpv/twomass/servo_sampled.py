@@ -17,13 +17,23 @@ system. Per sample ``t_k`` it reads the encoder angles ``theta_m``,
    the reference planned for the instant the command acts;
 4. advances the integral, the gap estimate and the planner by one sample.
 
-Two changes of the continuous law make it robust to sampling and to the
+With ``reference="stream"`` the planner is replaced by the tracker of a
+streamed set-point (`ctrl_lpv.twomass.stream`): step 3 evaluates the
+feedforward on the tracker's speed, acceleration and jerk extrapolated to
+the instant the command acts (the torque half a sample further, the
+middle of its hold), plus the observer's load torque (a streamed set-point
+rarely rests, and the integral is held while it moves); the feedback, the
+flank offset and the observer are unchanged, and nothing is re-planned.
+
+Three changes of the continuous law make it robust to sampling and to the
 encoders' quantization: the gap estimate learns from contacts during moves
 only (at rest the shaft-torque estimate is of the order of the quantization
-noise, and a wandering estimate moves the motor against the flank), and a
-contact asked for and not made probes a wider gap from the contact torque
-on (not twice it), so that the load is not left in a dead band of the gap
-estimate's error.
+noise, and a wandering estimate moves the motor against the flank), and
+only from a contact on the flank asked for with the shaft not slipping
+(``|omega_m - omega_l|`` below ``slip_speed``: while the motor crosses the
+gap the observer still reports the old contact), and a contact asked for
+and not made probes a wider gap from the contact torque on (not twice it),
+so that the load is not left in a dead band of the gap estimate's error.
 """
 
 from __future__ import annotations
@@ -35,9 +45,17 @@ import control as ct
 import numpy as np
 
 from .servo_kernel import ServoTuning, _smoothstep
+from .stream import jerk_model
 from .trajectory import PEAK_ACCEL, planner_functions
 
-__all__ = ["SampledServo", "sampled_servo", "SAMPLED_STATES", "SAMPLED_INPUTS"]
+__all__ = [
+    "SampledServo",
+    "sampled_servo",
+    "plan_stepper",
+    "flat_feedforward",
+    "SAMPLED_STATES",
+    "SAMPLED_INPUTS",
+]
 
 SAMPLED_STATES = [
     "r", "v_r", "a_r", "j_r", "goal", "time_to_go",
@@ -64,6 +82,13 @@ class SampledServo:
         the gap and in contact (`ctrl_lpv.twomass.drive_estimator`); the
         observer counts the gap below the law's ``contact_torque`` of
         shaft-torque estimate.
+    reference : {"plan", "stream"}
+        ``"plan"``: ``theta_r`` is a target, reached by a planned
+        rest-to-rest move; ``"stream"``: ``theta_r`` is a set-point
+        streamed every sample, followed through the tracker of
+        `ctrl_lpv.twomass.stream`.
+    stream_gain : tuple of float or None
+        The tracker's correction gain (``reference="stream"``).
     """
 
     dt: float
@@ -71,37 +96,23 @@ class SampledServo:
     Phi: tuple
     Gamma: tuple
     M: tuple
+    reference: str = "plan"
+    stream_gain: tuple | None = None
 
 
-def sampled_servo(
-    c: ServoTuning, s: SampledServo, name: str = "servo"
-) -> ct.NonlinearIOSystem:
-    """The servo law of `c`, sampled as `s` says, as a python-control system.
+def plan_stepper(c: ServoTuning, dt: float):
+    """The servo's planner advanced by one sample of `dt`.
 
     Returns
     -------
-    `control.NonlinearIOSystem`
-        ``dt = s.dt``; inputs `SAMPLED_INPUTS`, output ``["Tm"]`` (within
-        the torque limit, acting from ``t_{k + delay}`` to the next
-        sample), states `SAMPLED_STATES`, all zero at rest at the origin.
+    callable
+        ``plan_step(plan, target) -> next plan`` on ``plan = [r, v_r, a_r,
+        j_r, goal, time_to_go]`` (the first six of `SAMPLED_STATES`): a new
+        target re-plans the move from the present plan (RK4 substeps of
+        the minimum-snap law of `ctrl_lpv.twomass.trajectory`).
     """
-    Jm, Jl, cm, cl, ks, cs = c.Jm, c.Jl, c.cm, c.cl, c.ks, c.cs
-    k1, k2, k3, k4, k5 = c.gain
-    limit, dt, delayed = c.torque_limit, s.dt, s.delay == 1
     snap_of, _ = planner_functions(c.accel_limit, c.min_duration, c.horizon_floor)
     hmin = c.horizon_floor
-    a0, amax, teps, tc = c.alpha_initial, c.alpha_max, c.flank_width, c.contact_torque
-    leak, gam, probe, hold = (
-        c.integral_leak,
-        c.estimate_rate,
-        c.probe_rate,
-        c.integral_hold,
-    )
-    ratio = ks / k1
-    Phi, Gam, M = (np.asarray(m) for m in (s.Phi, s.Gamma, s.M))
-
-    def blend(pair, w):
-        return pair[0] + w * (pair[1] - pair[0])
 
     def plan_step(plan, target):
         """The planner one sample on: a new target re-plans the move."""
@@ -126,6 +137,84 @@ def sampled_servo(
             x[4] = max(x[4], hmin)
         return [x[0], x[1], x[2], x[3], g, x[4]]
 
+    return plan_step
+
+
+def flat_feedforward(c: ServoTuning, v, a, j, snap):
+    """Flat feedforward of the contact model along a reference (``cs``
+    neglected, as in `servo_kernel`).
+
+    Returns
+    -------
+    F : float
+        The shaft torque that moves the load along the reference, Nm.
+    wmf : float
+        The motor speed that gives it, rad/s.
+    tff : float
+        The motor torque, Nm.
+    """
+    F, F1, F2 = c.Jl * a + c.cl * v, c.Jl * j + c.cl * a, c.Jl * snap + c.cl * j
+    wmf = v + F1 / c.ks
+    return F, wmf, c.Jm * (a + F2 / c.ks) + c.cm * wmf + F
+
+
+def sampled_servo(
+    c: ServoTuning, s: SampledServo, name: str = "servo"
+) -> ct.NonlinearIOSystem:
+    """The servo law of `c`, sampled as `s` says, as a python-control system.
+
+    Returns
+    -------
+    `control.NonlinearIOSystem`
+        ``dt = s.dt``; inputs `SAMPLED_INPUTS`, output ``["Tm"]`` (within
+        the torque limit, acting from ``t_{k + delay}`` to the next
+        sample), states `SAMPLED_STATES`, all zero at rest at the origin.
+    """
+    ks, cs = c.ks, c.cs
+    k1, k2, k3, k4, k5 = c.gain
+    limit, dt, delayed = c.torque_limit, s.dt, s.delay == 1
+    snap_of, _ = planner_functions(c.accel_limit, c.min_duration, c.horizon_floor)
+    hmin = c.horizon_floor
+    a0, amax, teps, tc = c.alpha_initial, c.alpha_max, c.flank_width, c.contact_torque
+    leak, gam, probe, hold = (
+        c.integral_leak,
+        c.estimate_rate,
+        c.probe_rate,
+        c.integral_hold,
+    )
+    ratio = ks / k1
+    slip = c.slip_speed
+    Phi, Gam, M = (np.asarray(m) for m in (s.Phi, s.Gamma, s.M))
+
+    def blend(pair, w):
+        return pair[0] + w * (pair[1] - pair[0])
+
+    plan_step = plan_stepper(c, dt)
+
+    streamed = s.reference == "stream"
+    if streamed:
+        Lz, Pz = np.asarray(s.stream_gain, float), jerk_model(dt)
+        # The set-point where the command computed now acts: `delay` samples
+        # on for the tracking errors, half a sample more for the torque (the
+        # hold applies it over a whole sample).
+        to_act, to_hold = jerk_model(s.delay * dt), jerk_model((s.delay + 0.5) * dt)
+
+    def reference(plan, target):
+        """The reference where the command acts, its torque, the next plan."""
+        if not streamed:
+            r, v, a, j, g, h = plan
+            snap = snap_of(r, v, a, j, g, h)
+            F, wmf, tff = flat_feedforward(c, v, a, j, snap)
+            return (r, v, F, wmf, tff, g, h), plan_step(plan, target)
+        # Streamed: correct the tracker with the sample, extrapolate it (the
+        # constant-jerk model has no snap), no planning.
+        predicted = np.asarray(plan[:4])
+        z = predicted + Lz * (target - predicted[0])
+        r, v, a, j = to_act @ z
+        F, wmf, _ = flat_feedforward(c, v, a, j, 0.0)
+        tff = flat_feedforward(c, *(to_hold @ z)[1:], 0.0)[2]
+        return (r, v, F, wmf, tff, target, hmin), [*(Pz @ z), target, hmin]
+
     def law(x, y):
         plan, xhat = list(x[0:6]), np.asarray(x[6:12])
         xi, dah, u_prev = x[12], x[13], x[14]
@@ -137,18 +226,18 @@ def sampled_servo(
         ahead = Ph @ filtered + Gh * u_prev
         at = ahead if delayed else filtered
         tm, wm, tsh, tl, wl = at[:5]
-        r, v, a, j, g, h = plan
-        snap = snap_of(r, v, a, j, g, h)
-        # Flat feedforward of the contact model and the flank offset, as in
-        # the continuous law (`servo_kernel`).
-        F, F1, F2 = Jl * a + cl * v, Jl * j + cl * a, Jl * snap + cl * j
+        (r, v, F, wmf, tff, g, h), next_plan = reference(plan, y[2])
+        if streamed:
+            # A streamed set-point rarely rests: the integral is held while
+            # it moves, so the observer's load torque joins the feedforward
+            # (and keeps the shaft on the flank that carries it).
+            F, tff = F + at[5], tff + at[5]
+        # The flank offset, as in the continuous law (`servo_kernel`).
         el, dl = tl - r, wl - v
         ah = a0 + dah
         tstar = F - ratio * (k3 * el + k4 * dl + k5 * xi) if c.anti_hunting else F
         psi = math.copysign(_smoothstep(abs(tstar) / teps), tstar)
         thm = r + F / ks + ah * psi
-        wmf = v + F1 / ks
-        tff = Jm * (a + F2 / ks) + cm * wmf + F
         raw = tff - (k1 * (tm - thm) + k2 * (wm - wmf) + k3 * el + k4 * dl + k5 * xi)
         u = min(max(raw, -limit), limit)
 
@@ -168,12 +257,20 @@ def sampled_servo(
                 flank = math.copysign(1.0, tsh) * (
                     (tm - tl) - (tsh - cs * (wm - wl)) / ks
                 )
-                ddah = gam * contact * (min(max(flank, 0.0), amax) - ah)
+                # Only a contact on the flank asked for, with the shaft not
+                # slipping: while the motor crosses the gap the observer
+                # still sees a contact, and the estimate would read the
+                # crossing as a narrower gap (a streamed sine crosses twice
+                # a period; the motor then stopped mid-gap).
+                settled = max(0.0, math.copysign(1.0, tsh) * psi) * _smoothstep(
+                    1.0 - abs(wm - wl) / slip
+                )
+                ddah = gam * contact * settled * (min(max(flank, 0.0), amax) - ah)
             asked = _smoothstep(abs(tstar) / tc - 1.0)
             still = _smoothstep(1.0 - (abs(v) + abs(wl)) / c.rest_speed)
             ddah += probe * (1.0 - contact) * asked * still * (ah < amax)
         predicted = ahead if delayed else Ph @ filtered + Gh * u
-        state = [*plan_step(plan, y[2]), *predicted, xi + dt * dxi, dah + dt * ddah, u]
+        state = [*next_plan, *predicted, xi + dt * dxi, dah + dt * ddah, u]
         return u, np.asarray(state)
 
     last = {}
