@@ -327,6 +327,20 @@ def test_gridded_plant_with_a_scheduled_controller_on_a_box_holding_it():
     assert c.certified and c.bound >= worst
 
 
+def test_gridded_controller_on_the_plant_grid():
+    """Controllers designed at the grid points, interpolated as the plant."""
+    axes = {"a": [1.0, 2.0, 4.0], "b": [0.0, 1.0]}
+    G = lpv.gss(grid_point, axes)
+    K = lpv.gss(lambda a, b: observer_based(grid_point(a, b)), axes)
+    c = lpv.certify(K, G, objective=lpv.Hinf(w="w", z="z"))
+    worst = max(
+        float(ct.linfnorm(loop(grid_point(a, b), K.at({"a": a, "b": b}), "w", "z"))[0])
+        for a in np.linspace(1.0, 4.0, 31)
+        for b in np.linspace(0.0, 1.0, 11)
+    )
+    assert c.certified and c.bound >= worst
+
+
 def test_destabilising_controller_on_a_grid_gives_the_cell_and_eigenvalue():
     G = lpv.gss(grid_point, {"a": [1.0, 2.0, 4.0], "b": [0.0, 1.0]})
     K = ct.ss([], [], [], [[3.0]], inputs="y", outputs="u")  # u = 3 y
