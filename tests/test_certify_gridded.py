@@ -249,6 +249,35 @@ def test_finer_grid_certifies_a_rate_that_simulations_confirm():
     assert np.linalg.norm(x[:, -1]) > 0.5 * traj.growth**periods > 1
 
 
+def test_rate_bounded_lyapunov_function_recomputed_with_numpy():
+    """The rate-bounded LMIs' solution on a 5-point grid: with ``P(p)``
+    piecewise linear between the grid points' matrices, ``dV/dt < 0`` for
+    the loop ``(1 - p) A1 + p A2`` at dense points of every cell, both rate
+    signs (this failed while a cell's dP/dt read another cell's P)."""
+    from ctrl_lpv.schedules import schedule_of
+    from ctrl_lpv.schedules.gridded import GriddedLoops
+
+    axis = np.linspace(0.0, 1.0, 5)
+    G = lpv.gss(integrator, {"p": axis})
+    schedule = schedule_of(([-A1, -A2], [0.0, 1.0]), names=["p"])
+    lmi = GriddedLoops(schedule, schedule.points, G, [0, 1])._rate_problem(1e-6)
+    nu = 0.28
+    lmi.set_parameter("nu", [nu])
+    values = lmi.solve().values
+    P = [values[f"P{i}"] for i in range(axis.size)]
+    worst = -np.inf
+    for c in range(axis.size - 1):
+        slope = (P[c + 1] - P[c]) / (axis[c + 1] - axis[c])
+        for s in np.linspace(0.0, 1.0, 21):
+            p = axis[c] + s * (axis[c + 1] - axis[c])
+            A = (1 - p) * A1 + p * A2
+            V = (1 - s) * P[c] + s * P[c + 1]
+            for rate in (-nu, nu):
+                F = A.T @ V + V @ A + rate * slope
+                worst = max(worst, float(np.linalg.eigvalsh(F).max()))
+    assert worst < 0
+
+
 def test_two_parameter_rate_bound_is_confirmed_by_simulation():
     G = lpv.gss(integrator, {"p": [0.0, 0.5, 1.0], "q": [0.0, 0.5, 1.0]})
     points = G.grid.points

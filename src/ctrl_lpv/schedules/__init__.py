@@ -4,7 +4,8 @@
 piecewise-affine interpolation) from a python-control controller or a
 table; `certify` answers "is it stable, and for how fast a parameter?";
 `counterexample` looks for a destabilising parameter trajectory above the
-certified rate.
+certified rate; `dynamic` closes a dynamic (output-feedback) controller
+with the plant by signal names, for `certify`.
 """
 
 from .certify import FrozenCounterexample, ScheduleCertificate, certify

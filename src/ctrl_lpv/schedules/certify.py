@@ -33,7 +33,9 @@ with a `ScheduleCertificate`. For a polytopic plant:
 
 For a `ctrl_lpv.GriddedStateSpace` the same steps run on the pieces of
 grid cells and schedule simplices, with the terms and the multilinear
-``P(p)`` of `ctrl_lpv.schedules.gridded`.
+``P(p)`` of `ctrl_lpv.schedules.gridded`. A dynamic (output-feedback)
+controller is closed with the plant by signal names and analysed the same
+way, with the terms of `ctrl_lpv.schedules.dynamic`.
 """
 
 from __future__ import annotations
@@ -49,6 +51,7 @@ from ..certificate import Certificate
 from ..exceptions import SynthesisError
 from ..lmi import LMIProblem
 from ..systems import GriddedStateSpace, PolytopicStateSpace
+from .dynamic import DynamicLoops, is_dynamic
 from .objective import checked_objective
 from .quadratic import quadratic_certificate
 from .rates import RateSearch, family_lmis, rate_variables
@@ -65,8 +68,9 @@ class FrozenCounterexample:
     ----------
     point : dict
         The parameter value.
-    cell : int
-        The schedule's cell containing it.
+    cell : int or tuple
+        The schedule's cell containing it (a grid cell's lower corner on a
+        gridded plant; 0 for a dynamic controller on a polytopic plant).
     eigenvalue : complex
         The closed loop's eigenvalue with the largest real part (modulus in
         discrete time).
@@ -139,14 +143,27 @@ def certify(
 
     Parameters
     ----------
-    controller : NonlinearIOSystem, tuple, `StateFeedbackDesign` or `GainSchedule`
-        A scheduled state feedback ``u = -K(p) x`` from
+    controller : gain schedule or dynamic controller
+        A scheduled state feedback ``u = -K(p) x``: a controller from
         `control.create_statefbk_iosystem` (``gain=(gains, points)``,
         ``gainsched_method="linear"``), a table ``(gains, points)``, a
-        design of this library (certified on another plant, e.g. the true
-        one), or a `GainSchedule`. Its outputs (for a table: ``u``, the
+        `StateFeedbackDesign` of this library (certified on another plant,
+        e.g. the true one), or a `GainSchedule`. Its outputs (for a table: ``u``, the
         plant's inputs in order) are plant inputs; ``K`` acts on the plant's
         states.
+
+        Or a dynamic (output-feedback) controller ``xk' = Ak xk + Bk y``,
+        ``u = Ck xk + Dk y`` (python-control's sign: it outputs ``u``): an
+        LTI `control.StateSpace`, a scheduled `PolytopicStateSpace` (as
+        `OutputFeedbackDesign.controller` returns it; on the plant's domain,
+        or on a box holding the plant's box or grid), an
+        `OutputFeedbackDesign` or an `ObserverBasedController` (their
+        ``.controller()``). The loop is closed by signal names, as
+        `control.interconnect` would: its inputs are plant outputs, its
+        outputs plant inputs, of the same names; the loop's state is
+        ``(x, xk)``. The plant's feedthrough from ``u`` to ``y`` must be
+        zero. See `ctrl_lpv.schedules.dynamic` for why the products of
+        plant and controller coordinates span the loop.
     plant : `PolytopicStateSpace` or `GriddedStateSpace`
         The plant over a box of named parameters, or on a grid of them
         (e.g. linearizations at trim points, `ctrl_lpv.gss`); then every
@@ -156,7 +173,8 @@ def certify(
         the relaxation is sound).
     parameters : mapping of str to str, optional
         ``{scheduling variable: plant parameter}``; default: the same names,
-        or else in order.
+        or else in order. For a scheduled dynamic controller ``{controller
+        parameter: plant parameter}``, default the same names (required).
     rate_bounds : mapping of str to float, optional
         Rates to certify, ``{parameter: nu}``; default: find the largest
         ``nu`` for every parameter (per time unit).
@@ -167,7 +185,8 @@ def certify(
         Lyapunov matrix exists; with `rate_bounds` also the L2 gain under
         them (continuous time, ``B_u`` or ``D_zu`` constant where the gains
         vary), the smaller one reported with its rates. Its ``w`` are plant
-        inputs, its ``z`` plant outputs; ``bound=`` must be None.
+        inputs (with a dynamic controller: not those it drives), its ``z``
+        plant outputs; ``bound=`` must be None.
     margin : float, optional
         Relative margin of the strict LMIs.
     samples : int, optional
@@ -186,7 +205,11 @@ def certify(
         not match, points outside the plant's domain, a polytopic plant
         whose ``A`` or ``B_u`` (with an objective also ``C``, ``D``) is not
         affine in the parameters on a cell, or an objective that is not an
-        `Hinf` or `H2` naming its channel.
+        `Hinf` or `H2` naming its channel. For a dynamic controller: an
+        output that is not a plant input or an input that is not a plant
+        output (named), another time base, a nonzero ``D_yu``, or a
+        scheduled controller on another domain than the plant's (or a box
+        holding it).
 
     Examples
     --------
@@ -208,7 +231,24 @@ def certify(
     ...                 objective=lpv.Hinf(w="w", z="y"))
     >>> c.certified, round(c.bound, 3)
     (True, 0.667)
+
+    A dynamic controller, closed by signal names (here LTI, ``u = -2 y``
+    through a first-order filter):
+
+    >>> K = ct.ss([[-10.0]], [[10.0]], [[-2.0]], 0, inputs="y", outputs="u")
+    >>> c = lpv.certify(K, G, objective=lpv.Hinf(w="w", z="y"))
+    >>> c.certified, c.rate_bound
+    (True, {'a': inf})
     """
+    margin = real_number(margin, "margin", positive=True, below=1.0)
+    objective = checked_objective(objective)
+    if is_dynamic(controller):
+        loops = DynamicLoops(controller, plant, parameters)
+        where = (f"the plant's {len(loops.points)} points and {samples} samples "
+                 f"{'per grid cell' if loops.gridded else 'in its domain'}, with "
+                 "the dynamic controller")  # fmt: skip
+        return _verdict(loops, where, rate_bounds, objective, margin, samples,
+                        counterexample)  # fmt: skip
     if isinstance(controller, GainSchedule):
         schedule = controller
     else:
@@ -218,16 +258,20 @@ def certify(
             k = np.asarray(controller[1], float).reshape(len(controller[1]), -1)
             names = plant.param_names[: k.shape[1]]
         schedule = schedule_of(controller, names=names)
-    margin = real_number(margin, "margin", positive=True, below=1.0)
-    objective = checked_objective(objective)
     if isinstance(plant, GriddedStateSpace):
         loops = _gridded_loops(schedule, plant, controller, parameters)
     else:
         loops = _ClosedLoops.of(schedule, plant, controller, parameters)
+    where = f"{len(schedule.points)} points and {samples} samples per cell"
+    return _verdict(loops, where, rate_bounds, objective, margin, samples,
+                    counterexample)  # fmt: skip
+
+
+def _verdict(loops, where, rate_bounds, objective, margin, samples, counterexample):
+    """The steps of `certify` on closed loops of either kind."""
     tried = []
     frozen = loops.frozen_counterexample(samples)
-    tried.append(f"frozen closed loops at {len(schedule.points)} points and "
-                 f"{samples} samples per cell")  # fmt: skip
+    tried.append(f"frozen closed loops at {where}")
     if frozen is not None:
         return ScheduleCertificate(False, {n: 0.0 for n in loops.names}, frozen,
                                    Certificate(()), tuple(tried))  # fmt: skip

@@ -349,7 +349,7 @@ class GriddedLoops(RateSearch):
             def P(v, a, corners=corners):
                 return getattr(v, f"P{corners[a]}")
 
-            def edge(v, a, d, corners=corners):
+            def edge(v, a, d, P=P):
                 """(P at the upper end - P at the lower end) of the edge."""
                 b = across[a][d]
                 up, down = (a, b) if bits[a][d] else (b, a)

@@ -65,13 +65,27 @@ def certified_bound(loops, objective, dt, margin, w, z, where):
 
     Raises
     ------
+    ValueError
+        An `H2` objective in continuous time whose loop has a feedthrough
+        from `w` to `z` (named).
     SynthesisError
         When the engine certifies no bound.
     """
     from ..analysis import _general_analysis
-    from ..synthesis import Hinf
+    from ..synthesis import H2, Hinf
     from ..systems import PolytopicStateSpace
 
+    if isinstance(objective, H2) and not dt:
+        for T in loops:
+            rows, cols = np.nonzero(np.asarray(T[3]))
+            if rows.size:
+                i, j = int(rows[0]), int(cols[0])
+                raise ValueError(
+                    f"objective: the closed loop's feedthrough from {w[j]!r} to "
+                    f"{z[i]!r} is {float(T[3][i, j]):.6g} (not zero) {where}, so "
+                    f"its continuous-time H2 norm is infinite; leave {z[i]!r} "
+                    f"out of z (or {w[j]!r} out of w), or use Hinf"
+                )
     unique = {}
     for T in loops:
         unique.setdefault(b"".join(np.asarray(M).tobytes() for M in T), T)
