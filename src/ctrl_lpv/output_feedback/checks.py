@@ -28,18 +28,20 @@ __all__ = ["closed_loop_certificate", "closed_loop_analysis"]
 
 
 def closed_loop_certificate(plant, objective, controllers, P, values) -> Certificate:
-    """Float64 checks that the vertex controllers meet the objective's bound.
+    """Float64 checks that the vertex controllers meet the objective's bound
+    (and its constraints: pole regions).
 
     `values` holds ``"level"`` and the objective's other variables at the
     point (e.g. the H2 bounds ``Q_j``).
     """
     checks = [negative_definite(-P, what="P > 0", where="closed loop", group="LMI")]
     for j in range(plant.nvertices):
-        checks += objective.loop_checks(
-            _vertex_loop(plant, controllers, j), P, values, j, plant.continuous
-        )
+        loop = _vertex_loop(plant, controllers, j)
+        for part in objective.parts():
+            checks += part.loop_checks(loop, P, values, j, plant.continuous)
     bound = objective.bound(values["level"])
     checks.append(_frozen_norms(plant, objective, controllers, bound))
+    checks += [c.frozen_check(plant, controllers) for c in objective.constraints]
     return Certificate(tuple(checks), statement=objective.statement(bound))
 
 
@@ -61,8 +63,9 @@ def closed_loop_analysis(plant, objective, controllers, margin, chain):
     objective.declare(lmi, plant)
     lmi.add("P > 0", lambda v: [[-v.P]])
     for j, loop in enumerate(loops):
-        for name, blocks in objective.loop_lmis(loop, j, plant.continuous):
-            lmi.add(name, blocks)
+        for part in objective.parts():
+            for name, blocks in part.loop_lmis(loop, j, plant.continuous):
+                lmi.add(name, blocks)
     sol = lmi.solve(lambda v: v.level[0, 0], solvers=chain)
     values = {k: np.asarray(x) for k, x in sol.values.items() if k != "P"}
     values["level"] = float(sol.level[0, 0])

@@ -39,6 +39,7 @@ from .reconstruct import (
     controller_matrices,
     factor,
 )
+from .regions import region_constraints
 from .results import OutputFeedbackDesign
 
 __all__ = ["hinf_output_feedback", "h2_output_feedback"]
@@ -53,6 +54,7 @@ def hinf_output_feedback(
     y,
     *,
     gains: str = "scheduled",
+    constraints=(),
     backoff: float | None = 0.2,
     margin: float = 1e-6,
     solvers=None,
@@ -60,7 +62,17 @@ def hinf_output_feedback(
 ) -> OutputFeedbackDesign:
     """Certified H-infinity dynamic output feedback of a polytopic plant."""
     return _output_feedback(
-        HinfObjective(), sys, w, u, z, y, gains, backoff, margin, solvers
+        HinfObjective,
+        sys,
+        w,
+        u,
+        z,
+        y,
+        gains,
+        constraints,
+        backoff,
+        margin,
+        solvers,
     )
 
 
@@ -73,6 +85,7 @@ def h2_output_feedback(
     y,
     *,
     gains: str = "scheduled",
+    constraints=(),
     backoff: float | None = 0.2,
     margin: float = 1e-6,
     solvers=None,
@@ -80,7 +93,17 @@ def h2_output_feedback(
 ) -> OutputFeedbackDesign:
     """Certified H2 dynamic output feedback of a polytopic plant."""
     return _output_feedback(
-        H2Objective(), sys, w, u, z, y, gains, backoff, margin, solvers
+        H2Objective,
+        sys,
+        w,
+        u,
+        z,
+        y,
+        gains,
+        constraints,
+        backoff,
+        margin,
+        solvers,
     )
 
 
@@ -99,6 +122,12 @@ _PARAMETERS = """\
         One controller per vertex scheduled with the parameter (default),
         or one LTI controller (only when ``A`` does not depend on the
         parameter: otherwise the problem is not convex).
+    constraints : sequence of pole regions, optional
+        `ctrl_lpv.regions.halfplane`, `~ctrl_lpv.regions.disk`,
+        `~ctrl_lpv.regions.sector` (or `ctrl_lpv.PoleRegion`): every frozen
+        closed-loop eigenvalue in each, with the same Lyapunov pair as the
+        bound (Scherer, Gahinet and Chilali 1997; discrete time: disks
+        inside the unit circle).
     backoff : float or None, optional
         Relax the minimum bound by this fraction (default 0.2) and maximise
         the conditioning of the Lyapunov pair for a well-conditioned
@@ -192,10 +221,12 @@ Certified H2 dynamic output feedback of a polytopic plant.
 )
 
 
-def _output_feedback(objective, sys, w, u, z, y, gains, backoff, margin, solvers):
+def _output_feedback(kind, sys, w, u, z, y, gains, constraints, backoff, margin,
+                     solvers):  # fmt: skip
     if gains not in ("scheduled", "common"):
         raise ValueError(f"gains: expected 'scheduled' or 'common', got {gains!r}")
     plant = OutputFeedbackPlant.of(sys, w, u, z, y)
+    objective = kind(region_constraints(constraints, plant.continuous))
     objective.check(plant)
     if gains == "common" and any(not np.array_equal(A, plant.A[0]) for A in plant.A):
         raise ValueError(
@@ -401,8 +432,9 @@ def _problem(plant, objective, scheduled, margin):
     # `ctrl_lpv.output_feedback.lmis`), so that the rebuilt loop certifies.
     lmi.parameter("decay", value=0.0, nonneg=True)
     for j in range(N):
-        for name, blocks in objective.transformed_lmis(plant, j, hats):
-            lmi.add(name, blocks)
+        for part in objective.parts():
+            for name, blocks in part.transformed_lmis(plant, j, hats):
+                lmi.add(name, blocks)
     # The back-off stage: the level within the back-off, and eig(X Y) >=
     # mu^2 pushed up (``[[X, mu I], [mu I, Y]] >= 0``, linear in mu): I - X Y
     # then has no eigenvalue in (1 - mu^2, 0], whatever the scale of X, Y.

@@ -20,7 +20,29 @@ from . import lmis
 __all__ = ["HinfObjective", "H2Objective"]
 
 
-class HinfObjective:
+class _Objective:
+    """What both objectives share: the constraints posed with them.
+
+    `constraints` are `ctrl_lpv.output_feedback.regions.RegionConstraint`
+    items, whose LMIs share the design's ``(X, Y)`` and whose closed-loop
+    checks join the certificate.
+    """
+
+    def __init__(self, constraints=()):
+        self.constraints = tuple(constraints)
+
+    def parts(self):
+        """The objective and its constraints: everything with LMIs."""
+        return (self, *self.constraints)
+
+    def constraint_statement(self) -> str:
+        if not self.constraints:
+            return ""
+        names = ", ".join(str(c) for c in self.constraints)
+        return f"; every frozen closed-loop eigenvalue in {names}"
+
+
+class HinfObjective(_Objective):
     """The L2 gain (H-infinity norm) from w to z; level ``gamma``."""
 
     name = "Hinf"
@@ -82,10 +104,11 @@ class HinfObjective:
         return (
             f"||T_zw||_inf < {bound:.6g} for every parameter trajectory in the "
             "polytope, with one quadratic Lyapunov function of the closed loop"
+            + self.constraint_statement()
         )
 
 
-class H2Objective:
+class H2Objective(_Objective):
     """The H2 norm from w to z; level ``gamma^2``, strictly proper controller.
 
     ``trace(C P^-1 C') < gamma^2`` with ``P^-1`` above the controllability
@@ -178,6 +201,7 @@ class H2Objective:
         return (
             f"||T_zw||_2 < {bound:.6g} at every frozen parameter value, with one "
             "quadratic Lyapunov function of the closed loop"
+            + self.constraint_statement()
         )
 
 

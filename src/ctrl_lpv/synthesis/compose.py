@@ -238,8 +238,6 @@ def _output_feedback(sys, u, y, objective, constraints, gains, lyapunov,
             f"H2(w, z) objective without a bound; got {objective!r}"
         )
     design = hinf_output_feedback if isinstance(objective, Hinf) else h2_output_feedback
-    if constraints not in ((), None, []):
-        raise ValueError("constraints: not implemented for output feedback (y given)")
     if lyapunov != "constant" or rate_bounds is not None:
         raise ValueError(
             "lyapunov: output feedback (y given) is implemented with one "
@@ -248,7 +246,7 @@ def _output_feedback(sys, u, y, objective, constraints, gains, lyapunov,
         )
     return design(
         sys, objective.w, u, objective.z, y,
-        gains="scheduled" if gains is None else gains,
+        gains="scheduled" if gains is None else gains, constraints=constraints,
         backoff=backoff, margin=margin, solvers=solvers, time_limit=time_limit,
     )  # fmt: skip
 
