@@ -79,20 +79,24 @@ def test_published_gamma_is_reproduced():
 
     The printed value is a bisection's upper bound, not the optimum:
     python-control's `hinfsyn` (SLICOT, Riccati) reaches a closed-loop norm
-    of 1.17978 on this plant, 2.1e-3 below it. The certified 1.18187 is 3.6e-4
-    below the printed value and 1.8e-3 above SLICOT's (the margin tightens
-    every inequality); both facts are measured here.
+    of 1.17978 on this plant, 2.1e-3 below it, more than the bisection's
+    tolerance. The certified 1.18109 is 1.2e-3 below the printed value and
+    1.1e-3 above SLICOT's (the margin tightens every inequality; it was
+    1.18187 before the performance blocks' margin was made relative to
+    gamma, `ctrl_lpv.output_feedback.design`); it is checked between
+    SLICOT's achieved norm (less 1e-3 relative) and the printed value.
     """
     P = dk_plant()
     d = lpv.hinf_output_feedback(lpv.pss([P]), W, U, Z, Y, backoff=None,
                                  margin=1e-4)  # fmt: skip
     assert d.certificate.verified
-    assert PUBLISHED - TOLERANCE - ROUNDING <= d.gamma <= PUBLISHED + ROUNDING
+    assert d.gamma <= PUBLISHED + ROUNDING
     loop = ct.interconnect([P, d.controller().at([1.0])], inplist=W, outlist=Z)
     assert np.linalg.eigvals(loop.A).real.max() < 0
     assert float(ct.linfnorm(loop)[0]) <= d.gamma
     _, CL, _, _ = ct.hinfsyn(ct.ss(*ct.ssdata(P)), 2, 2)
     riccati = float(ct.linfnorm(CL)[0])
+    assert d.gamma >= (1.0 - 1e-3) * riccati
     # The printed value is above the optimum by more than its tolerance.
     assert riccati < PUBLISHED - TOLERANCE - ROUNDING
 

@@ -400,9 +400,20 @@ def _problem(plant, objective, scheduled, margin):
     # The back-off stage adds a decay margin relative to P (see
     # `ctrl_lpv.output_feedback.lmis`), so that the rebuilt loop certifies.
     lmi.parameter("decay", value=0.0, nonneg=True)
+    # The margin of strict LMIs is absolute. Relative to the data's largest
+    # norm it would tighten the -gamma I blocks of the performance channels
+    # by a large fraction of gamma on a stiff plant (fast weights: scale
+    # 4e4, gamma near 1 on the LPVTools spinning disks, whose optimum came
+    # out 10 % high at vertex (9, 25), and whose polytopic design was
+    # refused). Instead each performance LMI is posed after the congruence
+    # diag(I / w, I) on its state and performance blocks (w a power of two
+    # with w^2 ~ scale: the same inequality, exactly), so that all its
+    # blocks are of order one, with the margin relative to that.
+    weight = 2.0 ** np.round(0.5 * np.log2(max(scale, 1.0)))
+    lmi.margin = margin * max(scale / weight**2, 1.0)
     for j in range(N):
-        for name, blocks in objective.transformed_lmis(plant, j, hats):
-            lmi.add(name, blocks)
+        for name, blocks, perf in objective.transformed_lmis(plant, j, hats):
+            lmi.add(name, _weighted(blocks, perf, weight))
     # The back-off stage: the level within the back-off, and eig(X Y) >=
     # mu^2 pushed up (``[[X, mu I], [mu I, Y]] >= 0``, linear in mu): I - X Y
     # then has no eigenvalue in (1 - mu^2, 0], whatever the scale of X, Y.
@@ -418,6 +429,27 @@ def _problem(plant, objective, scheduled, margin):
     lmi.add("mu <= mu_max", lambda v: [[v.mu - _MU_MAX]], strict=False,
             stages=["center"], normalization=True)  # fmt: skip
     return lmi, hats
+
+
+def _weighted(blocks, perf, w):
+    """`blocks` after the congruence that divides the block rows and columns
+    not in `perf` (the state blocks) by `w` (exact for a power of two)."""
+    if w == 1.0:
+        return blocks
+
+    def weighted(v):
+        out = []
+        rows = blocks(v)
+        d = [1.0 if i in perf else 1.0 / w for i in range(len(rows))]
+        for i, row in enumerate(rows):
+            out.append([
+                b if isinstance(b, (int, float)) and b == 0
+                else b * (d[i] * d[k])
+                for k, b in enumerate(row)
+            ])  # fmt: skip
+        return out
+
+    return weighted
 
 
 def _design(plant, prescaling, objective, point, hats, bound_opt, bounds, analysis):

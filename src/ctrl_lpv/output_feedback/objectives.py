@@ -57,10 +57,13 @@ class HinfObjective:
         """``(name, block function)`` of the LMIs at vertex `j`.
 
         `hats` ``(v, j)`` gives the controller variables at vertex `j`; the
-        decay margin is the parameter ``v.decay``.
+        decay margin is the parameter ``v.decay``. The third item lists the
+        blocks of the performance channels (``-gamma I``), which the design
+        weighs against the state blocks (`ctrl_lpv.output_feedback.design`).
         """
+        perf = (2, 3) if plant.continuous else (2, 5)
         return [(f"bounded real vertex {j}", lambda v: lmis.bounded_real(
-            plant, j, v, hats(v, j), v.level[0, 0], v.decay[()]))]  # fmt: skip
+            plant, j, v, hats(v, j), v.level[0, 0], v.decay[()]), perf)]  # fmt: skip
 
     def loop_checks(self, loop, P, values, j, continuous, margin=0.0, what=""):
         """Float64 checks of the closed loop at vertex `j` (each inequality
@@ -139,9 +142,11 @@ class H2Objective:
     def transformed_lmis(self, plant, j, hats):
         return [
             (f"H2 Gramian vertex {j}",
-             lambda v: lmis.h2_gramian(plant, j, v, hats(v, j), v.decay[()])),
+             lambda v: lmis.h2_gramian(plant, j, v, hats(v, j), v.decay[()]),
+             (2,) if plant.continuous else (4,)),
             (f"H2 output vertex {j}",
-             lambda v: lmis.h2_output(plant, j, v, hats(v, j), getattr(v, f"Q{j}"))),
+             lambda v: lmis.h2_output(plant, j, v, hats(v, j), getattr(v, f"Q{j}")),
+             (2,)),
         ]  # fmt: skip
 
     def loop_checks(self, loop, P, values, j, continuous, margin=0.0, what=""):
