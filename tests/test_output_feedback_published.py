@@ -145,3 +145,33 @@ def test_other_realizations_of_the_weight(scale):
     loop = ct.interconnect([Ps, d.controller().at([1.0])], inplist=W, outlist=Z)
     assert np.linalg.eigvals(loop.A).real.max() < 0
     assert float(ct.linfnorm(loop)[0]) <= d.gamma <= PUBLISHED + ROUNDING
+
+
+def test_slow_fixed_modes_are_found_and_named():
+    """The weight Wp's states (x[2], x[3], pole -1e-6) are not read by y =
+    -G (u + d) - w and do not feed G: unobservable from y, so in every
+    closed loop (independent fact: the realization's structure). Nothing
+    else is slow and fixed (Wi's poles at -2 are not slow; G's are seen)."""
+    from ctrl_lpv.output_feedback.fixed_modes import slow_fixed_modes
+    from ctrl_lpv.output_feedback.plant import OutputFeedbackPlant
+
+    plant = OutputFeedbackPlant.of(lpv.pss([dk_plant()]), W, U, Z, Y)
+    (mode,) = slow_fixed_modes(plant)
+    assert mode.eigenvalue == pytest.approx(-1e-6, rel=1e-9)
+    assert mode.why == "unobservable from y"
+    assert mode.states == ("x[2]", "x[3]")
+    loop = ct.interconnect([dk_plant(), ct.ss(-np.eye(2), np.eye(2), np.eye(2),
+                                              0 * np.eye(2), inputs=Y, outputs=U)],
+                           inplist=W, outlist=Z)  # fmt: skip
+    assert np.sum(np.abs(np.linalg.eigvals(loop.A) + 1e-6) < 1e-12) == 2
+
+
+def test_raw_refusal_names_the_slow_mode():
+    """backoff=None at the default margin: refused (I - X Y nearly singular
+    at the optimum, the certificate's slack along the slow mode at the
+    rounding level), and the refusal names the mode and its states."""
+    with pytest.raises(CertificationError) as info:
+        lpv.hinf_output_feedback(lpv.pss([dk_plant()]), W, U, Z, Y, backoff=None)
+    assert "mode at -1e-06 (states x[2], x[3]) is unobservable from y" in str(
+        info.value
+    )

@@ -205,3 +205,17 @@ def test_frozen_closed_loops_are_below_the_certified_bound(design):
             assert np.linalg.eigvals(loop.A).real.max() < 0
             worst = max(worst, float(ct.linfnorm(loop)[0]))
     assert worst <= design.gamma
+
+
+def test_slow_weight_mode_is_named_at_every_vertex():
+    """`slow_fixed_modes` finds We's pole, 1e-6 of the data's rate, at all
+    four vertices, and nothing else."""
+    from ctrl_lpv.output_feedback.fixed_modes import slow_fixed_modes
+    from ctrl_lpv.output_feedback.plant import OutputFeedbackPlant
+
+    modes = slow_fixed_modes(OutputFeedbackPlant.of(plant(), W, U, Z, Y))
+    assert [m.vertex for m in modes] == [0, 1, 2, 3]
+    for m in modes:
+        assert m.eigenvalue == pytest.approx(-0.04, rel=1e-9)
+        assert m.states == ("We_x[0]",)
+        assert m.why == "unobservable from y"

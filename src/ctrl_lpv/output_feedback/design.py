@@ -31,6 +31,7 @@ from ..stabilizability import _vertex_modes, check_stabilizability
 from ..systems import PolytopicStateSpace
 from . import lmis
 from .checks import closed_loop_analysis, closed_loop_certificate
+from .fixed_modes import describe, slow_fixed_modes
 from .objectives import H2Objective, HinfObjective
 from .plant import OutputFeedbackPlant
 from .prescale import Prescaling, prescalings
@@ -218,12 +219,20 @@ def _output_feedback(objective, sys, w, u, z, y, gains, backoff, margin, solvers
         if design is not None:
             return design
         first = first or failure
-    if len(kinds) > 1 and isinstance(first, CertificationError):
-        raise CertificationError(
-            f"{first} (with the Riccati-balanced prescaling; without it, "
-            "in the plant's own coordinates, refused as well)",
-            first.attempts,
-        ) from None
+    if isinstance(first, CertificationError):
+        message = str(first)
+        if len(kinds) > 1:
+            message += (" (with the Riccati-balanced prescaling; without it, in "
+                        "the plant's own coordinates, refused as well)")  # fmt: skip
+        fixed = slow_fixed_modes(plant)
+        if fixed:
+            # The likely cause, named: such a mode keeps the certificate's
+            # slack along it at its own slow rate.
+            message += (f". Slow modes no controller moves: {describe(fixed)}; "
+                        "a quadratic certificate's slack along them is of the "
+                        "order of their rate (remedy: move the slow pole into "
+                        "the controller, or a smaller margin)")  # fmt: skip
+        raise CertificationError(message, first.attempts) from None
     raise first
 
 
@@ -274,19 +283,27 @@ def _solve(plant, kind, objective, scheduled, backoff, margin, chain):
     """
     prescaling = Prescaling.of(kind, plant)
     scaled = prescaling.apply(plant)
-    lmi, hats = _problem(scaled, objective, scheduled, margin)
     rate = max(np.linalg.norm(A, 2) for A in scaled.A) if plant.continuous else 1.0
-    # A trace term far below the solver's tolerance on the level keeps X and
-    # Y bounded in the directions the bound does not constrain (there the
-    # central path drifts to 1e5 and the solve ends inaccurate).
-    try:
-        optimal = lmi.solve(
-            lambda v: v.level[0, 0] + _TRACE_WEIGHT * (np.trace(v.X) + np.trace(v.Y)),
-            stage="optimal",
-            solvers=chain,
-        )
-    except CertificationError as exc:
-        return None, exc, None
+    # The performance LMIs weighed against the state blocks first (see
+    # `_problem`); if the solvers fail on them (the weight assumes a bound
+    # near 1: a large bound unbalances them the other way), as posed before.
+    for weigh in (True, False):
+        lmi, hats, weight = _problem(scaled, objective, scheduled, margin, weigh)
+        # A trace term far below the solver's tolerance on the level keeps X
+        # and Y bounded in the directions the bound does not constrain (there
+        # the central path drifts to 1e5 and the solve ends inaccurate).
+        try:
+            optimal = lmi.solve(
+                lambda v: (
+                    v.level[0, 0] + _TRACE_WEIGHT * (np.trace(v.X) + np.trace(v.Y))
+                ),
+                stage="optimal",
+                solvers=chain,
+            )
+            break
+        except CertificationError as exc:
+            if not weigh or weight == 1.0:
+                return None, exc, None
     # The solver's point at the nominal margin, when only a larger margin
     # certified, is the better estimate of the optimum.
     bound_opt = objective.bound((optimal.nominal or optimal).level[0, 0])
@@ -371,7 +388,7 @@ _INSIDE = 0.9
 _RAW_BACKOFFS = (0.0, 1e-5, 1e-4, 5e-4)
 
 
-def _problem(plant, objective, scheduled, margin):
+def _problem(plant, objective, scheduled, margin, weigh=True):
     n, N = plant.n, plant.nvertices
     m, p = plant.B2.shape[1], plant.C2.shape[0]
     scale = max(
@@ -409,7 +426,7 @@ def _problem(plant, objective, scheduled, margin):
     # diag(I / w, I) on its state and performance blocks (w a power of two
     # with w^2 ~ scale: the same inequality, exactly), so that all its
     # blocks are of order one, with the margin relative to that.
-    weight = 2.0 ** np.round(0.5 * np.log2(max(scale, 1.0)))
+    weight = 2.0 ** np.round(0.5 * np.log2(max(scale, 1.0))) if weigh else 1.0
     lmi.margin = margin * max(scale / weight**2, 1.0)
     for j in range(N):
         for name, blocks, perf in objective.transformed_lmis(plant, j, hats):
@@ -428,7 +445,7 @@ def _problem(plant, objective, scheduled, margin):
             strict=False, stages=["center"])  # fmt: skip
     lmi.add("mu <= mu_max", lambda v: [[v.mu - _MU_MAX]], strict=False,
             stages=["center"], normalization=True)  # fmt: skip
-    return lmi, hats
+    return lmi, hats, weight
 
 
 def _weighted(blocks, perf, w):
