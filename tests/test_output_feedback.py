@@ -73,7 +73,7 @@ def bilinear(sys):
 
 @pytest.mark.parametrize(
     ("seeds", "least"),
-    [(range(0, 12, 3), 3), pytest.param(range(20), 15, marks=pytest.mark.slow)],
+    [(range(0, 12, 3), 3), pytest.param(range(20), 19, marks=pytest.mark.slow)],
 )
 def test_lti_optimum_against_the_riccati_conditions(seeds, least):
     """The raw optimum (``backoff=None``) against the DGKF bisection.
@@ -99,7 +99,8 @@ def test_lti_optimum_against_the_riccati_conditions(seeds, least):
         cl = loop_by_name(G, d.controller().at([1.0]))
         assert np.linalg.eigvals(cl.A).real.max() < 0
         assert float(ct.linfnorm(cl)[0]) <= d.gamma * (1 + 1e-9)
-    # Measured: 16 of 20 certify (docs/output_feedback.rst).
+    # Measured: 20 of 20 certify, worst gap 7.3e-4 (17 before the margin of
+    # the performance blocks was made relative to gamma; docs/output_feedback.rst).
     assert certified >= least
 
 

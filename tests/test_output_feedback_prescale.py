@@ -116,10 +116,13 @@ def test_balancing_is_the_fourth_root_of_the_riccati_estimates():
     "seeds", [range(0, 12, 3), pytest.param(range(20), marks=pytest.mark.slow)]
 )
 def test_prescaled_against_unscaled_on_the_random_corpus(seeds, monkeypatch):
-    """Each prescaling alone against the DGKF optimum: what the unscaled
-    design certifies, the prescaled one certifies too, within 1e-3 of the
-    optimum (measured on 20 plants: the same 17 certify, worst gaps 6.8e-4
-    and 6.5e-4, docs/output_feedback.rst)."""
+    """Each prescaling alone against the DGKF optimum: what either certifies
+    is within 1e-3 of the optimum, and the design (both in turn) certifies
+    every plant that one of them does (measured on 20 plants before the
+    performance blocks' margin was made relative to gamma: the same 17
+    certify, worst gaps 6.8e-4 and 6.5e-4, docs/output_feedback.rst; since,
+    the unscaled solve also certifies seed 3, optimum 59.07, within 4.7e-4,
+    which the prescaled one alone refuses)."""
     results = {}
     for kind in ("Riccati", "none"):
         monkeypatch.setattr(design_module, "prescalings", lambda plant, k=kind: [k])
@@ -134,9 +137,12 @@ def test_prescaled_against_unscaled_on_the_random_corpus(seeds, monkeypatch):
                 continue
             assert gamma_ref * (1 - 1e-6) <= d.gamma <= gamma_ref * (1 + 1e-3)
             results[kind, seed] = d.gamma
+    monkeypatch.undo()
     for seed in seeds:
-        if ("none", seed) in results:
-            assert ("Riccati", seed) in results, seed
+        if ("none", seed) in results and ("Riccati", seed) not in results:
+            d = lpv.hinf_output_feedback(random_plant(seed), W, "u", Z, "y",
+                                         backoff=None)  # fmt: skip
+            assert d.gamma <= results["none", seed] * (1 + 1e-9), seed
 
 
 def test_prescaled_twomass_design_is_no_worse_than_unscaled(monkeypatch):

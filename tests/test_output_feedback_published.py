@@ -79,20 +79,24 @@ def test_published_gamma_is_reproduced():
 
     The printed value is a bisection's upper bound, not the optimum:
     python-control's `hinfsyn` (SLICOT, Riccati) reaches a closed-loop norm
-    of 1.17978 on this plant, 2.1e-3 below it. The certified 1.18187 is 3.6e-4
-    below the printed value and 1.8e-3 above SLICOT's (the margin tightens
-    every inequality); both facts are measured here.
+    of 1.17978 on this plant, 2.1e-3 below it, more than the bisection's
+    tolerance. The certified 1.18109 is 1.2e-3 below the printed value and
+    1.1e-3 above SLICOT's (the margin tightens every inequality; it was
+    1.18187 before the performance blocks' margin was made relative to
+    gamma, `ctrl_lpv.output_feedback.design`); it is checked between
+    SLICOT's achieved norm (less 1e-3 relative) and the printed value.
     """
     P = dk_plant()
     d = lpv.hinf_output_feedback(lpv.pss([P]), W, U, Z, Y, backoff=None,
                                  margin=1e-4)  # fmt: skip
     assert d.certificate.verified
-    assert PUBLISHED - TOLERANCE - ROUNDING <= d.gamma <= PUBLISHED + ROUNDING
+    assert d.gamma <= PUBLISHED + ROUNDING
     loop = ct.interconnect([P, d.controller().at([1.0])], inplist=W, outlist=Z)
     assert np.linalg.eigvals(loop.A).real.max() < 0
     assert float(ct.linfnorm(loop)[0]) <= d.gamma
     _, CL, _, _ = ct.hinfsyn(ct.ss(*ct.ssdata(P)), 2, 2)
     riccati = float(ct.linfnorm(CL)[0])
+    assert d.gamma >= (1.0 - 1e-3) * riccati
     # The printed value is above the optimum by more than its tolerance.
     assert riccati < PUBLISHED - TOLERANCE - ROUNDING
 
@@ -141,3 +145,33 @@ def test_other_realizations_of_the_weight(scale):
     loop = ct.interconnect([Ps, d.controller().at([1.0])], inplist=W, outlist=Z)
     assert np.linalg.eigvals(loop.A).real.max() < 0
     assert float(ct.linfnorm(loop)[0]) <= d.gamma <= PUBLISHED + ROUNDING
+
+
+def test_slow_fixed_modes_are_found_and_named():
+    """The weight Wp's states (x[2], x[3], pole -1e-6) are not read by y =
+    -G (u + d) - w and do not feed G: unobservable from y, so in every
+    closed loop (independent fact: the realization's structure). Nothing
+    else is slow and fixed (Wi's poles at -2 are not slow; G's are seen)."""
+    from ctrl_lpv.output_feedback.fixed_modes import slow_fixed_modes
+    from ctrl_lpv.output_feedback.plant import OutputFeedbackPlant
+
+    plant = OutputFeedbackPlant.of(lpv.pss([dk_plant()]), W, U, Z, Y)
+    (mode,) = slow_fixed_modes(plant)
+    assert mode.eigenvalue == pytest.approx(-1e-6, rel=1e-9)
+    assert mode.why == "unobservable from y"
+    assert mode.states == ("x[2]", "x[3]")
+    loop = ct.interconnect([dk_plant(), ct.ss(-np.eye(2), np.eye(2), np.eye(2),
+                                              0 * np.eye(2), inputs=Y, outputs=U)],
+                           inplist=W, outlist=Z)  # fmt: skip
+    assert np.sum(np.abs(np.linalg.eigvals(loop.A) + 1e-6) < 1e-12) == 2
+
+
+def test_raw_refusal_names_the_slow_mode():
+    """backoff=None at the default margin: refused (I - X Y nearly singular
+    at the optimum, the certificate's slack along the slow mode at the
+    rounding level), and the refusal names the mode and its states."""
+    with pytest.raises(CertificationError) as info:
+        lpv.hinf_output_feedback(lpv.pss([dk_plant()]), W, U, Z, Y, backoff=None)
+    assert "mode at -1e-06 (states x[2], x[3]) is unobservable from y" in str(
+        info.value
+    )

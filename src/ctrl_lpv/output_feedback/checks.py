@@ -19,7 +19,7 @@ import control as ct
 import numpy as np
 from scipy.linalg import matrix_balance
 
-from ..certificate import Certificate, Check, negative_definite
+from ..certificate import Certificate, Check, negative_definite, rounding_bound
 from ..lmi import LMIProblem
 from ..synthesis.frozen import verification_points
 from .reconstruct import closed_loop
@@ -34,11 +34,19 @@ def closed_loop_certificate(plant, objective, controllers, P, values) -> Certifi
     `values` holds ``"level"`` and the objective's other variables at the
     point (e.g. the H2 bounds ``Q_j``).
     """
+    loops = [_vertex_loop(plant, controllers, j) for j in range(plant.nvertices)]
     checks = [negative_definite(-P, what="P > 0", where="closed loop", group="LMI")]
-    for j in range(plant.nvertices):
-        loop = _vertex_loop(plant, controllers, j)
+    for j, loop in enumerate(loops):
         for part in objective.parts():
             checks += part.loop_checks(loop, P, values, j, plant.continuous)
+    if not all(c.passed for c in checks):
+        # An ill-conditioned P (a slow mode that no controller moves, e.g. a
+        # weight's pole unobservable from y, beside fast ones) leaves a
+        # slack far below the rounding of the check in these coordinates:
+        # the same certificate in the coordinates where P is about I.
+        normalised = _normalised_checks(plant, objective, loops, P, values)
+        if normalised is not None and all(c.passed for c in normalised):
+            checks = normalised
     bound = objective.bound(values["level"])
     checks.append(_frozen_norms(plant, objective, controllers, bound))
     checks += [c.frozen_check(plant, controllers) for c in objective.constraints]
@@ -70,6 +78,60 @@ def closed_loop_analysis(plant, objective, controllers, margin, chain):
     values = {k: np.asarray(x) for k, x in sol.values.items() if k != "P"}
     values["level"] = float(sol.level[0, 0])
     return sol.P / t[:, None] / t[None, :], values
+
+
+def _normalised_checks(plant, objective, loops, P, values):
+    """The closed-loop checks in the coordinates ``x = T x~`` where the
+    Lyapunov matrix is ``I``, or None if `P` is not positive definite.
+
+    ``P = V diag(s) V'``; ``R = diag(s)^1/2 V'`` and ``T = V diag(s)^-1/2``
+    (about ``R^-1``) are float64 matrices. The statement proved is about
+    ``P_c = R' R`` and the exact inverse ``R^-1 = T (R T)^-1``: with ``E =
+    R T - I``, the loop in the new coordinates is ``(R A T (I + E)^-1, R B,
+    C T (I + E)^-1, D)``, and its inequalities with ``P~ = I`` are those of
+    the loop with ``P_c`` after the congruence by ``R^-1`` (same inertia).
+    The computed ``(R A T, R B, C T)`` differ from it by the rounding of
+    the products and by ``||E|| / (1 - ||E||)`` relative: the inequalities
+    are checked with that perturbation as their margin (``2 (dA + dB +
+    dC)`` bounds its effect on every inequality with ``P~ = I``).
+    """
+    P = 0.5 * (P + P.T)
+    if not np.all(np.isfinite(P)):
+        return None
+    s, V = np.linalg.eigh(P)
+    if not s.min() > 0:
+        return None
+    n = P.shape[0]
+    R = np.sqrt(s)[:, None] * V.T
+    T = V / np.sqrt(s)[None, :]
+    E = R @ T - np.eye(n)
+    e = _norm2(E) + rounding_bound(n, _norm2(np.abs(R) @ np.abs(T)))
+    if not e < 0.5:
+        return None
+    grow = e / (1.0 - e)
+    checks, margin = [], 0.0
+    transformed = []
+    for A, B, C, D in loops:
+        At, Bt, Ct = R @ A @ T, R @ B, C @ T
+        aR, aT = np.abs(R), np.abs(T)
+        dA = rounding_bound(n, _norm2(aR @ np.abs(A) @ aT)) + grow * _norm2(At)
+        dB = rounding_bound(n, _norm2(aR @ np.abs(B)))
+        dC = rounding_bound(n, _norm2(np.abs(C) @ aT)) + grow * _norm2(Ct)
+        margin = max(margin, 2.0 * (dA + dB + dC))
+        transformed.append((At, Bt, Ct, D))
+    checks.append(Check("P-normalising coordinates (||R T - I||)", e, 0.5, strict=True,
+                        where="closed loop", group="LMI"))  # fmt: skip
+    for j, loop in enumerate(transformed):
+        for part in objective.parts():
+            checks += part.loop_checks(
+                loop, np.eye(n), values, j, plant.continuous, margin=margin,
+                what=", P-normalised",
+            )  # fmt: skip
+    return checks
+
+
+def _norm2(M):
+    return float(np.linalg.norm(M, 2))
 
 
 def _vertex_loop(plant, controllers, j):

@@ -31,6 +31,7 @@ from ..stabilizability import _vertex_modes, check_stabilizability
 from ..systems import PolytopicStateSpace
 from . import lmis
 from .checks import closed_loop_analysis, closed_loop_certificate
+from .fixed_modes import describe, slow_fixed_modes
 from .objectives import H2Objective, HinfObjective
 from .plant import OutputFeedbackPlant
 from .prescale import Prescaling, prescalings
@@ -249,12 +250,20 @@ def _output_feedback(kind, sys, w, u, z, y, gains, constraints, backoff, margin,
         if design is not None:
             return design
         first = first or failure
-    if len(kinds) > 1 and isinstance(first, CertificationError):
-        raise CertificationError(
-            f"{first} (with the Riccati-balanced prescaling; without it, "
-            "in the plant's own coordinates, refused as well)",
-            first.attempts,
-        ) from None
+    if isinstance(first, CertificationError):
+        message = str(first)
+        if len(kinds) > 1:
+            message += (" (with the Riccati-balanced prescaling; without it, in "
+                        "the plant's own coordinates, refused as well)")  # fmt: skip
+        fixed = slow_fixed_modes(plant)
+        if fixed:
+            # The likely cause, named: such a mode keeps the certificate's
+            # slack along it at its own slow rate.
+            message += (f". Slow modes no controller moves: {describe(fixed)}; "
+                        "a quadratic certificate's slack along them is of the "
+                        "order of their rate (remedy: move the slow pole into "
+                        "the controller, or a smaller margin)")  # fmt: skip
+        raise CertificationError(message, first.attempts) from None
     raise first
 
 
@@ -305,19 +314,27 @@ def _solve(plant, kind, objective, scheduled, backoff, margin, chain):
     """
     prescaling = Prescaling.of(kind, plant)
     scaled = prescaling.apply(plant)
-    lmi, hats = _problem(scaled, objective, scheduled, margin)
     rate = max(np.linalg.norm(A, 2) for A in scaled.A) if plant.continuous else 1.0
-    # A trace term far below the solver's tolerance on the level keeps X and
-    # Y bounded in the directions the bound does not constrain (there the
-    # central path drifts to 1e5 and the solve ends inaccurate).
-    try:
-        optimal = lmi.solve(
-            lambda v: v.level[0, 0] + _TRACE_WEIGHT * (np.trace(v.X) + np.trace(v.Y)),
-            stage="optimal",
-            solvers=chain,
-        )
-    except CertificationError as exc:
-        return None, exc, None
+    # The performance LMIs weighed against the state blocks first (see
+    # `_problem`); if the solvers fail on them (the weight assumes a bound
+    # near 1: a large bound unbalances them the other way), as posed before.
+    for weigh in (True, False):
+        lmi, hats, weight = _problem(scaled, objective, scheduled, margin, weigh)
+        # A trace term far below the solver's tolerance on the level keeps X
+        # and Y bounded in the directions the bound does not constrain (there
+        # the central path drifts to 1e5 and the solve ends inaccurate).
+        try:
+            optimal = lmi.solve(
+                lambda v: (
+                    v.level[0, 0] + _TRACE_WEIGHT * (np.trace(v.X) + np.trace(v.Y))
+                ),
+                stage="optimal",
+                solvers=chain,
+            )
+            break
+        except CertificationError as exc:
+            if not weigh or weight == 1.0:
+                return None, exc, None
     # The solver's point at the nominal margin, when only a larger margin
     # certified, is the better estimate of the optimum.
     bound_opt = objective.bound((optimal.nominal or optimal).level[0, 0])
@@ -402,7 +419,7 @@ _INSIDE = 0.9
 _RAW_BACKOFFS = (0.0, 1e-5, 1e-4, 5e-4)
 
 
-def _problem(plant, objective, scheduled, margin):
+def _problem(plant, objective, scheduled, margin, weigh=True):
     n, N = plant.n, plant.nvertices
     m, p = plant.B2.shape[1], plant.C2.shape[0]
     scale = max(
@@ -431,10 +448,21 @@ def _problem(plant, objective, scheduled, margin):
     # The back-off stage adds a decay margin relative to P (see
     # `ctrl_lpv.output_feedback.lmis`), so that the rebuilt loop certifies.
     lmi.parameter("decay", value=0.0, nonneg=True)
+    # The margin of strict LMIs is absolute. Relative to the data's largest
+    # norm it would tighten the -gamma I blocks of the performance channels
+    # by a large fraction of gamma on a stiff plant (fast weights: scale
+    # 4e4, gamma near 1 on the LPVTools spinning disks, whose optimum came
+    # out 10 % high at vertex (9, 25), and whose polytopic design was
+    # refused). Instead each performance LMI is posed after the congruence
+    # diag(I / w, I) on its state and performance blocks (w a power of two
+    # with w^2 ~ scale: the same inequality, exactly), so that all its
+    # blocks are of order one, with the margin relative to that.
+    weight = 2.0 ** np.round(0.5 * np.log2(max(scale, 1.0))) if weigh else 1.0
+    lmi.margin = margin * max(scale / weight**2, 1.0)
     for j in range(N):
         for part in objective.parts():
-            for name, blocks in part.transformed_lmis(plant, j, hats):
-                lmi.add(name, blocks)
+            for name, blocks, perf in part.transformed_lmis(plant, j, hats):
+                lmi.add(name, _weighted(blocks, perf, weight))
     # The back-off stage: the level within the back-off, and eig(X Y) >=
     # mu^2 pushed up (``[[X, mu I], [mu I, Y]] >= 0``, linear in mu): I - X Y
     # then has no eigenvalue in (1 - mu^2, 0], whatever the scale of X, Y.
@@ -449,7 +477,28 @@ def _problem(plant, objective, scheduled, margin):
             strict=False, stages=["center"])  # fmt: skip
     lmi.add("mu <= mu_max", lambda v: [[v.mu - _MU_MAX]], strict=False,
             stages=["center"], normalization=True)  # fmt: skip
-    return lmi, hats
+    return lmi, hats, weight
+
+
+def _weighted(blocks, perf, w):
+    """`blocks` after the congruence that divides the block rows and columns
+    not in `perf` (the state blocks) by `w` (exact for a power of two)."""
+    if w == 1.0:
+        return blocks
+
+    def weighted(v):
+        out = []
+        rows = blocks(v)
+        d = [1.0 if i in perf else 1.0 / w for i in range(len(rows))]
+        for i, row in enumerate(rows):
+            out.append([
+                b if isinstance(b, (int, float)) and b == 0
+                else b * (d[i] * d[k])
+                for k, b in enumerate(row)
+            ])  # fmt: skip
+        return out
+
+    return weighted
 
 
 def _design(plant, prescaling, objective, point, hats, bound_opt, bounds, analysis):

@@ -79,17 +79,22 @@ class HinfObjective(_Objective):
         """``(name, block function)`` of the LMIs at vertex `j`.
 
         `hats` ``(v, j)`` gives the controller variables at vertex `j`; the
-        decay margin is the parameter ``v.decay``.
+        decay margin is the parameter ``v.decay``. The third item lists the
+        blocks of the performance channels (``-gamma I``), which the design
+        weighs against the state blocks (`ctrl_lpv.output_feedback.design`).
         """
+        perf = (2, 3) if plant.continuous else (2, 5)
         return [(f"bounded real vertex {j}", lambda v: lmis.bounded_real(
-            plant, j, v, hats(v, j), v.level[0, 0], v.decay[()]))]  # fmt: skip
+            plant, j, v, hats(v, j), v.level[0, 0], v.decay[()]), perf)]  # fmt: skip
 
-    def loop_checks(self, loop, P, values, j, continuous):
-        """Float64 checks of the closed loop at vertex `j`."""
+    def loop_checks(self, loop, P, values, j, continuous, margin=0.0, what=""):
+        """Float64 checks of the closed loop at vertex `j` (each inequality
+        with `margin`: ``F < -margin I``)."""
         g = values["level"]
         F = lmis.bounded_real_loop(*loop, P, g, continuous)
         F_abs = np.abs(lmis.bounded_real_loop(*_abs(*loop, P), g, continuous))
-        return [negative_definite(F, absolute=F_abs, what="bounded real (closed loop)",
+        return [negative_definite(F, margin=margin, absolute=F_abs,
+                                  what=f"bounded real (closed loop{what})",
                                   where=f"vertex {j}", group="LMI")]  # fmt: skip
 
     def loop_lmis(self, loop, j, continuous):
@@ -160,12 +165,14 @@ class H2Objective(_Objective):
     def transformed_lmis(self, plant, j, hats):
         return [
             (f"H2 Gramian vertex {j}",
-             lambda v: lmis.h2_gramian(plant, j, v, hats(v, j), v.decay[()])),
+             lambda v: lmis.h2_gramian(plant, j, v, hats(v, j), v.decay[()]),
+             (2,) if plant.continuous else (4,)),
             (f"H2 output vertex {j}",
-             lambda v: lmis.h2_output(plant, j, v, hats(v, j), getattr(v, f"Q{j}"))),
+             lambda v: lmis.h2_output(plant, j, v, hats(v, j), getattr(v, f"Q{j}")),
+             (2,)),
         ]  # fmt: skip
 
-    def loop_checks(self, loop, P, values, j, continuous):
+    def loop_checks(self, loop, P, values, j, continuous, margin=0.0, what=""):
         A, B, C, D = loop
         Q = values[f"Q{j}"]
         F = lmis.h2_gramian_loop(A, B, P, continuous)
@@ -174,9 +181,11 @@ class H2Objective(_Objective):
         G_abs = np.abs(G)
         trace = float(np.trace(Q))
         return [
-            negative_definite(F, absolute=F_abs, what="H2 Gramian (closed loop)",
+            negative_definite(F, margin=margin, absolute=F_abs,
+                              what=f"H2 Gramian (closed loop{what})",
                               where=f"vertex {j}", group="LMI"),
-            negative_definite(G, absolute=G_abs, what="H2 output (closed loop)",
+            negative_definite(G, margin=margin, absolute=G_abs,
+                              what=f"H2 output (closed loop{what})",
                               where=f"vertex {j}", group="LMI"),
             Check("trace Q <= gamma^2", trace, values["level"], strict=False,
                   rounding=rounding_bound(Q.shape[0], np.abs(Q).sum()),

@@ -78,7 +78,8 @@ class RegionConstraint:
         return str(self.region)
 
     def transformed_lmis(self, plant, j, hats):
-        """``(name, block function)`` of the region's LMI at vertex `j`."""
+        """``(name, block function, ())`` of the region's LMI at vertex `j`
+        (no performance blocks: every block row is a state row)."""
         L, M = self.region.L, self.region.M
 
         def blocks(v):
@@ -86,16 +87,23 @@ class RegionConstraint:
             Xb = [[v.X, np.eye(plant.n)], [np.eye(plant.n), v.Y]]
             return _blockwise(L, M, Xb, AA)
 
-        return [(f"{self.region} vertex {j}", blocks)]
+        return [(f"{self.region} vertex {j}", blocks, ())]
 
-    def loop_checks(self, loop, P, values, j, continuous):
-        """The region's inequality on the closed loop at vertex `j`, float64."""
+    def loop_checks(self, loop, P, values, j, continuous, margin=0.0, what=""):
+        """The region's inequality on the closed loop at vertex `j`, float64.
+
+        `margin` bounds the effect of a perturbation of the loop's matrices
+        on a unit-``P`` inequality (`ctrl_lpv.output_feedback.checks`); the
+        region's ``A`` enters through ``M``, so it is scaled by ``||M||``.
+        """
         A = loop[0]
-        F = assemble(region_blocks(self.region.L, self.region.M, P, A.T @ P))
-        F_abs = assemble(region_blocks(np.abs(self.region.L), np.abs(self.region.M),
-                                       np.abs(P), np.abs(A.T) @ np.abs(P)))  # fmt: skip
-        return [negative_definite(F, absolute=np.abs(F_abs),
-                                  what=f"{self.region} (closed loop)",
+        L, M = self.region.L, self.region.M
+        F = assemble(region_blocks(L, M, P, A.T @ P))
+        F_abs = assemble(region_blocks(np.abs(L), np.abs(M), np.abs(P),
+                                       np.abs(A.T) @ np.abs(P)))  # fmt: skip
+        margin = margin * max(1.0, float(np.linalg.norm(M, 2)))
+        return [negative_definite(F, margin=margin, absolute=np.abs(F_abs),
+                                  what=f"{self.region} (closed loop{what})",
                                   where=f"vertex {j}", group="LMI")]  # fmt: skip
 
     def loop_lmis(self, loop, j, continuous):

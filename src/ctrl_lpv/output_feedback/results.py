@@ -37,7 +37,10 @@ class OutputFeedbackDesign:
         optimum of the formulation); ``gamma / gamma_opt - 1`` is the
         back-off.
     P : ndarray
-        The closed loop's Lyapunov matrix (plant states first).
+        The closed loop's Lyapunov matrix (plant states first). When the
+        certificate's rows say "P-normalised", the matrix they prove is
+        ``R' R``, ``R = diag(s)^1/2 V'`` from ``P = V diag(s) V'`` (equal
+        to ``P`` to rounding; `ctrl_lpv.output_feedback.checks`).
     values : dict
         The certified level (``"level"``: gamma, or gamma^2 for H2) and the
         objective's other certificate variables (H2: ``"Q<j>"``).
