@@ -83,8 +83,10 @@ def test_discrete_time_disk():
 def test_bad_constraints_are_named():
     G = lpv.pss([small_plant()])
     bound = lpv.Hinf("w", "z1", bound=2.0)
-    with pytest.raises(TypeError, match="constraints"):
+    with pytest.raises(ValueError, match="constraints"):
         lpv.hinf_output_feedback(G, "w", "u", ["z1", "z2"], "y", constraints=[bound])
+    with pytest.raises(TypeError, match="constraints"):
+        lpv.hinf_output_feedback(G, "w", "u", ["z1", "z2"], "y", constraints=[1.0])
     with pytest.raises(ValueError, match="continuous-time region"):
         lpv.hinf_output_feedback(random_plant(1, n=3, dt=0.1), W, "u", Z, "y",
                                  constraints=[halfplane(0.5)])  # fmt: skip

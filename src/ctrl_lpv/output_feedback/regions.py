@@ -27,6 +27,7 @@ from ..lmi import assemble
 from ..regions import LMIRegion, region_blocks
 from ..synthesis.constraints import PoleRegion, _require_unit_disk
 from ..synthesis.frozen import verification_points
+from ..synthesis.spec import Spec
 from . import lmis
 from .reconstruct import closed_loop
 
@@ -42,8 +43,9 @@ def region_constraints(constraints, continuous) -> tuple:
         For anything but `ctrl_lpv.regions.LMIRegion` (``halfplane``,
         ``disk``, ``sector``) or `ctrl_lpv.PoleRegion` items.
     ValueError
-        For a discrete-time plant, a region that is not a disk inside the
-        unit circle.
+        For the other specs (a bound, a gain bound: not implemented here),
+        and for a discrete-time plant, a region that is not a disk inside
+        the unit circle.
     """
     if constraints is None:
         return ()
@@ -57,6 +59,11 @@ def region_constraints(constraints, continuous) -> tuple:
     out = []
     for item in constraints:
         region = item.region if isinstance(item, PoleRegion) else item
+        if isinstance(item, Spec) and not isinstance(item, PoleRegion):
+            raise ValueError(
+                f"constraints: {item} is not implemented for output feedback (y "
+                "given), which takes pole regions (halfplane, disk, sector)"
+            )
         if not isinstance(region, LMIRegion):
             raise TypeError(
                 "constraints: output feedback takes pole regions (halfplane, disk, "
