@@ -77,7 +77,7 @@ def test_certified_l2_bound_covers_the_frozen_norms_on_a_10x_denser_grid(design)
 def test_the_spanning_terms_reproduce_every_frozen_loop(design):
     """The frozen loop is the convex combination the docstring claims:
     ``sum_i w_i^2 M_ii + sum_{i<j} 2 w_i w_j (M_ij + M_ji) / 2``."""
-    from ctrl_lpv.schedules.certify import _gridded_loops
+    from ctrl_lpv.schedules.polytopic import gridded_loops as _gridded_loops
     from ctrl_lpv.schedules.schedule import schedule_of
 
     G, gains, points = design
@@ -358,7 +358,7 @@ def test_scattered_schedule_points_across_grid_cells():
     that cross the plant's grid cells (pieces found by a linear program).
     The terms reproduce the frozen loops on every piece, and the certified
     bound covers the frozen norms on a dense grid."""
-    from ctrl_lpv.schedules.certify import _gridded_loops
+    from ctrl_lpv.schedules.polytopic import gridded_loops as _gridded_loops
     from ctrl_lpv.schedules.schedule import schedule_of
 
     G, _, _ = random_case(5)

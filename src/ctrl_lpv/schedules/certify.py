@@ -11,7 +11,7 @@ with a `ScheduleCertificate`. For a polytopic plant:
    at the points (`ctrl_lpv.quadratic_stability`). On a cell ``A`` and
    ``B_u`` are affine in ``p`` (checked), so the closed loop is a convex
    combination of the points' closed loops and, when ``B_u`` and ``K`` both
-   vary, of the cell's pairwise terms (`_ClosedLoops.spanning`);
+   vary, of the cell's pairwise terms (`ctrl_lpv.schedules.polytopic.PolytopicLoops.spanning`);
 3. **rate-bounded** (continuous time, ``B_u`` or ``K`` constant): a
    Lyapunov matrix ``P(p)`` affine on each cell, continuous across cells,
    with ``|dp_k/dt| <= nu_k``; on a cell ``dV/dt`` is a quadratic form in
@@ -40,7 +40,6 @@ way, with the terms of `ctrl_lpv.schedules.dynamic`.
 
 from __future__ import annotations
 
-import itertools
 import math
 from dataclasses import dataclass, field
 
@@ -49,12 +48,10 @@ import numpy as np
 from .._checks import real_number
 from ..certificate import Certificate
 from ..exceptions import SynthesisError
-from ..lmi import LMIProblem
-from ..systems import GriddedStateSpace, PolytopicStateSpace
+from ..systems import GriddedStateSpace
 from .dynamic import DynamicLoops, is_dynamic
 from .objective import checked_objective
-from .quadratic import quadratic_certificate
-from .rates import RateSearch, family_lmis, rate_variables
+from .polytopic import PolytopicLoops, gridded_loops
 from .schedule import GainSchedule, schedule_of
 
 __all__ = ["certify", "ScheduleCertificate", "FrozenCounterexample"]
@@ -259,9 +256,9 @@ def certify(
             names = plant.param_names[: k.shape[1]]
         schedule = schedule_of(controller, names=names)
     if isinstance(plant, GriddedStateSpace):
-        loops = _gridded_loops(schedule, plant, controller, parameters)
+        loops = gridded_loops(schedule, plant, controller, parameters)
     else:
-        loops = _ClosedLoops.of(schedule, plant, controller, parameters)
+        loops = PolytopicLoops.of(schedule, plant, controller, parameters)
     where = f"{len(schedule.points)} points and {samples} samples per cell"
     return _verdict(loops, where, rate_bounds, objective, margin, samples,
                     counterexample)  # fmt: skip
@@ -361,338 +358,3 @@ def _rate_bound(loops, objective, nu, margin, tried):
         return None
     tried.append(what + ("" if found is not None else ": not certified"))
     return found
-
-
-def _gridded_loops(schedule, plant, controller, parameters):
-    from .gridded import GriddedLoops
-
-    points = _plant_points(schedule, plant, parameters)
-    u = _control_inputs(controller, plant, schedule)
-    _check_gain_shape(schedule.gains[0], u, plant.nstates)
-    return GriddedLoops(schedule, points, plant, u)
-
-
-def _check_gain_shape(K, u, n):
-    if K.shape != (len(u), n):
-        raise ValueError(
-            f"controller: gains of shape {K.shape}; expected "
-            f"{(len(u), n)} (inputs {u}, the plant's states)"
-        )
-
-
-@dataclass(frozen=True)
-class _ClosedLoops(RateSearch):
-    """The closed loops at the schedule's points, in the plant's parameters."""
-
-    schedule: GainSchedule
-    points: np.ndarray  # (M, k) in plant parameter order
-    A: np.ndarray  # (M, n, n): the plant at the points
-    B: np.ndarray  # (M, n, m): its input matrix of u
-    names: tuple
-    continuous: bool
-    plant: object
-
-    @property
-    def K(self) -> np.ndarray:
-        return self.schedule.gains
-
-    @property
-    def Acl(self) -> np.ndarray:
-        """The closed loops at the points."""
-        return self.A - self.B @ self.K
-
-    @property
-    def bilinear(self) -> bool:
-        """Whether ``B_u(p) K(p)`` is quadratic on a cell (both vary)."""
-        return _varies(self.K) and _varies(self.B)
-
-    def segments(self):
-        """``(start, end, nodes, loops)``: pairs of points of a cell (the
-        loop is affine between them when the rate-bounded analysis
-        applies; see `destabilising_trajectory`)."""
-        if not self.bilinear:
-            return [
-                (self.points[a], self.points[b], [0.0, 1.0], [self.Acl[a], self.Acl[b]])
-                for cell in self.schedule.cells
-                for a, b in itertools.combinations(cell, 2)
-            ]
-        # B_u(p) K(p) is quadratic along a segment: sampled at 33 nodes, the
-        # loop interpolated between them (evidence only; it is simulated).
-        nodes = np.linspace(0.0, 1.0, 33)
-        out = []
-        for c, cell in enumerate(self.schedule.cells):
-            for a, b in itertools.combinations(range(len(cell)), 2):
-                lams = np.zeros((nodes.size, len(cell)))
-                lams[:, a], lams[:, b] = 1.0 - nodes, nodes
-                out.append((self.points[cell[a]], self.points[cell[b]], nodes,
-                            [self.at(c, lam) for lam in lams]))  # fmt: skip
-        return out
-
-    def rate_refusal(self) -> str | None:
-        """Why the rate-bounded analysis does not apply (None: it does)."""
-        if not self.continuous:
-            return "in discrete time"
-        return None
-
-    def _channel_loops(self, objective):
-        """``(loops, bilinear, w, z)``: the channel's matrices at the points.
-
-        On a cell ``C`` and ``D`` must be affine in ``p`` (checked), as
-        ``A`` and ``B_u`` are; `bilinear` says whether ``K`` varies with
-        ``B_u`` or ``D_zu`` (then the loop is quadratic on a cell).
-        """
-        from .objective import channel
-
-        iw, iz, of, dzu = channel(objective, self.plant, self._u)
-        data = [tuple(np.asarray(M) for M in _frozen(self.plant, p))
-                for p in self.points]  # fmt: skip
-        for c, cell in enumerate(self.schedule.cells):
-            mid = _frozen(self.plant, self.points[cell].mean(axis=0))
-            for name, index in (("C", 2), ("D", 3)):
-                mean = np.mean([data[i][index] for i in cell], axis=0)
-                M = np.asarray(mid[index])
-                tol = 1e-12 * max(1.0, np.abs(M).max())
-                if not np.allclose(M, mean, rtol=1e-10, atol=tol):
-                    raise ValueError(
-                        f"plant: {name} is not affine in the parameters on cell "
-                        f"{c} (points {self.points[cell].tolist()}): refine the "
-                        "schedule's points"
-                    )
-        Dzu = np.array([dzu(d) for d in data])
-        bilinear = _varies(self.K) and (_varies(self.B) or _varies(Dzu))
-        loops = [of(d, K) for d, K in zip(data, self.K)]
-        if bilinear:
-            for cell in self.schedule.cells:
-                for i, j in itertools.combinations(cell, 2):
-                    ij, ji = of(data[i], self.K[j]), of(data[j], self.K[i])
-                    loops.append(tuple(0.5 * (a + b) for a, b in zip(ij, ji)))
-        w = [self.plant.physical_inputs[i] for i in iw]
-        z = [self.plant.output_labels[i] for i in iz]
-        return loops, bilinear, w, z
-
-    def bound(self, objective, margin):
-        """``(bound, certificate)`` of the objective's channel, one P.
-
-        On a cell the channel's matrices are affine in ``p`` (checked) and
-        ``K`` too: the loop is ``sum_ij l_i l_j T(i, j)`` with ``T(i, j)``
-        the loop of point ``i`` under gain ``j``, a convex combination of
-        the ``T(i, i)`` and, when ``K`` and ``B_u`` or ``D_zu`` vary, of the
-        ``(T(i, j) + T(j, i)) / 2`` of the cell's pairs.
-        """
-        from .objective import certified_bound
-
-        loops, _, w, z = self._channel_loops(objective)
-        return certified_bound(loops, objective, self.plant.dt, margin, w, z,
-                               "in the points' convex hull")  # fmt: skip
-
-    def rate_channel(self, objective):
-        """``(B_w, C_z, D_zw)`` of each cell's points, with ``w`` and ``z``."""
-        loops, bilinear, w, z = self._channel_loops(objective)
-        if bilinear:
-            raise ValueError(
-                "objective: a bound under a rate bound is not implemented when "
-                "the gains vary together with B_u or D_zu (the loop is quadratic "
-                "on a cell); pass rate_bounds=None for the bound at arbitrary rates"
-            )
-        return [tuple([loops[i][k] for i in cell] for k in (1, 2, 3))
-                for cell in self.schedule.cells], w, z  # fmt: skip
-
-    @classmethod
-    def of(cls, schedule, plant, controller, parameters):
-        if not isinstance(plant, PolytopicStateSpace) or not hasattr(
-            plant.domain, "lower"
-        ):
-            raise TypeError("plant: expected a PolytopicStateSpace over a box")
-        points = _plant_points(schedule, plant, parameters)
-        names = list(plant.param_names)
-        u = _control_inputs(controller, plant, schedule)
-        As, Bs = [], []
-        for p, K in zip(points, schedule.gains):
-            A, B, _, _ = (np.asarray(M) for M in _frozen(plant, p))
-            _check_gain_shape(K, u, A.shape[0])
-            As.append(A)
-            Bs.append(B[:, u])
-        for c, cell in enumerate(schedule.cells):
-            mid = _frozen(plant, points[cell].mean(axis=0))
-            for name, M, at_points in (("A", mid[0], As), ("B", mid[1][:, u], Bs)):
-                mean = np.mean([at_points[i] for i in cell], axis=0)
-                tol = 1e-12 * max(1.0, np.abs(M).max())
-                if not np.allclose(M, mean, rtol=1e-10, atol=tol):
-                    raise ValueError(
-                        f"plant: {name} is not affine in the parameters on cell "
-                        f"{c} (points {points[cell].tolist()}): refine the "
-                        "schedule's points"
-                    )
-        loops = cls(schedule, points, np.array(As), np.array(Bs), tuple(names),
-                    not plant.isdtime(strict=True), plant)  # fmt: skip
-        object.__setattr__(loops, "_u", u)
-        return loops
-
-    def unstable(self, A) -> complex | None:
-        eig = np.linalg.eigvals(A)
-        worst = eig[np.argmax(eig.real if self.continuous else np.abs(eig))]
-        bad = worst.real >= 0 if self.continuous else abs(worst) >= 1
-        return complex(worst) if bad else None
-
-    def at(self, cell, lam) -> np.ndarray:
-        """The frozen closed loop ``A(p) - B_u(p) K(p)`` in `cell`."""
-        idx = self.schedule.cells[cell]
-        A, B, K = (np.tensordot(lam, M[idx], axes=1) for M in (self.A, self.B, self.K))
-        return A - B @ K
-
-    def spanning(self) -> np.ndarray:
-        """Matrices whose convex hull holds every frozen closed loop.
-
-        On a cell ``A(p) - B_u(p) K(p) = sum_ij l_i l_j (A_i - B_i K_j)``
-        in the convex coordinates ``l``: a convex combination of the
-        ``M_ii`` (the closed loops at the points) and, when ``B_u`` and
-        ``K`` both vary, of the ``(M_ij + M_ji) / 2`` of the cell's pairs.
-        """
-        out = list(self.Acl)
-        if self.bilinear:
-            for cell in self.schedule.cells:
-                for i, j in itertools.combinations(cell, 2):
-                    Mij = self.A[i] - self.B[i] @ self.K[j]
-                    Mji = self.A[j] - self.B[j] @ self.K[i]
-                    out.append(0.5 * (Mij + Mji))
-        return np.array(out)
-
-    def frozen_counterexample(self, samples):
-        rng = np.random.default_rng(0)
-        k1 = self.points.shape[1] + 1
-        for c, cell in enumerate(self.schedule.cells):
-            lams = np.vstack([np.eye(k1), np.full((1, k1), 1.0 / k1),
-                              rng.dirichlet(np.ones(k1), size=samples)])  # fmt: skip
-            for lam in lams:
-                bad = self.unstable(self.at(c, lam))
-                if bad is not None:
-                    p = lam @ self.points[cell]
-                    return FrozenCounterexample(
-                        dict(zip(self.names, p.tolist())), c, bad
-                    )
-        return None
-
-    def quadratic(self, margin):
-        return quadratic_certificate(
-            list(self.spanning()),
-            self.plant.dt,
-            margin,
-            "stable for arbitrarily fast parameters in the points' convex hull "
-            "(one quadratic Lyapunov function of the closed loops at the points)",
-        )
-
-    def _rate_problem(self, margin, channel=None):
-        n = self.Acl.shape[1]
-        M, k = self.points.shape
-        scale = max(1.0, float(max(np.linalg.norm(A, 2) for A in self.Acl)))
-        lmi = LMIProblem(margin=margin * scale)
-        rate_variables(lmi, range(M), n, k, bounded=channel is not None)
-        for c, cell in enumerate(self.schedule.cells):
-            grad = _gradients(self.points[cell])  # (k, k+1): dlambda_i/dp
-            for signs in itertools.product((-1.0, 1.0), repeat=k):
-
-                def G(v, cell=cell, grad=grad, signs=signs):
-                    """dP/dt at the rate vertex `signs` on this cell."""
-                    Ps = [getattr(v, f"P{i}") for i in cell]
-                    dP = [sum(g * P for g, P in zip(grad[d], Ps)) for d in range(k)]
-                    return sum(s * v.nu[d] * dP[d] for d, s in enumerate(signs))
-
-                if self.bilinear:
-                    self._cubic_terms(lmi, c, cell, signs, G)
-                    continue
-                family_lmis(
-                    lmi, f"cell {c} rates {signs}", list(cell),
-                    [self.Acl[i] for i in cell],
-                    lambda v, a, cell=cell: getattr(v, f"P{cell[a]}"),
-                    lambda v, a, G=G: G(v),
-                    None if channel is None else channel[c],
-                )  # fmt: skip
-        return lmi
-
-    def _cubic_terms(self, lmi, c, cell, signs, G):
-        """The rate-bounded LMIs of a cell where ``B_u`` and ``K`` both vary.
-
-        With ``M_ij = A_i - B_i K_j`` the loop is ``sum_ij l_i l_j M_ij``
-        and ``P = sum_k l_k P_k``, so (``sum l = 1`` making ``dP/dt`` cubic
-        too) ``dV/dt = x' (sum_ijk l_i l_j l_k (He(M_ij' P_k) + G)) x``: a
-        cubic form in ``l >= 0``, negative when, for every multiset
-        ``{i, j, k}`` of the cell's points, the sum of its terms over the
-        multiset's distinct orderings is (Oliveira and Peres 2007).
-        """
-        for triple in itertools.combinations_with_replacement(cell, 3):
-            orders = sorted(set(itertools.permutations(triple)))
-
-            def term(v, orders=orders, G=G):
-                total = len(orders) * G(v)
-                for i, j, k in orders:
-                    M = self.A[i] - self.B[i] @ self.K[j]
-                    total = total + 2 * (M.T @ getattr(v, f"P{k}"))
-                return [[total]]
-
-            lmi.add(f"cell {c} triple {triple} rates {signs}", term)
-
-
-def _plant_points(schedule, plant, parameters):
-    """The schedule's points in the plant's parameter order, checked."""
-    names = list(plant.param_names)
-    if schedule.nvars != len(names):
-        raise ValueError(
-            f"parameters: the schedule has {schedule.nvars} variables "
-            f"{list(schedule.names)}, the plant {len(names)} {names}"
-        )
-    if parameters is None:
-        mapping = (
-            dict(zip(schedule.names, schedule.names))
-            if set(schedule.names) == set(names)
-            else dict(zip(schedule.names, names))
-        )
-    else:
-        mapping = dict(parameters)
-        if sorted(mapping) != sorted(schedule.names) or sorted(
-            mapping.values()
-        ) != sorted(names):
-            raise ValueError(
-                f"parameters: expected {{scheduling variable: plant "
-                f"parameter}} for {list(schedule.names)} -> {names}, got "
-                f"{mapping}"
-            )
-    order = [list(schedule.names).index(s) for s in
-             sorted(mapping, key=lambda s: names.index(mapping[s]))]  # fmt: skip
-    points = schedule.points[:, order]
-    lo, hi = plant.domain.lower, plant.domain.upper
-    outside = [
-        p.tolist() for p in points if np.any(p < lo - 1e-12) or np.any(p > hi + 1e-12)
-    ]
-    if outside:
-        raise ValueError(f"controller: points {outside} are outside the plant's domain")
-    return points
-
-
-def _gradients(V):
-    """``d lambda_i / d p_d`` of the convex coordinates on the simplex `V`."""
-    M = (V[1:] - V[0]).T  # k x k
-    inv = np.linalg.inv(M)  # lambda[1:] = inv @ (p - V0)
-    return np.vstack([-inv.sum(axis=0), inv]).T  # (k, k+1)
-
-
-def _frozen(plant, p):
-    delta = plant.domain._weights(np.asarray(p, float))
-    return plant._combine(delta)
-
-
-def _control_inputs(controller, plant, schedule):
-    inputs = list(plant.physical_inputs)
-    labels = getattr(controller, "output_labels", None)
-    if hasattr(controller, "gains") and hasattr(controller, "u"):
-        labels = list(controller.u)  # a StateFeedbackDesign
-    if labels is None:
-        m = schedule.gains.shape[1]
-        return list(range(m))
-    missing = [s for s in labels if s not in inputs]
-    if missing:
-        raise ValueError(f"controller: outputs {missing} are not inputs of the plant")
-    return [inputs.index(s) for s in labels]
-
-
-def _varies(M) -> bool:
-    return any(not np.array_equal(M[0], X) for X in M)
