@@ -347,7 +347,7 @@ def test_synthesize_with_y_is_the_output_feedback_design():
         (dict(objective=lpv.Hinf(W, Z, bound=5.0)), "objective"),
         (dict(objective=lpv.Hinf(W, Z), lyapunov="affine", rate_bounds={"p": 1.0}),
          "lyapunov"),
-        (dict(objective=lpv.Hinf(W, Z), constraints=[lpv.Hinf(W, Z, bound=9.0)]),
+        (dict(objective=lpv.Hinf(W, Z), constraints=[lpv.Peak(W, Z, bound=9.0)]),
          "constraints"),
     ],
 )  # fmt: skip

@@ -82,11 +82,58 @@ def test_discrete_time_disk():
 
 def test_bad_constraints_are_named():
     G = lpv.pss([small_plant()])
-    bound = lpv.Hinf("w", "z1", bound=2.0)
-    with pytest.raises(ValueError, match="constraints"):
-        lpv.hinf_output_feedback(G, "w", "u", ["z1", "z2"], "y", constraints=[bound])
+    for item in (lpv.Peak("w", "z1", bound=2.0), lpv.Hinf("w", "z1")):
+        with pytest.raises(ValueError, match="constraints"):
+            lpv.hinf_output_feedback(G, "w", "u", ["z1", "z2"], "y", constraints=[item])
     with pytest.raises(TypeError, match="constraints"):
         lpv.hinf_output_feedback(G, "w", "u", ["z1", "z2"], "y", constraints=[1.0])
     with pytest.raises(ValueError, match="continuous-time region"):
         lpv.hinf_output_feedback(random_plant(1, n=3, dt=0.1), W, "u", Z, "y",
                                  constraints=[halfplane(0.5)])  # fmt: skip
+
+
+# ------------------------------------------------------------------ mixed
+
+
+def channel_norms(G, controller):
+    """H2 of w -> (z1, z2) and H-infinity of w -> z1, of python-control's loop."""
+    both = ct.interconnect([G, controller], inplist=["w"], outlist=["z1", "z2"])
+    first = ct.interconnect([G, controller], inplist=["w"], outlist=["z1"],
+                            check_unused=False)  # fmt: skip
+    return float(ct.norm(both, 2)), float(ct.linfnorm(first)[0])
+
+
+@pytest.mark.parametrize("fraction", [0.9, 0.5])
+def test_mixed_h2_with_an_hinf_bound_on_another_channel(fraction):
+    """Minimise the H2 norm subject to an L2-gain bound on a sub-channel that
+    the unconstrained H2 design exceeds: the returned loop meets both, the
+    H2 bound is certified above its true norm, and it costs H2."""
+    G = small_plant()
+    S = lpv.pss([G])
+    free = lpv.h2_output_feedback(S, "w", "u", ["z1", "z2"], "y", backoff=None)
+    _, free_hinf = channel_norms(G, free.controller().at([1.0]))
+    limit = lpv.Hinf("w", "z1", bound=fraction * free_hinf)
+    d = lpv.synthesize(S, "u", y="y", objective=lpv.H2("w", ["z1", "z2"]),
+                       constraints=[limit], backoff=None)  # fmt: skip
+    assert d.certificate.verified
+    h2, hinf = channel_norms(G, d.controller().at([1.0]))
+    assert hinf <= limit.bound
+    assert h2 <= d.gamma
+    assert d.gamma_opt >= free.gamma_opt * (1 - 1e-6)
+    assert d.bounds[lpv.Hinf(w=("w",), z=("z1",), bound=limit.bound)] == limit.bound
+
+
+def test_mixed_hinf_with_an_h2_bound_on_a_polytope():
+    """The other way round on a two-vertex plant: the L2 gain minimised with
+    the H2 norm of the first output within 1.5 times what an H2 design of
+    that output alone certifies; frozen loops on a grid meet both bounds."""
+    sys = random_plant(2, n=3, vertices=2, stable=True)
+    alone = lpv.h2_output_feedback(sys, W, "u", "z0", "y")
+    limit = lpv.H2(W, "z0", bound=1.5 * alone.gamma)
+    d = lpv.hinf_output_feedback(sys, W, "u", Z, "y", constraints=[limit])
+    assert d.certificate.verified
+    for p in np.linspace(0.0, 1.0, 11):
+        G, K = sys.at({"p": p}), d.controller().at({"p": p})
+        first = ct.interconnect([G, K], inplist=W, outlist=["z0"], check_unused=False)
+        assert float(ct.norm(first, 2)) <= limit.bound
+        assert float(ct.linfnorm(loop_by_name(G, K))[0]) <= d.gamma

@@ -34,10 +34,10 @@ def closed_loop_certificate(plant, objective, controllers, P, values) -> Certifi
     `values` holds ``"level"`` and the objective's other variables at the
     point (e.g. the H2 bounds ``Q_j``).
     """
-    loops = [_vertex_loop(plant, controllers, j) for j in range(plant.nvertices)]
+    loops = _part_loops(plant, objective, controllers)
     checks = [negative_definite(-P, what="P > 0", where="closed loop", group="LMI")]
-    for j, loop in enumerate(loops):
-        for part in objective.parts():
+    for part, its in loops.items():
+        for j, loop in enumerate(its):
             checks += part.loop_checks(loop, P, values, j, plant.continuous)
     if not all(c.passed for c in checks):
         # An ill-conditioned P (a slow mode that no controller moves, e.g. a
@@ -48,7 +48,7 @@ def closed_loop_certificate(plant, objective, controllers, P, values) -> Certifi
         if normalised is not None and all(c.passed for c in normalised):
             checks = normalised
     bound = objective.bound(values["level"])
-    checks.append(_frozen_norms(plant, objective, controllers, bound))
+    checks.append(frozen_norms(plant, objective, controllers, bound))
     checks += [c.frozen_check(plant, controllers) for c in objective.constraints]
     return Certificate(tuple(checks), statement=objective.statement(bound))
 
@@ -61,17 +61,19 @@ def closed_loop_analysis(plant, objective, controllers, margin, chain):
     loop in a fresh ``P`` (size ``2 n``), in balanced coordinates,
     minimising its level.
     """
-    loops, t = _balanced(
-        [_vertex_loop(plant, controllers, j) for j in range(plant.nvertices)]
-    )
-    n = loops[0][0].shape[0]
-    scale = max(np.linalg.norm(np.block([[A, B], [C, D]]), 2) for A, B, C, D in loops)
+    loops = _part_loops(plant, objective, controllers)
+    t = _balancing(loops[objective])
+    loops = {part: [_balanced(loop, t) for loop in its] for part, its in loops.items()}
+    n = t.size
+    scale = max(np.linalg.norm(np.block([[A, B], [C, D]]), 2)
+                for A, B, C, D in loops[objective])  # fmt: skip
     lmi = LMIProblem(margin=margin * max(scale, 1.0))
     lmi.variable("P", (n, n), symmetric=True)
-    objective.declare(lmi, plant)
+    for part in objective.parts():
+        part.declare(lmi, plant)
     lmi.add("P > 0", lambda v: [[-v.P]])
-    for j, loop in enumerate(loops):
-        for part in objective.parts():
+    for part, its in loops.items():
+        for j, loop in enumerate(its):
             for name, blocks in part.loop_lmis(loop, j, plant.continuous):
                 lmi.add(name, blocks)
     sol = lmi.solve(lambda v: v.level[0, 0], solvers=chain)
@@ -110,19 +112,21 @@ def _normalised_checks(plant, objective, loops, P, values):
         return None
     grow = e / (1.0 - e)
     checks, margin = [], 0.0
-    transformed = []
-    for A, B, C, D in loops:
-        At, Bt, Ct = R @ A @ T, R @ B, C @ T
-        aR, aT = np.abs(R), np.abs(T)
-        dA = rounding_bound(n, _norm2(aR @ np.abs(A) @ aT)) + grow * _norm2(At)
-        dB = rounding_bound(n, _norm2(aR @ np.abs(B)))
-        dC = rounding_bound(n, _norm2(np.abs(C) @ aT)) + grow * _norm2(Ct)
-        margin = max(margin, 2.0 * (dA + dB + dC))
-        transformed.append((At, Bt, Ct, D))
+    transformed = {}
+    for part, its in loops.items():
+        transformed[part] = []
+        for A, B, C, D in its:
+            At, Bt, Ct = R @ A @ T, R @ B, C @ T
+            aR, aT = np.abs(R), np.abs(T)
+            dA = rounding_bound(n, _norm2(aR @ np.abs(A) @ aT)) + grow * _norm2(At)
+            dB = rounding_bound(n, _norm2(aR @ np.abs(B)))
+            dC = rounding_bound(n, _norm2(np.abs(C) @ aT)) + grow * _norm2(Ct)
+            margin = max(margin, 2.0 * (dA + dB + dC))
+            transformed[part].append((At, Bt, Ct, D))
     checks.append(Check("P-normalising coordinates (||R T - I||)", e, 0.5, strict=True,
                         where="closed loop", group="LMI"))  # fmt: skip
-    for j, loop in enumerate(transformed):
-        for part in objective.parts():
+    for part, its in transformed.items():
+        for j, loop in enumerate(its):
             checks += part.loop_checks(
                 loop, np.eye(n), values, j, plant.continuous, margin=margin,
                 what=", P-normalised",
@@ -134,14 +138,21 @@ def _norm2(M):
     return float(np.linalg.norm(M, 2))
 
 
+def _part_loops(plant, objective, controllers) -> dict:
+    """The vertex closed loops of each part's channel, by part."""
+    return {part: [_vertex_loop(part.plant_of(plant), controllers, j)
+                   for j in range(plant.nvertices)]
+            for part in objective.parts()}  # fmt: skip
+
+
 def _vertex_loop(plant, controllers, j):
     e = np.zeros(plant.nvertices)
     e[j] = 1.0
     return closed_loop(plant, plant.data(e), controllers[j])
 
 
-def _balanced(loops):
-    """The loops in balanced state coordinates ``x = T x~``, and ``diag T``.
+def _balancing(loops):
+    """``diag T`` of balanced state coordinates ``x = T x~`` of the loops.
 
     A quadratic bound is invariant under a common change of state
     coordinates (``P = T^-T P~ T^-1``), and the reconstruction scales the
@@ -150,11 +161,16 @@ def _balanced(loops):
     """
     _, (t, _) = matrix_balance(sum(np.abs(L[0]) for L in loops), permute=False,
                                separate=True)  # fmt: skip
-    return [(A * (t[None, :] / t[:, None]), B / t[:, None], C * t[None, :], D)
-            for A, B, C, D in loops], t  # fmt: skip
+    return t
 
 
-def _frozen_norms(plant, objective, controllers, bound) -> Check:
+def _balanced(loop, t):
+    """`loop` in the coordinates ``x = diag(t) x~``."""
+    A, B, C, D = loop
+    return A * (t[None, :] / t[:, None]), B / t[:, None], C * t[None, :], D
+
+
+def frozen_norms(plant, objective, controllers, bound, what="") -> Check:
     """Cross-check: the frozen closed loops' norms from python-control."""
     worst, where = -np.inf, ""
     dt = 0 if plant.continuous else plant.system.dt
@@ -166,6 +182,7 @@ def _frozen_norms(plant, objective, controllers, bound) -> Check:
             point = delta if p is None else p
             worst, where = norm, f"p = {np.round(point, 6).tolist()}"
     return Check(
-        f"frozen {objective.label} norm (python-control)", worst, bound, strict=True,
+        f"frozen {objective.label} norm{what} (python-control)", worst, bound,
+        strict=True,
         cross_check=True, where=where, group="frozen",
     )  # fmt: skip

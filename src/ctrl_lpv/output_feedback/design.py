@@ -21,6 +21,8 @@ certified on the closed loop (`ctrl_lpv.output_feedback.checks`).
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from .._checks import real_number
@@ -32,6 +34,7 @@ from ..systems import PolytopicStateSpace
 from . import lmis
 from .checks import closed_loop_analysis, closed_loop_certificate
 from .fixed_modes import describe, slow_fixed_modes
+from .mixed import output_feedback_constraints
 from .objectives import H2Objective, HinfObjective
 from .plant import OutputFeedbackPlant
 from .prescale import Prescaling, prescalings
@@ -40,7 +43,6 @@ from .reconstruct import (
     controller_matrices,
     factor,
 )
-from .regions import region_constraints
 from .results import OutputFeedbackDesign
 
 __all__ = ["hinf_output_feedback", "h2_output_feedback"]
@@ -123,12 +125,14 @@ _PARAMETERS = """\
         One controller per vertex scheduled with the parameter (default),
         or one LTI controller (only when ``A`` does not depend on the
         parameter: otherwise the problem is not convex).
-    constraints : sequence of pole regions, optional
+    constraints : sequence of pole regions and bounds, optional
         `ctrl_lpv.regions.halfplane`, `~ctrl_lpv.regions.disk`,
         `~ctrl_lpv.regions.sector` (or `ctrl_lpv.PoleRegion`): every frozen
-        closed-loop eigenvalue in each, with the same Lyapunov pair as the
-        bound (Scherer, Gahinet and Chilali 1997; discrete time: disks
-        inside the unit circle).
+        closed-loop eigenvalue in each (discrete time: disks inside the
+        unit circle); `ctrl_lpv.Hinf` or `ctrl_lpv.H2` specs with a
+        ``bound`` on their own channel ``w -> z`` (a mixed design). All
+        share the objective's Lyapunov pair (Scherer, Gahinet and Chilali
+        1997).
     backoff : float or None, optional
         Relax the minimum bound by this fraction (default 0.2) and maximise
         the conditioning of the Lyapunov pair for a well-conditioned
@@ -227,8 +231,12 @@ def _output_feedback(kind, sys, w, u, z, y, gains, constraints, backoff, margin,
     if gains not in ("scheduled", "common"):
         raise ValueError(f"gains: expected 'scheduled' or 'common', got {gains!r}")
     plant = OutputFeedbackPlant.of(sys, w, u, z, y)
-    objective = kind(region_constraints(constraints, plant.continuous))
-    objective.check(plant)
+    parts, channels = output_feedback_constraints(constraints, sys, u, y,
+                                                  plant.continuous)  # fmt: skip
+    plant = dataclasses.replace(plant, channels=channels)
+    objective = kind(parts)
+    for part in objective.parts():
+        part.check(plant)
     if gains == "common" and any(not np.array_equal(A, plant.A[0]) for A in plant.A):
         raise ValueError(
             "gains: a common (LTI) output-feedback controller of a plant whose "
@@ -270,7 +278,12 @@ def _output_feedback(kind, sys, w, u, z, y, gains, constraints, backoff, margin,
 def _prescaled(plant, objective, kind, settings):
     """``(design, None)`` or ``(None, refusal)`` in one prescaling."""
     design, failure, bound_opt = _in_units(plant, objective, kind, 1.0, settings)
-    if design is None and bound_opt is not None and not 0.5 <= bound_opt <= 2.0:
+    if (
+        design is None
+        and bound_opt is not None
+        and not 0.5 <= bound_opt <= 2.0
+        and objective.homogeneous
+    ):
         # Renormalised so that the bound is near 1 (z scaled by s: the
         # controllers are the same, the bound scales by s): then certified
         # again on the plant itself.
@@ -430,18 +443,19 @@ def _problem(plant, objective, scheduled, margin, weigh=True):
     lmi = LMIProblem(margin=margin * max(scale, 1.0))
     lmi.variable("X", (n, n), symmetric=True)
     lmi.variable("Y", (n, n), symmetric=True)
-    objective.declare(lmi, plant)
+    for part in objective.parts():
+        part.declare(lmi, plant)
     for k in range(N if scheduled else 1):
         lmi.variable(f"Ah{k}", (n, n))
         lmi.variable(f"Bh{k}", (n, p))
         lmi.variable(f"Ch{k}", (m, n))
-        if not objective.strictly_proper:
+        if objective.proper:
             lmi.variable(f"Dh{k}", (m, p))
     zero = np.zeros((m, p))
 
     def hats(v, j):
         k = j if scheduled else 0
-        Dh = zero if objective.strictly_proper else getattr(v, f"Dh{k}")
+        Dh = getattr(v, f"Dh{k}") if objective.proper else zero
         return (getattr(v, f"Ah{k}"), getattr(v, f"Bh{k}"), getattr(v, f"Ch{k}"), Dh)
 
     lmi.add("[[X, I], [I, Y]] > 0", lmis.lyapunov_pair)
@@ -558,6 +572,7 @@ def _certified(plant, objective, controllers, P, values, bound_opt, limit,
     return OutputFeedbackDesign(
         plant=plant,
         objective=objective.spec(plant),
+        limits=tuple(c.spec for c in objective.constraints if hasattr(c, "spec")),
         controllers=controllers,
         gamma=bound,
         gamma_opt=bound_opt,

@@ -21,25 +21,46 @@ __all__ = ["HinfObjective", "H2Objective"]
 
 
 class _Objective:
-    """What both objectives share: the constraints posed with them.
+    """What both objectives share: the constraints posed with them, and the
+    names of their variables.
 
-    `constraints` are `ctrl_lpv.output_feedback.regions.RegionConstraint`
-    items, whose LMIs share the design's ``(X, Y)`` and whose closed-loop
-    checks join the certificate.
+    `constraints` are the parts posed with the objective on the same
+    ``(X, Y)`` (`ctrl_lpv.output_feedback.regions.RegionConstraint`,
+    `ctrl_lpv.output_feedback.mixed.BoundConstraint`); their closed-loop
+    checks join the certificate. `tag` suffixes the objective's variable
+    names (``level<tag>``, ``Q<tag><j>``), so that the same objective can
+    also be a constraint of another (a mixed design).
     """
 
-    def __init__(self, constraints=()):
+    def __init__(self, constraints=(), tag=""):
         self.constraints = tuple(constraints)
+        self.tag = tag
+
+    @property
+    def level_name(self) -> str:
+        return f"level{self.tag}"
 
     def parts(self):
         """The objective and its constraints: everything with LMIs."""
         return (self, *self.constraints)
 
+    def plant_of(self, plant):
+        """The plant whose channel the LMIs read: the design's own."""
+        return plant
+
+    @property
+    def proper(self) -> bool:
+        """Whether every part allows a feedthrough ``Dk`` in the controller."""
+        return not any(part.strictly_proper for part in self.parts())
+
+    @property
+    def homogeneous(self) -> bool:
+        """Whether every constraint holds for any positive scale of ``P``
+        (then the objective's renormalisation of ``z`` keeps them)."""
+        return all(c.homogeneous for c in self.constraints)
+
     def constraint_statement(self) -> str:
-        if not self.constraints:
-            return ""
-        names = ", ".join(str(c) for c in self.constraints)
-        return f"; every frozen closed-loop eigenvalue in {names}"
+        return "".join(f"; {c.statement()}" for c in self.constraints)
 
 
 class HinfObjective(_Objective):
@@ -65,7 +86,7 @@ class HinfObjective(_Objective):
         return float(bound)
 
     def declare(self, lmi, plant) -> None:
-        lmi.variable("level", (1, 1), symmetric=True)
+        lmi.variable(self.level_name, (1, 1), symmetric=True)
 
     def rescaled(self, P, values, s):
         """``(P, values)`` for the plant whose z the design scaled by `s`.
@@ -74,6 +95,9 @@ class HinfObjective(_Objective):
         by ``s``, that of ``z`` with ``(P / s, gamma / s)``.
         """
         return P / s, dict(values, level=values["level"] / s)
+
+    def _level(self, v):
+        return getattr(v, self.level_name)[0, 0]
 
     def transformed_lmis(self, plant, j, hats):
         """``(name, block function)`` of the LMIs at vertex `j`.
@@ -84,23 +108,26 @@ class HinfObjective(_Objective):
         weighs against the state blocks (`ctrl_lpv.output_feedback.design`).
         """
         perf = (2, 3) if plant.continuous else (2, 5)
-        return [(f"bounded real vertex {j}", lambda v: lmis.bounded_real(
-            plant, j, v, hats(v, j), v.level[0, 0], v.decay[()]), perf)]  # fmt: skip
+        return [(f"bounded real{self.tag} vertex {j}", lambda v: lmis.bounded_real(
+            plant, j, v, hats(v, j), self._level(v), v.decay[()]), perf)]  # fmt: skip
 
     def loop_checks(self, loop, P, values, j, continuous, margin=0.0, what=""):
         """Float64 checks of the closed loop at vertex `j` (each inequality
         with `margin`: ``F < -margin I``)."""
-        g = values["level"]
+        g = values[self.level_name]
         F = lmis.bounded_real_loop(*loop, P, g, continuous)
         F_abs = np.abs(lmis.bounded_real_loop(*_abs(*loop, P), g, continuous))
         return [negative_definite(F, margin=margin, absolute=F_abs,
-                                  what=f"bounded real (closed loop{what})",
+                                  what=f"bounded real{self.tag} (closed loop{what})",
                                   where=f"vertex {j}", group="LMI")]  # fmt: skip
 
     def loop_lmis(self, loop, j, continuous):
         """``(name, block function)`` of the closed loop in a variable ``P``."""
-        return [(f"bounded real vertex {j}", lambda v: [[lmis.bounded_real_loop(
-            *loop, v.P, v.level[0, 0], continuous)]])]  # fmt: skip
+
+        def blocks(v):
+            return [[lmis.bounded_real_loop(*loop, v.P, self._level(v), continuous)]]
+
+        return [(f"bounded real{self.tag} vertex {j}", blocks)]
 
     def frozen_norm(self, sys) -> float:
         return float(ct.linfnorm(sys)[0])
@@ -146,15 +173,20 @@ class H2Objective(_Objective):
         return float(bound) ** 2
 
     def declare(self, lmi, plant) -> None:
-        lmi.variable("level", (1, 1), symmetric=True)
+        level = self.level_name
+        lmi.variable(level, (1, 1), symmetric=True)
         nz = plant.C1.shape[1]
         for j in range(plant.nvertices):
-            lmi.variable(f"Q{j}", (nz, nz), symmetric=True)
+            Q = self._q(j)
+            lmi.variable(Q, (nz, nz), symmetric=True)
             lmi.add(
-                f"trace Q{j} <= level",
-                lambda v, j=j: [[np.trace(getattr(v, f"Q{j}")) - v.level]],
+                f"trace {Q} <= {level}",
+                lambda v, Q=Q: [[np.trace(getattr(v, Q)) - getattr(v, level)]],
                 strict=False,
             )
+
+    def _q(self, j) -> str:
+        return f"Q{self.tag}{j}"
 
     def rescaled(self, P, values, s):
         """``(P, values)`` for the plant whose z the design scaled by `s`:
@@ -164,17 +196,17 @@ class H2Objective(_Objective):
 
     def transformed_lmis(self, plant, j, hats):
         return [
-            (f"H2 Gramian vertex {j}",
+            (f"H2 Gramian{self.tag} vertex {j}",
              lambda v: lmis.h2_gramian(plant, j, v, hats(v, j), v.decay[()]),
              (2,) if plant.continuous else (4,)),
-            (f"H2 output vertex {j}",
-             lambda v: lmis.h2_output(plant, j, v, hats(v, j), getattr(v, f"Q{j}")),
+            (f"H2 output{self.tag} vertex {j}",
+             lambda v: lmis.h2_output(plant, j, v, hats(v, j), getattr(v, self._q(j))),
              (2,)),
         ]  # fmt: skip
 
     def loop_checks(self, loop, P, values, j, continuous, margin=0.0, what=""):
         A, B, C, D = loop
-        Q = values[f"Q{j}"]
+        Q = values[self._q(j)]
         F = lmis.h2_gramian_loop(A, B, P, continuous)
         F_abs = np.abs(lmis.h2_gramian_loop(*_abs(A, B, P), continuous))
         G = lmis.h2_output_loop(C, P, Q)
@@ -182,12 +214,13 @@ class H2Objective(_Objective):
         trace = float(np.trace(Q))
         return [
             negative_definite(F, margin=margin, absolute=F_abs,
-                              what=f"H2 Gramian (closed loop{what})",
+                              what=f"H2 Gramian{self.tag} (closed loop{what})",
                               where=f"vertex {j}", group="LMI"),
             negative_definite(G, margin=margin, absolute=G_abs,
-                              what=f"H2 output (closed loop{what})",
+                              what=f"H2 output{self.tag} (closed loop{what})",
                               where=f"vertex {j}", group="LMI"),
-            Check("trace Q <= gamma^2", trace, values["level"], strict=False,
+            Check(f"trace Q{self.tag} <= gamma^2", trace, values[self.level_name],
+                  strict=False,
                   rounding=rounding_bound(Q.shape[0], np.abs(Q).sum()),
                   where=f"vertex {j}", group="LMI"),
             Check("no feedthrough w -> z", float(np.abs(D).max(initial=0.0)), 0.0,
@@ -197,10 +230,10 @@ class H2Objective(_Objective):
     def loop_lmis(self, loop, j, continuous):
         A, B, C, _ = loop
         return [
-            (f"H2 Gramian vertex {j}",
+            (f"H2 Gramian{self.tag} vertex {j}",
              lambda v: [[lmis.h2_gramian_loop(A, B, v.P, continuous)]]),
-            (f"H2 output vertex {j}",
-             lambda v: [[lmis.h2_output_loop(C, v.P, getattr(v, f"Q{j}"))]]),
+            (f"H2 output{self.tag} vertex {j}",
+             lambda v: [[lmis.h2_output_loop(C, v.P, getattr(v, self._q(j)))]]),
         ]  # fmt: skip
 
     def frozen_norm(self, sys) -> float:

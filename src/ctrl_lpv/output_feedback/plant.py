@@ -34,6 +34,10 @@ class OutputFeedbackPlant:
         Stacks over the vertices (first axis).
     B2, C2, D12, D21 : ndarray
         The same at every vertex (checked).
+    channels : tuple of `OutputFeedbackPlant`
+        Other ``(w, z)`` channels of the same ``u, y`` (the bounds of a
+        mixed design, `ctrl_lpv.output_feedback.mixed`), transformed with
+        this plant by the prescalings.
     """
 
     system: PolytopicStateSpace
@@ -49,6 +53,7 @@ class OutputFeedbackPlant:
     C2: np.ndarray
     D12: np.ndarray
     D21: np.ndarray
+    channels: tuple = ()
 
     @classmethod
     def of(cls, sys, w, u, z, y) -> OutputFeedbackPlant:

@@ -101,6 +101,7 @@ class Prescaling:
             C2=plant.C2 * t[None, :] / sy[:, None],
             D12=plant.D12 * su[None, :],
             D21=plant.D21 / sy[:, None],
+            channels=tuple(self.apply(c) for c in plant.channels),
         )
 
     def controller(self, K):

@@ -78,11 +78,26 @@ def region_constraints(constraints, continuous) -> tuple:
 class RegionConstraint:
     """Every frozen closed-loop eigenvalue in `region` (module docstring)."""
 
+    strictly_proper = False
+    homogeneous = True  # in P
+
     def __init__(self, region: LMIRegion):
         self.region = region
 
     def __str__(self) -> str:
         return str(self.region)
+
+    def statement(self) -> str:
+        return f"every frozen closed-loop eigenvalue in {self.region}"
+
+    def plant_of(self, plant):
+        return plant
+
+    def check(self, plant) -> None:
+        """Nothing to check beyond `region_constraints`."""
+
+    def declare(self, lmi, plant) -> None:
+        """No variables of its own."""
 
     def transformed_lmis(self, plant, j, hats):
         """``(name, block function, ())`` of the region's LMI at vertex `j`

@@ -25,6 +25,10 @@ class OutputFeedbackDesign:
         The plant with its w/u/z/y partition.
     objective : `ctrl_lpv.Hinf` or `ctrl_lpv.H2`
         The norm from w to z that `gamma` bounds (with the plant's names).
+    limits : tuple of `ctrl_lpv.Hinf` or `ctrl_lpv.H2`
+        The bounds of other channels the design met (a mixed design's
+        constraints, with the plant's names), certified with the same
+        closed-loop Lyapunov matrix.
     controllers : tuple of (Ak, Bk, Ck, Dk)
         The controller at each vertex: ``xk' = Ak xk + Bk y``, ``u = Ck xk
         + Dk y``; interpolated with the plant's convex coordinates.
@@ -54,6 +58,7 @@ class OutputFeedbackDesign:
 
     plant: OutputFeedbackPlant
     objective: object
+    limits: tuple
     controllers: tuple
     gamma: float
     gamma_opt: float
@@ -64,8 +69,9 @@ class OutputFeedbackDesign:
 
     @property
     def bounds(self) -> dict:
-        """``{objective: gamma}``, as `ctrl_lpv.StateFeedbackDesign.bounds`."""
-        return {self.objective: self.gamma}
+        """``{spec: bound}`` certified: the objective's `gamma` and each bound
+        of `limits`, as `ctrl_lpv.StateFeedbackDesign.bounds`."""
+        return {self.objective: self.gamma} | {s: s.bound for s in self.limits}
 
     def controller(self, name: str = "controller") -> PolytopicStateSpace:
         """The controller as a python-control I/O system.

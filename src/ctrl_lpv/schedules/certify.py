@@ -11,7 +11,8 @@ with a `ScheduleCertificate`. For a polytopic plant:
    at the points (`ctrl_lpv.quadratic_stability`). On a cell ``A`` and
    ``B_u`` are affine in ``p`` (checked), so the closed loop is a convex
    combination of the points' closed loops and, when ``B_u`` and ``K`` both
-   vary, of the cell's pairwise terms (`ctrl_lpv.schedules.polytopic.PolytopicLoops.spanning`);
+   vary, of the cell's pairwise terms
+   (`ctrl_lpv.schedules.polytopic.PolytopicLoops.spanning`);
 3. **rate-bounded** (continuous time, ``B_u`` or ``K`` constant): a
    Lyapunov matrix ``P(p)`` affine on each cell, continuous across cells,
    with ``|dp_k/dt| <= nu_k``; on a cell ``dV/dt`` is a quadratic form in

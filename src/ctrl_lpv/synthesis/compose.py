@@ -80,8 +80,8 @@ def synthesize(
         Measured outputs: a full-order dynamic output-feedback controller
         (`ctrl_lpv.hinf_output_feedback` or `ctrl_lpv.h2_output_feedback`,
         whose `OutputFeedbackDesign` is returned; `objective` must be an
-        `Hinf` or `H2` without a bound, `lyapunov` "constant", pole
-        regions the only `constraints`). None (default):
+        `Hinf` or `H2` without a bound, `lyapunov` "constant";
+        `constraints` pole regions and `Hinf`/`H2` bounds). None (default):
         every state is measured, ``u = -K x``.
     objective : `Hinf`, `H2` or `Peak`, optional
         The bound to minimise (``bound=None``) or to meet (a given
