@@ -379,6 +379,7 @@ def servo_design(
         observer_bandwidth=estimator.observer_bandwidth,
         integral_hold=anti_hunting.integral_hold,
         anti_hunting=anti_hunting.enabled, gap_estimate=estimator.gap_estimate,
+        learn_torque=estimator.learn_torque, probe_error=estimator.probe_error,
     )  # fmt: skip
     observer = sampling = rest = None
     if dt is not None:

@@ -204,6 +204,19 @@ class ServoEstimator:
         made, rad/s (default 0.05).
     observer_bandwidth : float, optional
         Shaft-torque observer bandwidth, rad/s (default 1000).
+    learn_torque : float, optional
+        Sampled servo (``dt`` set): the gap estimate learns only while the
+        planned shaft torque of the move is beyond this, Nm, on the flank
+        the estimated shaft torque is on (default 15). A gap crossing (the
+        motor swinging from one flank to the other at the end of a move)
+        leaves the observer's shaft-torque estimate on the contact model
+        for a few samples; its flank reading is then garbage.
+    probe_error : float, optional
+        Sampled servo: the gap estimate widens at rest only while the load
+        error is beyond this, rad (default 2e-4: four counts of a 17-bit
+        load encoder). A contact asked for and made but read as the gap
+        (the shaft-torque estimate's noise at a small load torque) then
+        does not widen it.
 
     Raises
     ------
@@ -217,11 +230,13 @@ class ServoEstimator:
     estimate_rate: float = 50.0
     probe_rate: float = 0.05
     observer_bandwidth: float = 1000.0
+    learn_torque: float = 15.0
+    probe_error: float = 2e-4
 
     def __post_init__(self):
         _check(
             self,
             positive=("contact_torque", "observer_bandwidth"),
-            nonnegative=("estimate_rate", "probe_rate"),
+            nonnegative=("estimate_rate", "probe_rate", "learn_torque", "probe_error"),
             flags=("gap_estimate",),
         )

@@ -64,6 +64,8 @@ class ServoTuning:
     goal_tolerance: float = 1e-6
     anti_hunting: bool = True
     gap_estimate: bool = True
+    learn_torque: float = 0.0
+    probe_error: float = 0.0
 
 
 def servo_kernel(c: ServoTuning) -> BlockKernel:
