@@ -14,6 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from .._checks import flag, real_number
+from .rest_flank import RestFlank
 
 __all__ = ["ServoPlanner", "ServoSynthesis", "ServoAntiHunting", "ServoEstimator"]
 
@@ -158,18 +159,25 @@ class ServoAntiHunting:
         0.05): it integrates at rest, for the load torque, not the tracking
         error of a move (which would wind it up); 0 disables the hold.
         Used with `enabled` False too.
+    rest_flank : `ctrl_lpv.twomass.rest_flank.RestFlank` or None, optional
+        Sampled servo (``dt`` set), with `enabled`: at rest with a small
+        load torque the flank is latched and changed on evidence only
+        (default ``RestFlank()``); None keeps the continuous flank choice
+        at rest (which chatters on encoders: 111-223 Nm at Td = 0).
 
     Raises
     ------
     TypeError, ValueError
-        For a value that is not a real number in its range, or an
-        `enabled` that is not a bool, naming the field.
+        For a value that is not a real number in its range, an `enabled`
+        that is not a bool, or a `rest_flank` that is not a `RestFlank`,
+        naming the field.
     """
 
     enabled: bool = True
     flank_width: float = 0.5
     integral_leak: float = 2.0
     integral_hold: float = 0.05
+    rest_flank: RestFlank | None = RestFlank()
 
     def __post_init__(self):
         _check(
@@ -178,6 +186,11 @@ class ServoAntiHunting:
             nonnegative=("integral_leak", "integral_hold"),
             flags=("enabled",),
         )
+        if self.rest_flank is not None and not isinstance(self.rest_flank, RestFlank):
+            raise TypeError(
+                "ServoAntiHunting.rest_flank: expected a RestFlank or None, got "
+                f"{self.rest_flank!r}"
+            )
 
 
 @dataclass(frozen=True)

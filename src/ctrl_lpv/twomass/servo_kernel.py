@@ -24,6 +24,7 @@ import math
 from dataclasses import dataclass
 
 from ..interconnection import BlockKernel
+from .rest_flank import RestFlank
 from .trajectory import planner_functions
 
 STATES = [
@@ -66,6 +67,7 @@ class ServoTuning:
     gap_estimate: bool = True
     learn_torque: float = 0.0
     probe_error: float = 0.0
+    rest_flank: RestFlank | None = None
 
 
 def servo_kernel(c: ServoTuning) -> BlockKernel:

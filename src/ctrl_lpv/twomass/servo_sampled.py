@@ -41,6 +41,7 @@ from dataclasses import dataclass
 import control as ct
 import numpy as np
 
+from .rest_flank import rest_flank_step
 from .servo_kernel import ServoTuning, _smoothstep
 from .trajectory import PEAK_ACCEL, planner_functions
 
@@ -49,7 +50,8 @@ __all__ = ["SampledServo", "sampled_servo", "SAMPLED_STATES", "SAMPLED_INPUTS"]
 SAMPLED_STATES = [
     "r", "v_r", "a_r", "j_r", "goal", "time_to_go",
     "theta_m_hat", "omega_m_hat", "Ts_hat", "theta_l_hat", "omega_l_hat",
-    "Td_hat", "int_e_l", "alpha_hat_dev", "Tm_prev",
+    "Td_hat", "int_e_l", "alpha_hat_dev", "Tm_prev", "flank_side",
+    "flank_evidence",
 ]  # fmt: skip
 SAMPLED_INPUTS = ["theta_m", "theta_l", "theta_r"]
 _PLAN_SUBSTEPS = 4
@@ -104,7 +106,7 @@ def sampled_servo(
         c.probe_rate,
         c.integral_hold,
     )
-    learn, probe_error = c.learn_torque, c.probe_error
+    learn, probe_error, rest = c.learn_torque, c.probe_error, c.rest_flank
     ratio = ks / k1
     Phi, Gam, M = (np.asarray(m) for m in (s.Phi, s.Gamma, s.M))
 
@@ -136,7 +138,7 @@ def sampled_servo(
 
     def law(x, y):
         plan, xhat = list(x[0:6]), np.asarray(x[6:12])
-        xi, dah, u_prev = x[12], x[13], x[14]
+        xi, dah, u_prev, side, evidence = x[12], x[13], x[14], x[15], x[16]
         contact = _smoothstep(abs(xhat[2]) / tc - 1.0)
         Ph, Gh = blend(Phi, contact), blend(Gam, contact)
         filtered = xhat + blend(M, contact) @ (np.asarray(y[:2]) - xhat[[0, 3]])
@@ -152,12 +154,27 @@ def sampled_servo(
         F, F1, F2 = Jl * a + cl * v, Jl * j + cl * a, Jl * snap + cl * j
         el, dl = tl - r, wl - v
         ah = a0 + dah
-        tstar = F - ratio * (k3 * el + k4 * dl + k5 * xi) if c.anti_hunting else F
+        at_rest = h <= hmin * (1.0 + 1e-9) and abs(r - g) < 1e-6 and abs(v) < 1e-5
+        # Latched at rest (`rest_flank`): near the target the load-position
+        # feedback fades out, so that catching a drifting load brakes it
+        # without throwing it to the other flank.
+        band = 1.0
+        if at_rest and side != 0.0 and abs(ratio * k5 * xi) < rest.band_torque:
+            band = _smoothstep(abs(el) / rest.band - 1.0)
+        kp = k3 * band
+        tstar = F - ratio * (kp * el + k4 * dl + k5 * xi) if c.anti_hunting else F
         psi = math.copysign(_smoothstep(abs(tstar) / teps), tstar)
+        if rest is not None and c.anti_hunting:
+            side, evidence = rest_flank_step(
+                rest, dt, side, evidence, resting=at_rest, error=el, speed=dl,
+                load_torque=at[5], tstar=tstar, psi=psi,
+            )  # fmt: skip
+            if side != 0.0:
+                psi = side * max(0.0, 1.0 - rest.clearance / ah)
         thm = r + F / ks + ah * psi
         wmf = v + F1 / ks
         tff = Jm * (a + F2 / ks) + cm * wmf + F
-        raw = tff - (k1 * (tm - thm) + k2 * (wm - wmf) + k3 * el + k4 * dl + k5 * xi)
+        raw = tff - (k1 * (tm - thm) + k2 * (wm - wmf) + kp * el + k4 * dl + k5 * xi)
         u = min(max(raw, -limit), limit)
 
         # Integral: conditional on saturation, in contact only, held in moves.
@@ -168,8 +185,8 @@ def sampled_servo(
         else:
             dxi = el
         dxi *= _smoothstep(1.0 - abs(v) / hold) if hold > 0.0 else 1.0
+        dxi *= band
         # Gap estimate: the flank at contacts during moves, probing at rest.
-        at_rest = h <= hmin * (1.0 + 1e-9) and abs(r - g) < 1e-6 and abs(v) < 1e-5
         ddah = 0.0
         if c.gap_estimate:
             if not at_rest:
@@ -190,7 +207,15 @@ def sampled_servo(
             still = _smoothstep(1.0 - (abs(v) + abs(wl)) / c.rest_speed)
             ddah += probe * (1.0 - contact) * asked * still * (ah < amax)
         predicted = ahead if delayed else Ph @ filtered + Gh * u
-        state = [*plan_step(plan, y[2]), *predicted, xi + dt * dxi, dah + dt * ddah, u]
+        state = [
+            *plan_step(plan, y[2]),
+            *predicted,
+            xi + dt * dxi,
+            dah + dt * ddah,
+            u,
+            side,
+            evidence,
+        ]
         return u, np.asarray(state)
 
     last = {}
