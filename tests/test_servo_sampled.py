@@ -15,6 +15,7 @@ import pytest
 from ctrl_lpv import sampled_response, twomass
 from ctrl_lpv.exceptions import InfeasibleError
 from ctrl_lpv.sensors import Encoder
+from ctrl_lpv.twomass.rest_flank import RestFlank, rest_flank_step
 from ctrl_lpv.twomass.servo_rest import _peak_to_peak, _rest_loop
 
 DT = 1e-3
@@ -26,7 +27,7 @@ def design():
     return twomass.servo_design(dt=DT, delay=1, sensors="encoders")
 
 
-def _run(design, *, Td, theta_r=0.5, alpha=None, Jl=1.0, T=5.0, seed=1):
+def _simulate(design, *, Td, theta_r=0.5, alpha=None, Jl=1.0, T=5.0, seed=1):
     params = twomass.Parameters()
     plant = twomass.plant(
         params.replace(Jl=Jl * params.Jl),
@@ -36,6 +37,11 @@ def _run(design, *, Td, theta_r=0.5, alpha=None, Jl=1.0, T=5.0, seed=1):
         plant, design.controller(), T, inputs={"Td": Td, "theta_r": theta_r},
         delay=design.delay, sensors=ENCODERS, seed=seed,
     )  # fmt: skip
+    return res
+
+
+def _run(design, *, Td, theta_r=0.5, T=5.0, **kwargs):
+    res = _simulate(design, Td=Td, theta_r=theta_r, T=T, **kwargs)
     t, e = res.plant.time, res.plant.outputs[2] - theta_r
     torque = res.plant.inputs[0]
     outside = np.flatnonzero(np.abs(e) > 0.02 * abs(theta_r))
@@ -78,6 +84,24 @@ def test_paper_scenario_sampled_on_encoders(design):
     assert m["error"] <= 2e-4
     assert m["torque_std"] <= 3.0
     assert m["peak"] <= design.torque_limit + 1e-9
+
+
+def test_gap_estimate_is_not_learnt_from_a_gap_crossing(design):
+    """At the end of a move without load torque the motor swings across a
+    wide gap; the observer reads the swing as a contact for a few samples.
+    The gap estimate learns only where the move asks for torque, so it ends
+    the move near the plant's half-gap (it used to halve, 0.029 rad for
+    0.06, and the load hunted in a 2e-2 rad limit cycle)."""
+    alpha = 0.06
+    res = _simulate(design, Td=0.0, alpha=alpha, T=1.0)
+    c = res.controller
+    estimate = (
+        design.tuning.alpha_initial + c.states[c.state_labels.index("alpha_hat_dev")]
+    )
+    after = c.time >= 0.3
+    assert np.all(np.abs(estimate[after] - alpha) <= 0.05 * alpha)
+    e = res.plant.outputs[2] - 0.5
+    assert np.abs(e[after]).max() <= 2e-3
 
 
 def test_certified_rest_holds_where_it_applies(design):
@@ -161,6 +185,8 @@ def test_sampling_arguments_are_checked(kwargs, error, name):
         dict(Td=5.0, alpha=0.03, Jl=1.2, theta_r=-1.0),
         dict(Td=8.0, alpha=0.045, Jl=1.0, theta_r=0.2),
         dict(Td=2.0, alpha=0.06, Jl=1.0),
+        dict(Td=3.0, alpha=0.06, Jl=1.0, theta_r=0.05),
+        dict(Td=3.0, alpha=0.06, Jl=1.0, theta_r=-0.05),
     ],
 )
 def test_grid_with_a_load_torque(design, case):
@@ -174,9 +200,9 @@ def test_grid_with_a_load_torque(design, case):
 @pytest.mark.parametrize("alpha", [0.03, 0.06])
 def test_no_load_torque_the_load_settles_without_a_limit_cycle(design, alpha):
     """Td = 0: the load settles and stays (error peak-to-peak over the last
-    second <= 2e-4 rad). Before the gap estimate learned only from settled
-    contacts on the asked flank, alpha = 0.06 took 4.9 s with a 2e-2 rad
-    limit cycle. (The torque still chatters across the gap: not tested.)"""
+    second <= 2e-4 rad). Before the gap estimate learned only where the move
+    asks for torque on the flank it is on, alpha = 0.06 took 4.9 s with a
+    2e-2 rad limit cycle. (The quiet torque: `test_quiet_rest_...`.)"""
     m = _run(design, Td=0.0, alpha=alpha)
     assert m["settling"] <= 0.3
     assert m["overshoot"] <= 1.5
@@ -257,6 +283,100 @@ def test_streamed_sine_is_tracked_without_replanning(stream_design, design):
     assert planned > 10 * err
 
 
+# --- The flank latch at rest (`rest_flank`) ------------------------------
+
+
+def test_rest_flank_holds_against_noise_and_flips_on_evidence():
+    """The CUSUM test on the asked shaft torque: zero-mean noise of the size
+    the encoders give (0.3 Nm) never flips the latched flank in 10 s; a
+    sustained torque of the other sign (1 Nm) flips it after about
+    ``flip_evidence / (1 - flip_torque)`` seconds."""
+    f = RestFlank()
+    dt = 1e-3
+    rng = np.random.default_rng(0)
+    side, evidence = rest_flank_step(
+        f, dt, 0.0, 0.0, resting=True, error=0.0, speed=0.0, load_torque=0.0,
+        tstar=0.5, psi=1.0,
+    )  # fmt: skip
+    assert side == 1.0
+    for tstar in 0.3 * rng.standard_normal(10_000):
+        side, evidence = rest_flank_step(
+            f, dt, side, evidence, resting=True, error=0.0, speed=0.0,
+            load_torque=0.0, tstar=tstar, psi=0.0,
+        )  # fmt: skip
+        assert side == 1.0
+    steps = 0
+    while side == 1.0:
+        side, evidence = rest_flank_step(
+            f, dt, side, evidence, resting=True, error=0.0, speed=0.0,
+            load_torque=0.0, tstar=-1.0, psi=-1.0,
+        )  # fmt: skip
+        steps += 1
+    expected = f.flip_evidence / (1.0 - f.flip_torque) / dt
+    assert side == -1.0 and abs(steps - expected) <= 2
+
+
+def test_rest_flank_latches_only_near_the_target_with_a_small_load_torque():
+    """And only on the flank the motor already turns to (no jump of the
+    motor reference)."""
+    f = RestFlank()
+    near = dict(
+        error=0.5 * f.latch_error, speed=0.0, load_torque=0.0, tstar=-0.4, psi=-0.95
+    )
+    assert rest_flank_step(f, 1e-3, 0.0, 0.0, resting=True, **near)[0] == -1.0
+    assert rest_flank_step(f, 1e-3, 0.0, 0.0, resting=False, **near)[0] == 0.0
+    for change in (
+        dict(error=2 * f.latch_error), dict(speed=2 * f.latch_speed),
+        dict(load_torque=-2 * f.latch_torque), dict(psi=-0.5 * f.latch_flank),
+    ):  # fmt: skip
+        assert rest_flank_step(
+            f, 1e-3, 0.0, 0.0, resting=True, **{**near, **change}
+        ) == (0.0, 0.0)
+    # Released by a load error beyond release_error, or a new move.
+    far = dict(near, error=2 * f.release_error)
+    assert rest_flank_step(f, 1e-3, 1.0, 0.01, resting=True, **far) == (0.0, 0.0)
+    assert rest_flank_step(f, 1e-3, 1.0, 0.01, resting=False, **near) == (0.0, 0.0)
+
+
+def test_latch_is_outside_the_certified_rest(design):
+    """The latch reads the load-torque estimate; the certificate's floor
+    keeps that estimate above the latch's threshold along every admissible
+    run, so the certified loop never latches."""
+    rest = design.certificate.rest
+    params = twomass.Parameters()
+    loop = _rest_loop(params, design.gain.ravel(), design.sampling)
+    steps = 2 * np.pi / np.array([2.0**20, 2.0**17])
+    bounds, _ = _peak_to_peak(loop, rest.counts_error * steps)
+    assert loop.output_labels[5] == "Td_hat"
+    assert rest.min_load_torque - bounds[5] >= RestFlank().latch_torque
+
+
+def test_rest_without_load_torque_is_quiet(design):
+    """Td = 0 on encoders: the flank latched at the end of the move changes
+    only on evidence, a few single gap crossings while the load settles,
+    then none; the continuous flank choice swings the motor across the gap
+    all the time (111 Nm of torque standard deviation on this run)."""
+    res = _simulate(design, Td=0.0, alpha=0.03)
+    c, t = res.controller, res.plant.time
+    side = c.states[c.state_labels.index("flank_side")]
+    torque, e = res.plant.inputs[0], res.plant.outputs[2] - 0.5
+    rest, last = t >= 1.0, t >= 4.0
+    assert np.all(side[rest] != 0.0)
+    assert np.count_nonzero(np.diff(side[rest])) <= 5
+    assert np.count_nonzero(np.diff(side[last])) == 0
+    assert np.std(torque[last]) <= 3.0
+    assert np.abs(e[last]).max() <= 2e-4
+    # The continuous flank choice at rest on the same run.
+    before = twomass.servo_design(
+        dt=DT, delay=1, sensors="encoders", certify=False,
+        anti_hunting=twomass.ServoAntiHunting(rest_flank=None),
+    )  # fmt: skip
+    old = _simulate(before, Td=0.0, alpha=0.03)
+    old_torque = old.plant.inputs[0]
+    assert np.std(old_torque[last]) >= 30.0
+    assert np.std(torque[rest]) <= 0.3 * np.std(old_torque[rest])
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize(
     "Td, alpha, Jl",
@@ -268,3 +388,76 @@ def test_streamed_sine_grid(stream_design, Td, alpha, Jl):
     err, peak = _stream_error(stream_design, Td=Td, alpha=alpha, T=5.0, Jl=Jl)
     assert err <= 5e-3
     assert peak <= stream_design.torque_limit + 1e-9
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "case",
+    [
+        dict(Td=0.0, alpha=0.03),
+        dict(Td=0.0, alpha=0.06),
+        dict(Td=0.0, alpha=0.03, seed=3),
+        dict(Td=0.5, alpha=0.03),
+        dict(Td=1.0, alpha=0.03),
+        dict(Td=2.0, alpha=0.03),
+        dict(Td=2.0, alpha=0.06),
+    ],
+)
+def test_quiet_rest_with_small_load_torques(design, case):
+    """Issue 22, no hunting sampled: 0.5 rad, Td = 0 and small load torques
+    (the cases of the benchmark grid that meet the targets; not yet: seed 2,
+    alpha 0.06 with Td 0.5-1 Nm (|e| 2.6e-4 rad), Jl x0.8 and x1.2)."""
+    m = _run(design, **case)
+    assert m["settling"] <= 0.25
+    assert m["overshoot"] <= 1.0
+    assert m["error"] <= 2e-4
+    assert m["ptp"] <= 2e-4
+    assert m["torque_std"] <= 3.0
+
+
+def test_streamed_sine_never_latches_a_flank(stream_design):
+    """A streamed sine's turning points (the speed crosses zero for a
+    sample) are not a rest: the flank latch stays off all along."""
+    res = sampled_response(
+        twomass.plant(alpha=0.03), stream_design.controller(), 1.2,
+        inputs={"Td": 0.0, "theta_r": _sine}, delay=stream_design.delay,
+        sensors=ENCODERS, seed=1,
+    )  # fmt: skip
+    c = res.controller
+    assert np.all(c.states[c.state_labels.index("flank_side")] == 0.0)
+
+
+def _streamed_stop(t):
+    """0.2 rad streamed as a quintic over 0.6 s, then held."""
+    s = np.clip(np.asarray(t) / 0.6, 0.0, 1.0)
+    return 0.2 * s**3 * (10.0 - 15.0 * s + 6.0 * s**2)
+
+
+@pytest.mark.slow
+def test_streamed_set_point_that_stops_rests_latched(stream_design):
+    """Td = 0: once the streamed set-point holds, the flank latches and the
+    torque chatter at rest is a fraction of the continuous flank choice's
+    on the same run (22 against 130 Nm measured; not yet the planned
+    move's 0.4 Nm)."""
+
+    def rest(design):
+        res = sampled_response(
+            twomass.plant(alpha=0.03), design.controller(), 4.0,
+            inputs={"Td": 0.0, "theta_r": _streamed_stop}, delay=design.delay,
+            sensors=ENCODERS, seed=1,
+        )  # fmt: skip
+        t, c = res.plant.time, res.controller
+        last = t >= 3.0
+        side = c.states[c.state_labels.index("flank_side")]
+        e = res.plant.outputs[2] - _streamed_stop(t)
+        return np.std(res.plant.inputs[0][last]), side[last], np.abs(e[last]).max()
+
+    torque, side, error = rest(stream_design)
+    unlatched = twomass.servo_design(
+        dt=DT, delay=1, sensors="encoders", reference="stream", certify=False,
+        anti_hunting=twomass.ServoAntiHunting(rest_flank=None),
+    )  # fmt: skip
+    old_torque, old_side, _ = rest(unlatched)
+    assert np.all(side != 0.0) and np.all(old_side == 0.0)
+    assert torque <= 0.3 * old_torque
+    assert error <= 1e-3

@@ -414,6 +414,8 @@ def servo_design(
         observer_bandwidth=estimator.observer_bandwidth,
         integral_hold=anti_hunting.integral_hold,
         anti_hunting=anti_hunting.enabled, gap_estimate=estimator.gap_estimate,
+        learn_torque=estimator.learn_torque, probe_error=estimator.probe_error,
+        rest_flank=anti_hunting.rest_flank,
     )  # fmt: skip
     observer = sampling = rest = None
     if dt is not None:
@@ -432,6 +434,10 @@ def servo_design(
             rest = rest_bound(
                 params, K, sampling, Jl_range=(lo, hi), encoder_counts=encoder_counts,
                 flank_width=tuning.flank_width, contact_torque=tuning.contact_torque,
+                latch_torque=(
+                    0.0 if tuning.rest_flank is None or not tuning.anti_hunting
+                    else tuning.rest_flank.latch_torque
+                ),
             )  # fmt: skip
     certificate = servo_certificate(
         params, K, feedback, alpha_max=alpha_max, Jl_range=(lo, hi),

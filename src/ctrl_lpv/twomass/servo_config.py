@@ -14,6 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from .._checks import flag, real_number
+from .rest_flank import RestFlank
 
 __all__ = [
     "ServoPlanner",
@@ -164,18 +165,25 @@ class ServoAntiHunting:
         0.05): it integrates at rest, for the load torque, not the tracking
         error of a move (which would wind it up); 0 disables the hold.
         Used with `enabled` False too.
+    rest_flank : `ctrl_lpv.twomass.rest_flank.RestFlank` or None, optional
+        Sampled servo (``dt`` set), with `enabled`: at rest with a small
+        load torque the flank is latched and changed on evidence only
+        (default ``RestFlank()``); None keeps the continuous flank choice
+        at rest (which chatters on encoders: 111-223 Nm at Td = 0).
 
     Raises
     ------
     TypeError, ValueError
-        For a value that is not a real number in its range, or an
-        `enabled` that is not a bool, naming the field.
+        For a value that is not a real number in its range, an `enabled`
+        that is not a bool, or a `rest_flank` that is not a `RestFlank`,
+        naming the field.
     """
 
     enabled: bool = True
     flank_width: float = 0.5
     integral_leak: float = 2.0
     integral_hold: float = 0.05
+    rest_flank: RestFlank | None = RestFlank()
 
     def __post_init__(self):
         _check(
@@ -184,6 +192,11 @@ class ServoAntiHunting:
             nonnegative=("integral_leak", "integral_hold"),
             flags=("enabled",),
         )
+        if self.rest_flank is not None and not isinstance(self.rest_flank, RestFlank):
+            raise TypeError(
+                "ServoAntiHunting.rest_flank: expected a RestFlank or None, got "
+                f"{self.rest_flank!r}"
+            )
 
 
 @dataclass(frozen=True)
@@ -210,6 +223,19 @@ class ServoEstimator:
         made, rad/s (default 0.05).
     observer_bandwidth : float, optional
         Shaft-torque observer bandwidth, rad/s (default 1000).
+    learn_torque : float, optional
+        Sampled servo (``dt`` set): the gap estimate learns only while the
+        planned shaft torque of the move is beyond this, Nm, on the flank
+        the estimated shaft torque is on (default 15). A gap crossing (the
+        motor swinging from one flank to the other at the end of a move)
+        leaves the observer's shaft-torque estimate on the contact model
+        for a few samples; its flank reading is then garbage.
+    probe_error : float, optional
+        Sampled servo: the gap estimate widens at rest only while the load
+        error is beyond this, rad (default 2e-4: four counts of a 17-bit
+        load encoder). A contact asked for and made but read as the gap
+        (the shaft-torque estimate's noise at a small load torque) then
+        does not widen it.
 
     Raises
     ------
@@ -223,12 +249,14 @@ class ServoEstimator:
     estimate_rate: float = 50.0
     probe_rate: float = 0.05
     observer_bandwidth: float = 1000.0
+    learn_torque: float = 15.0
+    probe_error: float = 2e-4
 
     def __post_init__(self):
         _check(
             self,
             positive=("contact_torque", "observer_bandwidth"),
-            nonnegative=("estimate_rate", "probe_rate"),
+            nonnegative=("estimate_rate", "probe_rate", "learn_torque", "probe_error"),
             flags=("gap_estimate",),
         )
 

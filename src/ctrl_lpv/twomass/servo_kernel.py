@@ -24,6 +24,7 @@ import math
 from dataclasses import dataclass
 
 from ..interconnection import BlockKernel
+from .rest_flank import RestFlank
 from .trajectory import planner_functions
 
 STATES = [
@@ -57,9 +58,6 @@ class ServoTuning:
     integral_leak: float
     observer_bandwidth: float
     rest_speed: float = 0.01
-    # Relative motor-load speed, rad/s, above which the sampled law's gap
-    # estimate does not learn (the motor is crossing the gap).
-    slip_speed: float = 1.0
     flank_lead: float = 0.0
     integral_hold: float = 0.0
     goal_rate: float = 2000.0
@@ -67,6 +65,9 @@ class ServoTuning:
     goal_tolerance: float = 1e-6
     anti_hunting: bool = True
     gap_estimate: bool = True
+    learn_torque: float = 0.0
+    probe_error: float = 0.0
+    rest_flank: RestFlank | None = None
 
 
 def servo_kernel(c: ServoTuning) -> BlockKernel:

@@ -28,8 +28,10 @@ certifies the contraction of the loop (``A' P A < rho^2 P``); an ellipsoid
 function, looser on this 12-state loop (8.7e-4 rad and 21 Nm at the
 lightest load, against 7.3e-4 rad and 12.5 Nm) and a hundred times slower.
 What is not covered: the gap (a load at rest in the gap is not in this
-loop), the contact detection, the planner and the gap estimate; the
-simulations check those.
+loop), the contact detection, the planner, the gap estimate and the flank
+latch at rest (`ctrl_lpv.twomass.rest_flank`, which engages only with a
+load-torque estimate below its threshold: the load-torque floor keeps the
+estimate above it); the simulations check those.
 """
 
 from __future__ import annotations
@@ -100,6 +102,7 @@ def rest_bound(
     counts_error: float = 2.0,
     flank_width: float,
     contact_torque: float,
+    latch_torque: float = 0.0,
 ) -> RestBound:
     """Certify the sampled servo's rest (see the module docstring).
 
@@ -124,6 +127,10 @@ def rest_bound(
         The law's flank width and contact torque, Nm (`ServoTuning`): the
         load torque must keep the flank choice and the contact schedule
         saturated.
+    latch_torque : float, optional
+        The flank latch at rest (`ctrl_lpv.twomass.rest_flank`) engages
+        only with the observer's load-torque estimate below this, Nm: the
+        load torque must keep the estimate above it (default 0: no latch).
 
     Returns
     -------
@@ -153,9 +160,11 @@ def rest_bound(
         ripples.append(bounds[1])
         # The load torque that keeps the switches where the loop has them:
         # T* beyond the flank width, the estimate beyond twice the contact
-        # torque, the shaft torque of one sign.
+        # torque, the shaft torque of one sign, and the load-torque estimate
+        # above the flank latch's threshold (the latch never engages).
         floors.append(max(
-            flank_width + bounds[2], 2.0 * contact_torque + bounds[3], bounds[4]
+            flank_width + bounds[2], 2.0 * contact_torque + bounds[3], bounds[4],
+            latch_torque + bounds[5],
         ))  # fmt: skip
         parts.extend(checks)
     return RestBound(
@@ -228,14 +237,16 @@ def _rest_loop(plant: Parameters, K: np.ndarray, sampling) -> ct.StateSpace:
     tstar[ixi] -= ratio * K[4]
     shaft = np.zeros(n)
     shaft[ip] = [ks, cs, -ks, -cs]
-    C = np.vstack([np.eye(n)[2], U, tstar, np.eye(n)[4 + 2], shaft])
+    # The load-torque estimate where the command acts (the flank latch reads
+    # it): its deviation from the load torque.
+    C = np.vstack([np.eye(n)[2], U, tstar, np.eye(n)[4 + 2], shaft, Xa[5]])
     D = np.vstack([
         np.zeros(2), Eu, -ratio * (K[2] * Ea[3] + K[3] * Ea[4]), np.zeros(2),
-        np.zeros(2),
+        np.zeros(2), Ea[5],
     ])  # fmt: skip
     return ct.ss(
         An, En, C, D, dt=dt, inputs=["n_m", "n_l"],
-        outputs=["e_l", "Tm", "T_asked", "Ts_hat", "Ts"], name="servo_rest",
+        outputs=["e_l", "Tm", "T_asked", "Ts_hat", "Ts", "Td_hat"], name="servo_rest",
     )  # fmt: skip
 
 

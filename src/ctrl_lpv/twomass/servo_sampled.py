@@ -25,15 +25,24 @@ middle of its hold), plus the observer's load torque (a streamed set-point
 rarely rests, and the integral is held while it moves); the feedback, the
 flank offset and the observer are unchanged, and nothing is re-planned.
 
-Three changes of the continuous law make it robust to sampling and to the
+Changes of the continuous law make it robust to sampling and to the
 encoders' quantization: the gap estimate learns from contacts during moves
 only (at rest the shaft-torque estimate is of the order of the quantization
 noise, and a wandering estimate moves the motor against the flank), and
-only from a contact on the flank asked for with the shaft not slipping
-(``|omega_m - omega_l|`` below ``slip_speed``: while the motor crosses the
-gap the observer still reports the old contact), and a contact asked for
-and not made probes a wider gap from the contact torque on (not twice it),
-so that the load is not left in a dead band of the gap estimate's error.
+there only while the move asks for a shaft torque beyond ``learn_torque``
+on the flank the estimate is on (at the end of a move the motor may swing
+across the gap, and a streamed set-point's reversal crosses it twice a
+period; the observer, scheduled on its own estimate, reads a crossing as a
+contact for a few samples: learning from it halved the gap estimate at
+alpha = 0.06 and left a 2e-2 rad limit cycle, or stopped the motor
+mid-gap on a streamed sine).
+
+A contact asked for and not made probes a wider gap from the contact
+torque on (not twice it), so that the load is not left in a dead band of
+the gap estimate's error, but only while the load error is beyond
+``probe_error`` (a contact made at a small load torque reads as the gap
+through the estimate's noise: probing then widened the estimate past the
+gap and started hunting). At rest the flank is latched (`rest_flank`).
 """
 
 from __future__ import annotations
@@ -44,6 +53,7 @@ from dataclasses import dataclass
 import control as ct
 import numpy as np
 
+from .rest_flank import rest_flank_step
 from .servo_kernel import ServoTuning, _smoothstep
 from .stream import jerk_model
 from .trajectory import PEAK_ACCEL, planner_functions
@@ -60,10 +70,12 @@ __all__ = [
 SAMPLED_STATES = [
     "r", "v_r", "a_r", "j_r", "goal", "time_to_go",
     "theta_m_hat", "omega_m_hat", "Ts_hat", "theta_l_hat", "omega_l_hat",
-    "Td_hat", "int_e_l", "alpha_hat_dev", "Tm_prev",
+    "Td_hat", "int_e_l", "alpha_hat_dev", "Tm_prev", "flank_side",
+    "flank_evidence",
 ]  # fmt: skip
 SAMPLED_INPUTS = ["theta_m", "theta_l", "theta_r"]
 _PLAN_SUBSTEPS = 4
+_STREAM_REST_ACCEL = 1e-3  # rad/s^2
 
 
 @dataclass(frozen=True)
@@ -182,8 +194,8 @@ def sampled_servo(
         c.probe_rate,
         c.integral_hold,
     )
+    learn, probe_error, rest = c.learn_torque, c.probe_error, c.rest_flank
     ratio = ks / k1
-    slip = c.slip_speed
     Phi, Gam, M = (np.asarray(m) for m in (s.Phi, s.Gamma, s.M))
 
     def blend(pair, w):
@@ -205,7 +217,7 @@ def sampled_servo(
             r, v, a, j, g, h = plan
             snap = snap_of(r, v, a, j, g, h)
             F, wmf, tff = flat_feedforward(c, v, a, j, snap)
-            return (r, v, F, wmf, tff, g, h), plan_step(plan, target)
+            return (r, v, a, F, wmf, tff, g, h), plan_step(plan, target)
         # Streamed: correct the tracker with the sample, extrapolate it (the
         # constant-jerk model has no snap), no planning.
         predicted = np.asarray(plan[:4])
@@ -213,11 +225,11 @@ def sampled_servo(
         r, v, a, j = to_act @ z
         F, wmf, _ = flat_feedforward(c, v, a, j, 0.0)
         tff = flat_feedforward(c, *(to_hold @ z)[1:], 0.0)[2]
-        return (r, v, F, wmf, tff, target, hmin), [*(Pz @ z), target, hmin]
+        return (r, v, a, F, wmf, tff, target, hmin), [*(Pz @ z), target, hmin]
 
     def law(x, y):
         plan, xhat = list(x[0:6]), np.asarray(x[6:12])
-        xi, dah, u_prev = x[12], x[13], x[14]
+        xi, dah, u_prev, side, evidence = x[12], x[13], x[14], x[15], x[16]
         contact = _smoothstep(abs(xhat[2]) / tc - 1.0)
         Ph, Gh = blend(Phi, contact), blend(Gam, contact)
         filtered = xhat + blend(M, contact) @ (np.asarray(y[:2]) - xhat[[0, 3]])
@@ -226,7 +238,7 @@ def sampled_servo(
         ahead = Ph @ filtered + Gh * u_prev
         at = ahead if delayed else filtered
         tm, wm, tsh, tl, wl = at[:5]
-        (r, v, F, wmf, tff, g, h), next_plan = reference(plan, y[2])
+        (r, v, a, F, wmf, tff, g, h), next_plan = reference(plan, y[2])
         if streamed:
             # A streamed set-point rarely rests: the integral is held while
             # it moves, so the observer's load torque joins the feedforward
@@ -235,10 +247,30 @@ def sampled_servo(
         # The flank offset, as in the continuous law (`servo_kernel`).
         el, dl = tl - r, wl - v
         ah = a0 + dah
-        tstar = F - ratio * (k3 * el + k4 * dl + k5 * xi) if c.anti_hunting else F
+        at_rest = h <= hmin * (1.0 + 1e-9) and abs(r - g) < 1e-6 and abs(v) < 1e-5
+        if streamed:
+            # A streamed set-point rests only once the tracker has stopped
+            # accelerating too: a sine's turning point (v = 0 for one
+            # sample) is not a rest, and must not latch the flank.
+            at_rest = at_rest and abs(a) < _STREAM_REST_ACCEL
+        # Latched at rest (`rest_flank`): near the target the load-position
+        # feedback fades out, so that catching a drifting load brakes it
+        # without throwing it to the other flank.
+        band = 1.0
+        if at_rest and side != 0.0 and abs(ratio * k5 * xi) < rest.band_torque:
+            band = _smoothstep(abs(el) / rest.band - 1.0)
+        kp = k3 * band
+        tstar = F - ratio * (kp * el + k4 * dl + k5 * xi) if c.anti_hunting else F
         psi = math.copysign(_smoothstep(abs(tstar) / teps), tstar)
+        if rest is not None and c.anti_hunting:
+            side, evidence = rest_flank_step(
+                rest, dt, side, evidence, resting=at_rest, error=el, speed=dl,
+                load_torque=at[5], tstar=tstar, psi=psi,
+            )  # fmt: skip
+            if side != 0.0:
+                psi = side * max(0.0, 1.0 - rest.clearance / ah)
         thm = r + F / ks + ah * psi
-        raw = tff - (k1 * (tm - thm) + k2 * (wm - wmf) + k3 * el + k4 * dl + k5 * xi)
+        raw = tff - (k1 * (tm - thm) + k2 * (wm - wmf) + kp * el + k4 * dl + k5 * xi)
         u = min(max(raw, -limit), limit)
 
         # Integral: conditional on saturation, in contact only, held in moves.
@@ -249,28 +281,37 @@ def sampled_servo(
         else:
             dxi = el
         dxi *= _smoothstep(1.0 - abs(v) / hold) if hold > 0.0 else 1.0
+        dxi *= band
         # Gap estimate: the flank at contacts during moves, probing at rest.
-        at_rest = h <= hmin * (1.0 + 1e-9) and abs(r - g) < 1e-6 and abs(v) < 1e-5
         ddah = 0.0
         if c.gap_estimate:
             if not at_rest:
                 flank = math.copysign(1.0, tsh) * (
                     (tm - tl) - (tsh - cs * (wm - wl)) / ks
                 )
-                # Only a contact on the flank asked for, with the shaft not
-                # slipping: while the motor crosses the gap the observer
-                # still sees a contact, and the estimate would read the
-                # crossing as a narrower gap (a streamed sine crosses twice
-                # a period; the motor then stopped mid-gap).
-                settled = max(0.0, math.copysign(1.0, tsh) * psi) * _smoothstep(
-                    1.0 - abs(wm - wl) / slip
-                )
-                ddah = gam * contact * settled * (min(max(flank, 0.0), amax) - ah)
+                # Only where the move asks for torque on the flank the
+                # estimate is on: not in a gap crossing (at the end of a
+                # move, or a streamed set-point's reversal), where the
+                # estimate runs on the contact model for a few samples and
+                # would read the crossing as a narrower gap. (A condition
+                # on the shaft not slipping, |omega_m - omega_l| < 1 rad/s,
+                # on top of this or instead of it, measured worse: the
+                # 0.05 rad step at Td 3 overshot 1.9 %, alpha 0.06 at Td 0
+                # chattered at 146 Nm or alpha 0.03 hunted in 3.8e-4 rad.)
+                learning = 1.0
+                if learn > 0.0:
+                    learning = _smoothstep(abs(F) / learn - 1.0) * (F * tsh > 0.0)
+                ddah = gam * learning * contact * (min(max(flank, 0.0), amax) - ah)
             asked = _smoothstep(abs(tstar) / tc - 1.0)
+            # A contact asked for and not made leaves a load error: without
+            # one, "no contact" is the shaft-torque estimate's noise.
+            if probe_error > 0.0:
+                asked *= _smoothstep(abs(el) / probe_error - 1.0)
             still = _smoothstep(1.0 - (abs(v) + abs(wl)) / c.rest_speed)
             ddah += probe * (1.0 - contact) * asked * still * (ah < amax)
         predicted = ahead if delayed else Ph @ filtered + Gh * u
         state = [*next_plan, *predicted, xi + dt * dxi, dah + dt * ddah, u]
+        state += [side, evidence]
         return u, np.asarray(state)
 
     last = {}

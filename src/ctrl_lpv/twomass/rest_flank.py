@@ -1,0 +1,125 @@
+"""The sampled servo's flank at rest: chosen once, changed on evidence.
+
+At rest with a small load torque the shaft torque the servo asks for, ``T*``,
+is zero up to the encoders' noise (0.2-0.3 Nm, mostly the load-speed
+estimate's), inside the 0.5 Nm over which the continuous law turns the
+backlash offset from one flank to the other. Read once per sample, the flank
+choice turns that noise into motor swings across the gap: 111-223 Nm of
+torque chatter (standard deviation) with the load quiet. A filter or a dead
+zone on ``T*`` or a hysteresis on the flank only trades the chatter for load
+limit cycles (the flank then lags the load, a relay with delay around a
+free mass).
+
+`RestFlank` makes the decision what it is at rest, a sequential test:
+
+* **latch**: once the move has ended and the load is near the target (load
+  error below `latch_error`, load speed below `latch_speed`) with a small
+  load torque (the observer's ``|Td_hat|`` below `latch_torque`), the flank
+  is latched on the side the continuous law's offset is turning to, once
+  it is beyond `latch_flank` of the way (no jump of the motor reference);
+* **park**: the motor is parked `clearance` short of that flank (the load
+  is not pushed by the gap estimate's error or the motor's noise; a load
+  drifting onto the flank is caught at its own, small, speed);
+* **damp, do not push**: while latched and the load error is below
+  `band`, the load-position terms (proportional and integral) are faded
+  out, so that catching a drifting load brakes it without throwing it back
+  to the other flank (the shaft in contact is nearly undamped: a push from
+  one flank came back as an elastic bounce, a ping-pong limit cycle);
+* **flip on evidence**: the side changes only when ``-side T*`` stays beyond
+  `flip_torque` long enough, a CUSUM test ``q <- max(0, q + dt (-side T* -
+  flip_torque))`` against `flip_evidence` (a load torque of the other sign
+  or a load drifting the other way: sustained; the noise: not);
+* **release**: a load error beyond `release_error` (a new load torque, a
+  knock) returns the flank to the continuous law.
+
+While latched the rest loop is not the certified linear loop; the latch
+engages only with ``|Td_hat| < latch_torque``, which the rest certificate's
+load-torque floor excludes (`ctrl_lpv.twomass.servo_rest`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+__all__ = ["RestFlank", "rest_flank_step"]
+
+
+@dataclass(frozen=True)
+class RestFlank:
+    """Thresholds of the latched flank at rest (see the module docstring).
+
+    Attributes
+    ----------
+    latch_error, latch_speed, latch_torque : float
+        Latch when ``|e_l| <`` this (rad), ``|omega_l - v_r| <`` this
+        (rad/s) and ``|Td_hat| <`` this (Nm) ...
+    latch_flank : float
+        ... and the continuous law's flank offset is beyond this share of
+        the half-gap (the motor already on its way to that flank).
+    release_error : float
+        Release when ``|e_l| >`` this, rad.
+    flip_torque, flip_evidence : float
+        The CUSUM's drift, Nm, and threshold, Nm s.
+    clearance : float
+        The motor parks this short of the latched flank, rad.
+    band : float
+        Load error, rad, below which the load-position feedback is faded
+        out while latched (back in full at twice this).
+    band_torque : float
+        ... and while the integral holds less than this load torque, Nm (a
+        load held on its flank keeps the integral that holds it).
+    """
+
+    latch_error: float = 3e-4
+    latch_speed: float = 3e-3
+    latch_torque: float = 2.0
+    latch_flank: float = 0.9
+    release_error: float = 1e-3
+    flip_torque: float = 0.5
+    flip_evidence: float = 0.02
+    clearance: float = 1e-3
+    band: float = 1e-4
+    band_torque: float = 5.0
+
+
+def rest_flank_step(
+    f: RestFlank,
+    dt: float,
+    side: float,
+    evidence: float,
+    *,
+    resting: bool,
+    error: float,
+    speed: float,
+    load_torque: float,
+    tstar: float,
+    psi: float,
+) -> tuple[float, float]:
+    """One sample of the latch: the new ``(side, evidence)``.
+
+    ``side`` is 0 (not latched: the continuous flank choice) or +-1 (the
+    latched flank, the sign of the shaft torque it transmits); ``evidence``
+    is the CUSUM statistic of a flip; ``psi`` the continuous law's flank
+    offset (-1 to 1) at this sample.
+    """
+    if not resting:
+        return 0.0, 0.0
+    if side != 0.0 and abs(error) > f.release_error:
+        return 0.0, 0.0
+    if side == 0.0:
+        # Latch on the flank the motor is already turning to (the
+        # continuous offset psi beyond latch_flank): no jump of the motor
+        # reference, no slam. At rest at the origin psi = 0: no side.
+        if (
+            abs(psi) >= f.latch_flank
+            and abs(error) < f.latch_error
+            and abs(speed) < f.latch_speed
+            and abs(load_torque) < f.latch_torque
+        ):
+            return math.copysign(1.0, psi), 0.0
+        return 0.0, 0.0
+    evidence = max(0.0, evidence + dt * (-side * tstar - f.flip_torque))
+    if evidence > f.flip_evidence:
+        return -side, 0.0
+    return side, evidence
