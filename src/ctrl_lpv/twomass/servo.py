@@ -41,6 +41,7 @@ from ..interconnection import kernel_nlsys
 from ..synthesis import StateFeedbackDesign, hinf_state_feedback
 from ..systems import PolytopicStateSpace
 from .drive_observer import drive_observer, observer_matrices
+from .motor_estimator import MotorEstimator, motor_observer
 from .model import lpv_model
 from .parameters import Parameters
 from .servo_certificate import ServoCertificate, servo_certificate
@@ -60,6 +61,8 @@ from .stream import stream_gain
 from .trajectory import PEAK_ACCEL, move_duration
 
 __all__ = ["ServoDesign", "servo_design", "servo_polytope"]
+
+_READ = {"encoders": ("theta_m", "theta_l"), "motor": ("theta_m",)}
 
 
 def servo_polytope(
@@ -413,22 +416,34 @@ def servo_design(
         integral_leak=anti_hunting.integral_leak,
         observer_bandwidth=estimator.observer_bandwidth,
         integral_hold=anti_hunting.integral_hold,
-        anti_hunting=anti_hunting.enabled, gap_estimate=estimator.gap_estimate,
+        anti_hunting=anti_hunting.enabled,
+        gap_estimate=estimator.gap_estimate and not (sensors == "motor" and __import__("os").environ.get("NOGAP")),
     )  # fmt: skip
     observer = sampling = rest = None
     if dt is not None:
-        observer = drive_observer(
-            params, dt=dt, sensors=sensors, encoder_counts=encoder_counts
-        )
-        Phi, Gamma, M = observer_matrices(observer)
+        estimator = None
+        if sensors == "motor":
+            observer = motor_observer(
+                params, dt=dt, motor_counts=encoder_counts[0],
+                load_torque_rate=float(__import__("os").environ.get("LTR", 300)),
+            )  # fmt: skip
+            estimator = MotorEstimator(observer)
+            Phi = Gamma = M = None
+        else:
+            observer = drive_observer(
+                params, dt=dt, sensors=sensors, encoder_counts=encoder_counts
+            )
+            Phi, Gamma, M = observer_matrices(observer)
         tracker = None
         if reference == "stream":
             tracker = tuple(float(v) for v in stream_gain(dt, stream.bandwidth))
         sampling = SampledServo(
             dt=dt, delay=delay, Phi=Phi, Gamma=Gamma, M=M, reference=reference,
-            stream_gain=tracker,
+            stream_gain=tracker, measured=tuple(_READ[sensors]), estimator=estimator,
         )  # fmt: skip
-        if certify:
+        # On the motor encoder alone the load angle at rest is not observable
+        # (the motor sees theta_l + alpha, not theta_l): no rest certificate.
+        if certify and sensors == "encoders":
             rest = rest_bound(
                 params, K, sampling, Jl_range=(lo, hi), encoder_counts=encoder_counts,
                 flank_width=tuning.flank_width, contact_torque=tuning.contact_torque,

@@ -44,6 +44,7 @@ from dataclasses import dataclass
 import control as ct
 import numpy as np
 
+from .drive_observer import DRIVE_STATES
 from .servo_kernel import ServoTuning, _smoothstep
 from .stream import jerk_model
 from .trajectory import PEAK_ACCEL, planner_functions
@@ -89,6 +90,14 @@ class SampledServo:
         `ctrl_lpv.twomass.stream`.
     stream_gain : tuple of float or None
         The tracker's correction gain (``reference="stream"``).
+    measured : tuple of str
+        The encoder angles read, the controller's first inputs:
+        ``("theta_m", "theta_l")`` (both encoders) or ``("theta_m",)`` (the
+        motor encoder alone, `ctrl_lpv.twomass.motor_observer`); the
+        columns of `M`.
+    estimator : `ctrl_lpv.twomass.motor_estimator.MotorEstimator` or None
+        The motor-encoder estimator (`Phi`, `Gamma`, `M` unused), or None
+        for the linear drive observer.
     """
 
     dt: float
@@ -98,6 +107,8 @@ class SampledServo:
     M: tuple
     reference: str = "plan"
     stream_gain: tuple | None = None
+    measured: tuple = ("theta_m", "theta_l")
+    estimator: object = None
 
 
 def plan_stepper(c: ServoTuning, dt: float):
@@ -185,6 +196,9 @@ def sampled_servo(
     ratio = ks / k1
     slip = c.slip_speed
     Phi, Gam, M = (np.asarray(m) for m in (s.Phi, s.Gamma, s.M))
+    rows = [DRIVE_STATES.index(name) for name in s.measured]
+    nread = len(rows)
+    motor = s.estimator
 
     def blend(pair, w):
         return pair[0] + w * (pair[1] - pair[0])
@@ -219,14 +233,20 @@ def sampled_servo(
         plan, xhat = list(x[0:6]), np.asarray(x[6:12])
         xi, dah, u_prev = x[12], x[13], x[14]
         contact = _smoothstep(abs(xhat[2]) / tc - 1.0)
-        Ph, Gh = blend(Phi, contact), blend(Gam, contact)
-        filtered = xhat + blend(M, contact) @ (np.asarray(y[:2]) - xhat[[0, 3]])
-        # With delay=1 the command computed now acts from the next sample, on
-        # the state the command already on its way leads to.
-        ahead = Ph @ filtered + Gh * u_prev
+        if motor is None:
+            Ph, Gh = blend(Phi, contact), blend(Gam, contact)
+            filtered = xhat + blend(M, contact) @ (np.asarray(y[:nread]) - xhat[rows])
+            # With delay=1 the command computed now acts from the next
+            # sample, on the state the command already on its way leads to.
+            ahead = Ph @ filtered + Gh * u_prev
+        else:
+            # Motor encoder alone: the dead-zone model with the gap estimate.
+            gap = a0 + dah
+            filtered = motor.correct(xhat, y[0], gap)
+            ahead = motor.predict(filtered, u_prev, gap)
         at = ahead if delayed else filtered
         tm, wm, tsh, tl, wl = at[:5]
-        (r, v, F, wmf, tff, g, h), next_plan = reference(plan, y[2])
+        (r, v, F, wmf, tff, g, h), next_plan = reference(plan, y[nread])
         if streamed:
             # A streamed set-point rarely rests: the integral is held while
             # it moves, so the observer's load torque joins the feedforward
@@ -269,7 +289,12 @@ def sampled_servo(
             asked = _smoothstep(abs(tstar) / tc - 1.0)
             still = _smoothstep(1.0 - (abs(v) + abs(wl)) / c.rest_speed)
             ddah += probe * (1.0 - contact) * asked * still * (ah < amax)
-        predicted = ahead if delayed else Ph @ filtered + Gh * u
+        if delayed:
+            predicted = ahead
+        elif motor is None:
+            predicted = Ph @ filtered + Gh * u
+        else:
+            predicted = motor.predict(filtered, u, a0 + dah)
         state = [*next_plan, *predicted, xi + dt * dxi, dah + dt * ddah, u]
         return u, np.asarray(state)
 
@@ -286,6 +311,6 @@ def sampled_servo(
     return ct.NonlinearIOSystem(
         lambda t, x, u, params=None: evaluate(t, x, u)[1],
         lambda t, x, u, params=None: [evaluate(t, x, u)[0]],
-        inputs=SAMPLED_INPUTS, outputs=["Tm"], states=SAMPLED_STATES,
+        inputs=[*s.measured, "theta_r"], outputs=["Tm"], states=SAMPLED_STATES,
         dt=s.dt, name=name,
     )  # fmt: skip

@@ -1,0 +1,309 @@
+"""The drive's estimator on the motor encoder alone.
+
+With only ``theta_m`` measured, `ctrl_lpv.twomass.drive_observer` has no
+certified LPV observer: in the gap no torque reaches the load, so the load
+(``theta_l``, ``omega_l``, ``Td``) does not reach the motor encoder. What
+*is* observable depends on the mode (`observability`):
+
+* **contact** (the shaft on a flank, the half-gap ``alpha`` known): the
+  shaft torque ``ks (theta_m - theta_l -+ alpha) + cs omega_d`` couples the
+  load to the motor, and the whole drive ``theta_m, omega_m, theta_l,
+  omega_l, Td`` is observable from ``theta_m``;
+* **gap**: only the motor ``theta_m, omega_m``; the load moves free,
+  decelerated by ``Td`` and its friction.
+
+`motor_observer` designs one certified H2 observer per mode (`ctrl_lpv.
+observer` on each mode's linear model, sampled with the zero-order hold).
+`MotorEstimator` runs them as drive engineers run a backlash observer on
+the motor side (a model of the backlash in the prediction, Lagerberg and
+Egardt's approach for powertrains): each sample it predicts the drive with
+the backlash's dead zone (the load open loop while in the gap), and
+corrects the prediction with the motor reading through the gain of the mode
+the prediction is in. A contact made earlier or later than predicted is a
+motor-side innovation, which the contact gain turns into a correction of
+the load's angle: contacts re-anchor the load estimate.
+
+What the certificates cover: each mode's error dynamics with the mode held
+and ``alpha`` exact. Not covered: the switching between modes, the load's
+open-loop prediction in the gap (its error grows over a crossing, by
+``|Td - Td_hat| t^2 / (2 Jl)`` from a load whose speed is known), and the
+half-gap itself: the motor encoder never sees ``alpha`` at rest, so the
+load angle estimated on a flank is off by the error of ``alpha_hat``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import control as ct
+import numpy as np
+
+from .._checks import real_number
+from ..estimation import ObserverDesign, observer
+from ..synthesis import H2
+from ..systems import PolytopicStateSpace
+from .drive_observer import _encoder_steps
+from .parameters import Parameters
+
+__all__ = [
+    "MODE_STATES", "MotorObserver", "MotorEstimator", "mode_model",
+    "motor_observer", "observability",
+]  # fmt: skip
+
+#: States the estimator carries, in order (the layout of `DRIVE_STATES`
+#: without the shaft torque, which the dead zone gives).
+MODE_STATES = {
+    "contact": ["theta_m", "omega_m", "theta_l", "omega_l", "Td"],
+    "gap": ["theta_m", "omega_m"],
+}
+_PREDICT_SUBSTEPS = 4
+
+
+def mode_model(
+    params: Parameters,
+    mode: str,
+    *,
+    dt: float | None = None,
+    motor_counts: int = 2**20,
+    motor_torque_rate: float = 20.0,
+    load_torque_rate: float = 300.0,
+) -> ct.StateSpace:
+    """The linear model of one mode, read by the motor encoder.
+
+    Parameters
+    ----------
+    params : `Parameters`
+        Drive data.
+    mode : {"contact", "gap"}
+        Contact: the shaft on a flank (about it: the flank offset drops out
+        of the deviations); gap: the motor alone.
+    dt : float, optional
+        Sample time (zero-order hold); None for continuous time.
+    motor_counts : int, optional
+        Counts per revolution of the motor encoder.
+    motor_torque_rate, load_torque_rate : float, optional
+        Intensity of the torque disturbance on the motor (what the model
+        misses), Nm per unit input, and of the random walk of ``Td``, Nm/s.
+
+    Returns
+    -------
+    `control.StateSpace`
+        States `MODE_STATES` [mode], inputs ``["Tm", "w_m", "w_Td",
+        "n_m"]`` (``w_Td`` absent in the gap), outputs ``["theta_m",
+        "omega_m_err", ...]``: the reading, then the speeds (and in contact
+        ``theta_l`` in mrad) whose estimation error the H2 design weighs.
+    """
+    Jm, Jl, cm, cl, ks, cs = (
+        params.Jm, params.Jl, params.cm, params.cl, params.ks, params.cs
+    )  # fmt: skip
+    step = 2.0 * math.pi / motor_counts / math.sqrt(12.0)
+    if mode == "contact":
+        A = np.array([
+            [0.0, 1.0, 0.0, 0.0, 0.0],
+            [-ks / Jm, -(cm + cs) / Jm, ks / Jm, cs / Jm, 0.0],
+            [0.0, 0.0, 0.0, 1.0, 0.0],
+            [ks / Jl, cs / Jl, -ks / Jl, -(cl + cs) / Jl, -1.0 / Jl],
+            [0.0, 0.0, 0.0, 0.0, 0.0],
+        ])  # fmt: skip
+        B = np.zeros((5, 4))
+        B[1, :2] = [1.0 / Jm, motor_torque_rate / Jm]
+        B[4, 2] = load_torque_rate
+        C = np.zeros((4, 5))
+        C[0, 0] = C[1, 1] = C[2, 3] = 1.0
+        C[3, 2] = 1e3
+        D = np.zeros((4, 4))
+        D[0, 3] = step
+        inputs = ["Tm", "w_m", "w_Td", "n_m"]
+        outputs = ["theta_m", "omega_m_err", "omega_l_err", "theta_l_err"]
+    elif mode == "gap":
+        A = np.array([[0.0, 1.0], [0.0, -cm / Jm]])
+        B = np.array([[0.0, 0.0, 0.0], [1.0 / Jm, motor_torque_rate / Jm, 0.0]])
+        C = np.array([[1.0, 0.0], [0.0, 1.0]])
+        D = np.array([[0.0, 0.0, step], [0.0, 0.0, 0.0]])
+        inputs = ["Tm", "w_m", "n_m"]
+        outputs = ["theta_m", "omega_m_err"]
+    else:
+        raise ValueError(f"mode: expected 'contact' or 'gap', got {mode!r}")
+    sys = ct.ss(
+        A, B, C, D, inputs=inputs, outputs=outputs, states=MODE_STATES[mode],
+        name=f"twomass_{mode}",
+    )  # fmt: skip
+    return sys if dt is None else ct.c2d(sys, dt, "zoh")
+
+
+def observability(params: Parameters | None = None) -> dict:
+    """Rank of the observability matrix from ``theta_m``, per mode.
+
+    Returns
+    -------
+    dict
+        ``{"contact": (rank, n), "gap": (rank, n)}`` on the full drive
+        ``theta_m, omega_m, theta_l, omega_l, Td`` (in the gap the load is
+        decoupled: rank 2 of 5).
+    """
+    params = Parameters() if params is None else params
+    contact = mode_model(params, "contact")
+    gap = contact.A.copy()
+    # The gap: no shaft torque (the rows and columns of the coupling drop).
+    gap[1, [0, 2, 3]] = 0.0
+    gap[1, 1] = -params.cm / params.Jm
+    gap[3, [0, 1, 2]] = 0.0
+    gap[3, 3] = -params.cl / params.Jl
+    C = contact.C[:1]
+    return {
+        "contact": (int(np.linalg.matrix_rank(ct.obsv(contact.A, C))), 5),
+        "gap": (int(np.linalg.matrix_rank(ct.obsv(gap, C))), 5),
+    }
+
+
+@dataclass(frozen=True)
+class MotorObserver:
+    """The two certified mode observers of the motor-encoder estimator.
+
+    Attributes
+    ----------
+    contact, gap : `ctrl_lpv.ObserverDesign`
+        H2 observers of `mode_model` in contact and in the gap (predictor
+        form, discrete time), each certified with its mode held.
+    params : `Parameters`
+        The drive data of the models.
+    dt : float
+        Sample time, s.
+    """
+
+    contact: ObserverDesign
+    gap: ObserverDesign
+    params: Parameters
+    dt: float
+
+    @property
+    def certified(self) -> bool:
+        """Both modes' certificates verified in float64."""
+        return self.contact.certificate.verified and self.gap.certificate.verified
+
+    def filter_gains(self):
+        """``(M_gap, M_contact)``: the gains of the current estimate
+        ``x[k|k] = x[k|k-1] + M (theta_m[k] - theta_m_hat[k|k-1])`` on the
+        contact states (zero on the load in the gap), ``M = Phi^-1 L``."""
+        gains = []
+        for design, mode in ((self.gap, "gap"), (self.contact, "contact")):
+            Phi = _vertex(design).A
+            M = np.zeros(5)
+            M[: len(MODE_STATES[mode])] = np.linalg.solve(
+                Phi, np.asarray(design.gain([]), float)[:, 0]
+            )
+            gains.append(M)
+        return tuple(gains)
+
+
+def _vertex(design: ObserverDesign):
+    return design.system.vertices[0]
+
+
+def motor_observer(
+    params: Parameters | None = None,
+    *,
+    dt: float,
+    motor_counts: int = 2**20,
+    motor_torque_rate: float = 20.0,
+    load_torque_rate: float = 300.0,
+    backoff: float | None = 0.2,
+) -> MotorObserver:
+    """Certified H2 observers of the drive's modes from the motor encoder.
+
+    Parameters
+    ----------
+    params : `Parameters`, optional
+        Drive data.
+    dt : float
+        Sample time, s.
+    motor_counts : int, optional
+        Counts per revolution of the motor encoder.
+    motor_torque_rate, load_torque_rate : float, optional
+        See `mode_model`.
+    backoff : float or None, optional
+        As in `ctrl_lpv.observer`.
+
+    Returns
+    -------
+    `MotorObserver`
+    """
+    params = Parameters() if params is None else params
+    if not isinstance(params, Parameters):
+        raise TypeError(f"params: expected twomass.Parameters, got {type(params)!r}")
+    dt = real_number(dt, "dt", positive=True)
+    _encoder_steps((motor_counts, 2))
+    designs = {}
+    for mode in ("contact", "gap"):
+        sys = mode_model(
+            params, mode, dt=dt, motor_counts=motor_counts,
+            motor_torque_rate=motor_torque_rate, load_torque_rate=load_torque_rate,
+        )  # fmt: skip
+        w = [s for s in sys.input_labels if s != "Tm"]
+        designs[mode] = observer(
+            PolytopicStateSpace([sys]), ["theta_m"], u="Tm", w=w,
+            z=sys.output_labels[1:], objective=H2(), backoff=backoff,
+        )  # fmt: skip
+    return MotorObserver(
+        contact=designs["contact"], gap=designs["gap"], params=params, dt=dt
+    )
+
+
+class MotorEstimator:
+    """One sample of the motor-encoder estimator on the drive's 6-state layout.
+
+    The state is ``[theta_m, omega_m, Ts, theta_l, omega_l, Td]`` (as
+    `ctrl_lpv.twomass.drive_observer.DRIVE_STATES`); ``Ts`` is not
+    estimated on its own but given by the dead zone at the estimate.
+    `correct` applies the reading, `predict` advances one sample.
+    """
+
+    def __init__(self, design: MotorObserver):
+        p = design.params
+        self.Jm, self.Jl, self.cm, self.cl = p.Jm, p.Jl, p.cm, p.cl
+        self.ks, self.cs, self.dt = p.ks, p.cs, design.dt
+        self.M_gap, self.M_contact = design.filter_gains()
+
+    def shaft_torque(self, tm, wm, tl, wl, alpha):
+        """The dead zone's shaft torque (0 inside the gap)."""
+        d = tm - tl
+        if abs(d) <= alpha:
+            return 0.0
+        return self.ks * (d - math.copysign(alpha, d)) + self.cs * (wm - wl)
+
+    def correct(self, x, theta_m, alpha):
+        """The estimate ``x[k|k]`` from the prediction and the reading."""
+        tm, wm, _, tl, wl, td = x
+        in_contact = abs(tm - tl) > alpha
+        M = self.M_contact if in_contact else self.M_gap
+        nu = theta_m - tm
+        tm, wm, tl, wl, td = (
+            tm + M[0] * nu, wm + M[1] * nu, tl + M[2] * nu, wl + M[3] * nu,
+            td + M[4] * nu,
+        )  # fmt: skip
+        return np.array([tm, wm, self.shaft_torque(tm, wm, tl, wl, alpha), tl, wl, td])
+
+    def predict(self, x, torque, alpha):
+        """The prediction one sample on under a held `torque` (RK4 substeps
+        of the dead-zone model, ``Td`` constant)."""
+        Jm, Jl, cm, cl = self.Jm, self.Jl, self.cm, self.cl
+        td = x[5]
+
+        def rate(s):
+            ts = self.shaft_torque(s[0], s[1], s[2], s[3], alpha)
+            return np.array([
+                s[1], (torque - cm * s[1] - ts) / Jm,
+                s[3], (ts - cl * s[3] - td) / Jl,
+            ])  # fmt: skip
+
+        s = np.array([x[0], x[1], x[3], x[4]])
+        h = self.dt / _PREDICT_SUBSTEPS
+        for _ in range(_PREDICT_SUBSTEPS):
+            q1 = rate(s)
+            q2 = rate(s + 0.5 * h * q1)
+            q3 = rate(s + 0.5 * h * q2)
+            q4 = rate(s + h * q3)
+            s = s + h / 6.0 * (q1 + 2.0 * q2 + 2.0 * q3 + q4)
+        ts = self.shaft_torque(s[0], s[1], s[2], s[3], alpha)
+        return np.array([s[0], s[1], ts, s[2], s[3], td])
