@@ -255,15 +255,46 @@ class MotorEstimator:
 
     The state is ``[theta_m, omega_m, Ts, theta_l, omega_l, Td]`` (as
     `ctrl_lpv.twomass.drive_observer.DRIVE_STATES`); ``Ts`` is not
-    estimated on its own but given by the dead zone at the estimate.
-    `correct` applies the reading, `predict` advances one sample.
+    estimated on its own but given by the dead zone at the estimate. The
+    half-gap ``alpha`` is estimated by recursive least squares on the
+    motor reading's innovation, through the sensitivity ``S = d x_hat /
+    d alpha`` of the prediction: a contact made earlier or later than
+    predicted says the gap is narrower or wider (in a held contact ``S``
+    fades: the fixed gain moves the load angle instead, and the half-gap
+    learns nothing there).
+
+    Parameters
+    ----------
+    design : `MotorObserver`
+        The certified mode gains.
+    alpha_max : float
+        The half-gap estimate stays in ``[0, alpha_max]``.
+    alpha_spread : float
+        Standard deviation of the initial half-gap estimate, rad.
+    reading_error : float
+        Standard deviation of the innovation not explained by the gap
+        (reading and model errors), rad.
+    alpha_drift : float
+        Random walk of the half-gap, rad/sqrt(s) (wear; a gap that steps).
     """
 
-    def __init__(self, design: MotorObserver):
+    def __init__(
+        self,
+        design: MotorObserver,
+        *,
+        alpha_max: float,
+        alpha_spread: float,
+        reading_error: float = 1e-4,
+        alpha_drift: float = 1e-3,
+    ):
         p = design.params
         self.Jm, self.Jl, self.cm, self.cl = p.Jm, p.Jl, p.cm, p.cl
         self.ks, self.cs, self.dt = p.ks, p.cs, design.dt
         self.M_gap, self.M_contact = design.filter_gains()
+        self.alpha_max = alpha_max
+        self.P0 = alpha_spread**2
+        self.R = reading_error**2
+        self.Q = alpha_drift**2 * design.dt
 
     def shaft_torque(self, tm, wm, tl, wl, alpha):
         """The dead zone's shaft torque (0 inside the gap)."""
@@ -272,23 +303,44 @@ class MotorEstimator:
             return 0.0
         return self.ks * (d - math.copysign(alpha, d)) + self.cs * (wm - wl)
 
-    def correct(self, x, theta_m, alpha):
-        """The estimate ``x[k|k]`` from the prediction and the reading."""
+    def correct(self, x, S, dP, alpha, theta_m):
+        """The estimate ``x[k|k]``, its sensitivity, the half-gap estimate
+        and its variance (``P0 + dP``) from the prediction and the reading.
+        """
         tm, wm, _, tl, wl, td = x
-        in_contact = abs(tm - tl) > alpha
-        M = self.M_contact if in_contact else self.M_gap
         nu = theta_m - tm
-        tm, wm, tl, wl, td = (
-            tm + M[0] * nu, wm + M[1] * nu, tl + M[2] * nu, wl + M[3] * nu,
-            td + M[4] * nu,
-        )  # fmt: skip
-        return np.array([tm, wm, self.shaft_torque(tm, wm, tl, wl, alpha), tl, wl, td])
+        # The half-gap: least squares on the innovation's part that the
+        # gap explains (nu ~ S[0] (alpha - alpha_hat) + noise).
+        P = self.P0 + dP
+        K = P * S[0] / (S[0] * S[0] * P + self.R)
+        new = min(max(alpha + K * nu, 0.0), self.alpha_max)
+        delta = new - alpha
+        P = (1.0 - K * S[0]) * P
+        # The prediction under the new half-gap, then the state gain.
+        z = np.array([tm, wm, tl, wl, td]) + S * delta
+        nu = theta_m - z[0]
+        M = self.M_contact if abs(z[0] - z[2]) > new else self.M_gap
+        z = z + M * nu
+        S = S - M * S[0]
+        xf = np.array([z[0], z[1], self.shaft_torque(*z[:4], new), z[2], z[3], z[4]])
+        return xf, S, P - self.P0, new
 
-    def predict(self, x, torque, alpha):
-        """The prediction one sample on under a held `torque` (RK4 substeps
-        of the dead-zone model, ``Td`` constant)."""
+    def predict(self, x, S, torque, alpha, dP=0.0):
+        """The prediction one sample on under a held `torque`, its
+        sensitivity to the half-gap (a finite difference), and the
+        variance's growth."""
+        z = np.array([x[0], x[1], x[3], x[4], x[5]])
+        eps = 1e-6
+        nxt = self._advance(z, torque, alpha)
+        moved = self._advance(z + eps * S, torque, alpha + eps)
+        out = np.array([nxt[0], nxt[1], self.shaft_torque(*nxt[:4], alpha),
+                        nxt[2], nxt[3], nxt[4]])  # fmt: skip
+        return out, (moved - nxt) / eps, dP + self.Q
+
+    def _advance(self, z, torque, alpha):
+        """RK4 substeps of the dead-zone model, ``Td`` constant."""
         Jm, Jl, cm, cl = self.Jm, self.Jl, self.cm, self.cl
-        td = x[5]
+        td = z[4]
 
         def rate(s):
             ts = self.shaft_torque(s[0], s[1], s[2], s[3], alpha)
@@ -297,7 +349,7 @@ class MotorEstimator:
                 s[3], (ts - cl * s[3] - td) / Jl,
             ])  # fmt: skip
 
-        s = np.array([x[0], x[1], x[3], x[4]])
+        s = z[:4]
         h = self.dt / _PREDICT_SUBSTEPS
         for _ in range(_PREDICT_SUBSTEPS):
             q1 = rate(s)
@@ -305,5 +357,4 @@ class MotorEstimator:
             q3 = rate(s + 0.5 * h * q2)
             q4 = rate(s + h * q3)
             s = s + h / 6.0 * (q1 + 2.0 * q2 + 2.0 * q3 + q4)
-        ts = self.shaft_torque(s[0], s[1], s[2], s[3], alpha)
-        return np.array([s[0], s[1], ts, s[2], s[3], td])
+        return np.array([*s, td])

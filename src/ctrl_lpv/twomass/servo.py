@@ -30,6 +30,7 @@ The settings of each part are one object of `ctrl_lpv.twomass.servo_config`
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import control as ct
@@ -416,8 +417,9 @@ def servo_design(
         integral_leak=anti_hunting.integral_leak,
         observer_bandwidth=estimator.observer_bandwidth,
         integral_hold=anti_hunting.integral_hold,
+        flank_deadband=float(__import__("os").environ.get("DB", 2.0)) if sensors == "motor" else 0.0,
         anti_hunting=anti_hunting.enabled,
-        gap_estimate=estimator.gap_estimate and not (sensors == "motor" and __import__("os").environ.get("NOGAP")),
+        gap_estimate=estimator.gap_estimate and sensors != "motor",
     )  # fmt: skip
     observer = sampling = rest = None
     if dt is not None:
@@ -427,7 +429,9 @@ def servo_design(
                 params, dt=dt, motor_counts=encoder_counts[0],
                 load_torque_rate=float(__import__("os").environ.get("LTR", 300)),
             )  # fmt: skip
-            estimator = MotorEstimator(observer)
+            estimator = MotorEstimator(
+                observer, alpha_max=alpha_max, alpha_spread=alpha_max / math.sqrt(12.0)
+            )
             Phi = Gamma = M = None
         else:
             observer = drive_observer(

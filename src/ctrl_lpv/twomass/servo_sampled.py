@@ -64,6 +64,11 @@ SAMPLED_STATES = [
     "Td_hat", "int_e_l", "alpha_hat_dev", "Tm_prev",
 ]  # fmt: skip
 SAMPLED_INPUTS = ["theta_m", "theta_l", "theta_r"]
+#: The motor-encoder estimator's extra states: the sensitivity of the
+#: prediction to the half-gap and the half-gap variance (less its initial).
+MOTOR_STATES = [
+    "S_theta_m", "S_omega_m", "S_theta_l", "S_omega_l", "S_Td", "P_alpha_dev",
+]  # fmt: skip
 _PLAN_SUBSTEPS = 4
 
 
@@ -195,6 +200,7 @@ def sampled_servo(
     )
     ratio = ks / k1
     slip = c.slip_speed
+    band = c.flank_deadband
     Phi, Gam, M = (np.asarray(m) for m in (s.Phi, s.Gamma, s.M))
     rows = [DRIVE_STATES.index(name) for name in s.measured]
     nread = len(rows)
@@ -240,10 +246,12 @@ def sampled_servo(
             # sample, on the state the command already on its way leads to.
             ahead = Ph @ filtered + Gh * u_prev
         else:
-            # Motor encoder alone: the dead-zone model with the gap estimate.
-            gap = a0 + dah
-            filtered = motor.correct(xhat, y[0], gap)
-            ahead = motor.predict(filtered, u_prev, gap)
+            # Motor encoder alone: the dead-zone model, the half-gap
+            # estimated with it (`motor_estimator`).
+            filtered, sens, dP, gap = motor.correct(
+                xhat, x[15:20], x[20], a0 + dah, y[0]
+            )
+            ahead, sens_ahead, dP_ahead = motor.predict(filtered, sens, u_prev, gap, dP)
         at = ahead if delayed else filtered
         tm, wm, tsh, tl, wl = at[:5]
         (r, v, F, wmf, tff, g, h), next_plan = reference(plan, y[nread])
@@ -256,7 +264,7 @@ def sampled_servo(
         el, dl = tl - r, wl - v
         ah = a0 + dah
         tstar = F - ratio * (k3 * el + k4 * dl + k5 * xi) if c.anti_hunting else F
-        psi = math.copysign(_smoothstep(abs(tstar) / teps), tstar)
+        psi = math.copysign(_smoothstep((abs(tstar) - band) / teps), tstar)
         thm = r + F / ks + ah * psi
         raw = tff - (k1 * (tm - thm) + k2 * (wm - wmf) + k3 * el + k4 * dl + k5 * xi)
         u = min(max(raw, -limit), limit)
@@ -294,8 +302,12 @@ def sampled_servo(
         elif motor is None:
             predicted = Ph @ filtered + Gh * u
         else:
-            predicted = motor.predict(filtered, u, a0 + dah)
-        state = [*next_plan, *predicted, xi + dt * dxi, dah + dt * ddah, u]
+            predicted, sens_ahead, dP_ahead = motor.predict(filtered, sens, u, gap, dP)
+        if motor is not None:
+            state = [*next_plan, *predicted, xi + dt * dxi, gap - a0, u,
+                     *sens_ahead, dP_ahead]  # fmt: skip
+        else:
+            state = [*next_plan, *predicted, xi + dt * dxi, dah + dt * ddah, u]
         return u, np.asarray(state)
 
     last = {}
@@ -311,6 +323,7 @@ def sampled_servo(
     return ct.NonlinearIOSystem(
         lambda t, x, u, params=None: evaluate(t, x, u)[1],
         lambda t, x, u, params=None: [evaluate(t, x, u)[0]],
-        inputs=[*s.measured, "theta_r"], outputs=["Tm"], states=SAMPLED_STATES,
+        inputs=[*s.measured, "theta_r"], outputs=["Tm"],
+        states=SAMPLED_STATES if motor is None else SAMPLED_STATES + MOTOR_STATES,
         dt=s.dt, name=name,
     )  # fmt: skip
