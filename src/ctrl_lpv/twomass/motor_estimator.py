@@ -276,6 +276,10 @@ class MotorEstimator:
         (reading and model errors), rad.
     alpha_drift : float
         Random walk of the half-gap, rad/sqrt(s) (wear; a gap that steps).
+    rest_fade : float
+        Time constant, s, with which the load's speed and torque estimates
+        fade at rest in the gap (where nothing observes them: a free load
+        predicted open loop would drift without bound on a wrong torque).
     """
 
     def __init__(
@@ -286,6 +290,7 @@ class MotorEstimator:
         alpha_spread: float,
         reading_error: float = 1e-4,
         alpha_drift: float = 1e-3,
+        rest_fade: float = 0.1,
     ):
         p = design.params
         self.Jm, self.Jl, self.cm, self.cl = p.Jm, p.Jl, p.cm, p.cl
@@ -295,6 +300,7 @@ class MotorEstimator:
         self.P0 = alpha_spread**2
         self.R = reading_error**2
         self.Q = alpha_drift**2 * design.dt
+        self.fade = math.exp(-design.dt / rest_fade)
 
     def shaft_torque(self, tm, wm, tl, wl, alpha):
         """The dead zone's shaft torque (0 inside the gap)."""
@@ -325,14 +331,19 @@ class MotorEstimator:
         xf = np.array([z[0], z[1], self.shaft_torque(*z[:4], new), z[2], z[3], z[4]])
         return xf, S, P - self.P0, new
 
-    def predict(self, x, S, torque, alpha, dP=0.0):
+    def predict(self, x, S, torque, alpha, dP=0.0, rest=False):
         """The prediction one sample on under a held `torque`, its
         sensitivity to the half-gap (a finite difference), and the
-        variance's growth."""
+        variance's growth. With `rest` (the move ended) a load in the gap
+        is taken to stop: its speed and torque estimates fade with the
+        time constant `rest_fade`."""
         z = np.array([x[0], x[1], x[3], x[4], x[5]])
         eps = 1e-6
         nxt = self._advance(z, torque, alpha)
         moved = self._advance(z + eps * S, torque, alpha + eps)
+        if rest and abs(nxt[0] - nxt[2]) <= alpha:
+            nxt[3:] *= self.fade
+            moved[3:] *= self.fade
         out = np.array([nxt[0], nxt[1], self.shaft_torque(*nxt[:4], alpha),
                         nxt[2], nxt[3], nxt[4]])  # fmt: skip
         return out, (moved - nxt) / eps, dP + self.Q

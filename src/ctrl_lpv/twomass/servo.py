@@ -64,6 +64,11 @@ from .trajectory import PEAK_ACCEL, move_duration
 __all__ = ["ServoDesign", "servo_design", "servo_polytope"]
 
 _READ = {"encoders": ("theta_m", "theta_l"), "motor": ("theta_m",)}
+#: Asked shaft torque, Nm, below which the motor-encoder design asks for no
+#: flank: at rest with a small load torque the motor waits mid-gap instead of
+#: crossing it on a load error it cannot see (the load is not observable in
+#: the gap).
+MOTOR_FLANK_DEADBAND = 1.0
 
 
 def servo_polytope(
@@ -417,7 +422,7 @@ def servo_design(
         integral_leak=anti_hunting.integral_leak,
         observer_bandwidth=estimator.observer_bandwidth,
         integral_hold=anti_hunting.integral_hold,
-        flank_deadband=float(__import__("os").environ.get("DB", 2.0)) if sensors == "motor" else 0.0,
+        flank_deadband=MOTOR_FLANK_DEADBAND if sensors == "motor" else 0.0,
         anti_hunting=anti_hunting.enabled,
         gap_estimate=estimator.gap_estimate and sensors != "motor",
     )  # fmt: skip
@@ -425,10 +430,7 @@ def servo_design(
     if dt is not None:
         estimator = None
         if sensors == "motor":
-            observer = motor_observer(
-                params, dt=dt, motor_counts=encoder_counts[0],
-                load_torque_rate=float(__import__("os").environ.get("LTR", 300)),
-            )  # fmt: skip
+            observer = motor_observer(params, dt=dt, motor_counts=encoder_counts[0])
             estimator = MotorEstimator(
                 observer, alpha_max=alpha_max, alpha_spread=alpha_max / math.sqrt(12.0)
             )

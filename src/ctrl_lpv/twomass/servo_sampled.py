@@ -251,7 +251,10 @@ def sampled_servo(
             filtered, sens, dP, gap = motor.correct(
                 xhat, x[15:20], x[20], a0 + dah, y[0]
             )
-            ahead, sens_ahead, dP_ahead = motor.predict(filtered, sens, u_prev, gap, dP)
+            resting = plan[5] <= hmin * (1.0 + 1e-9) and abs(plan[0] - plan[4]) < 1e-6
+            ahead, sens_ahead, dP_ahead = motor.predict(
+                filtered, sens, u_prev, gap, dP, resting
+            )
         at = ahead if delayed else filtered
         tm, wm, tsh, tl, wl = at[:5]
         (r, v, F, wmf, tff, g, h), next_plan = reference(plan, y[nread])
@@ -302,7 +305,9 @@ def sampled_servo(
         elif motor is None:
             predicted = Ph @ filtered + Gh * u
         else:
-            predicted, sens_ahead, dP_ahead = motor.predict(filtered, sens, u, gap, dP)
+            predicted, sens_ahead, dP_ahead = motor.predict(
+                filtered, sens, u, gap, dP, resting
+            )
         if motor is not None:
             state = [*next_plan, *predicted, xi + dt * dxi, gap - a0, u,
                      *sens_ahead, dP_ahead]  # fmt: skip
