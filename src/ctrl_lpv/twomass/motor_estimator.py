@@ -309,19 +309,23 @@ class MotorEstimator:
             return 0.0
         return self.ks * (d - math.copysign(alpha, d)) + self.cs * (wm - wl)
 
-    def correct(self, x, S, dP, alpha, theta_m):
+    def correct(self, x, S, dP, alpha, theta_m, learning=True):
         """The estimate ``x[k|k]``, its sensitivity, the half-gap estimate
         and its variance (``P0 + dP``) from the prediction and the reading.
-        """
+        The half-gap learns only with `learning` (near a contact made or
+        lost: in a held contact the innovation is the load's, not the
+        gap's)."""
         tm, wm, _, tl, wl, td = x
         nu = theta_m - tm
         # The half-gap: least squares on the innovation's part that the
         # gap explains (nu ~ S[0] (alpha - alpha_hat) + noise).
         P = self.P0 + dP
-        K = P * S[0] / (S[0] * S[0] * P + self.R)
-        new = min(max(alpha + K * nu, 0.0), self.alpha_max)
+        new = alpha
+        if learning:
+            K = P * S[0] / (S[0] * S[0] * P + self.R)
+            new = min(max(alpha + K * nu, 0.0), self.alpha_max)
+            P = (1.0 - K * S[0]) * P
         delta = new - alpha
-        P = (1.0 - K * S[0]) * P
         # The prediction under the new half-gap, then the state gain.
         z = np.array([tm, wm, tl, wl, td]) + S * delta
         nu = theta_m - z[0]

@@ -68,7 +68,9 @@ SAMPLED_INPUTS = ["theta_m", "theta_l", "theta_r"]
 #: prediction to the half-gap and the half-gap variance (less its initial).
 MOTOR_STATES = [
     "S_theta_m", "S_omega_m", "S_theta_l", "S_omega_l", "S_Td", "P_alpha_dev",
+    "learn_window",
 ]  # fmt: skip
+_LEARN_SAMPLES = 10
 _PLAN_SUBSTEPS = 4
 
 
@@ -248,8 +250,10 @@ def sampled_servo(
         else:
             # Motor encoder alone: the dead-zone model, the half-gap
             # estimated with it (`motor_estimator`).
+            # The half-gap learns for `_LEARN_SAMPLES` after the prediction
+            # makes or loses a contact.
             filtered, sens, dP, gap = motor.correct(
-                xhat, x[15:20], x[20], a0 + dah, y[0]
+                xhat, x[15:20], x[20], a0 + dah, y[0], x[21] > 0.0
             )
             resting = plan[5] <= hmin * (1.0 + 1e-9) and abs(plan[0] - plan[4]) < 1e-6
             ahead, sens_ahead, dP_ahead = motor.predict(
@@ -309,8 +313,12 @@ def sampled_servo(
                 filtered, sens, u, gap, dP, resting
             )
         if motor is not None:
+            switched = (abs(predicted[0] - predicted[3]) > gap) != (
+                abs(filtered[0] - filtered[3]) > gap
+            )
+            window = float(_LEARN_SAMPLES) if switched else max(x[21] - 1.0, 0.0)
             state = [*next_plan, *predicted, xi + dt * dxi, gap - a0, u,
-                     *sens_ahead, dP_ahead]  # fmt: skip
+                     *sens_ahead, dP_ahead, window]  # fmt: skip
         else:
             state = [*next_plan, *predicted, xi + dt * dxi, dah + dt * ddah, u]
         return u, np.asarray(state)
