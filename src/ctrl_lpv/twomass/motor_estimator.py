@@ -58,6 +58,8 @@ MODE_STATES = {
     "gap": ["theta_m", "omega_m"],
 }
 _PREDICT_SUBSTEPS = 4
+#: Samples after a predicted contact change in which the half-gap learns.
+LEARN_SAMPLES = 10
 
 
 def mode_model(
@@ -334,6 +336,16 @@ class MotorEstimator:
         S = S - M * S[0]
         xf = np.array([z[0], z[1], self.shaft_torque(*z[:4], new), z[2], z[3], z[4]])
         return xf, S, P - self.P0, new
+
+    def learning_window(self, filtered, predicted, alpha, window):
+        """Samples left in which the half-gap learns: `LEARN_SAMPLES` when
+        the prediction makes or loses a contact, else one fewer than
+        `window` (in a held contact or gap the innovation says nothing
+        of the gap)."""
+        switched = (abs(predicted[0] - predicted[3]) > alpha) != (
+            abs(filtered[0] - filtered[3]) > alpha
+        )
+        return float(LEARN_SAMPLES) if switched else max(window - 1.0, 0.0)
 
     def predict(self, x, S, torque, alpha, dP=0.0, rest=False):
         """The prediction one sample on under a held `torque`, its

@@ -70,7 +70,7 @@ MOTOR_STATES = [
     "S_theta_m", "S_omega_m", "S_theta_l", "S_omega_l", "S_Td", "P_alpha_dev",
     "learn_window",
 ]  # fmt: skip
-_LEARN_SAMPLES = 10
+
 _PLAN_SUBSTEPS = 4
 
 
@@ -250,8 +250,8 @@ def sampled_servo(
         else:
             # Motor encoder alone: the dead-zone model, the half-gap
             # estimated with it (`motor_estimator`).
-            # The half-gap learns for `_LEARN_SAMPLES` after the prediction
-            # makes or loses a contact.
+            # The half-gap learns for a few samples after the prediction
+            # makes or loses a contact (`MotorEstimator.learning_window`).
             filtered, sens, dP, gap = motor.correct(
                 xhat, x[15:20], x[20], a0 + dah, y[0], x[21] > 0.0
             )
@@ -313,10 +313,7 @@ def sampled_servo(
                 filtered, sens, u, gap, dP, resting
             )
         if motor is not None:
-            switched = (abs(predicted[0] - predicted[3]) > gap) != (
-                abs(filtered[0] - filtered[3]) > gap
-            )
-            window = float(_LEARN_SAMPLES) if switched else max(x[21] - 1.0, 0.0)
+            window = motor.learning_window(filtered, predicted, gap, x[21])
             state = [*next_plan, *predicted, xi + dt * dxi, gap - a0, u,
                      *sens_ahead, dP_ahead, window]  # fmt: skip
         else:
