@@ -223,9 +223,12 @@ def motor_observer(
     motor_counts : int, optional
         Counts per revolution of the motor encoder.
     motor_torque_rate, load_torque_rate : float, optional
-        See `mode_model`.
+        Intensity of the torque disturbance on the motor, Nm per unit
+        input, and of the random walk of ``Td``, Nm/s: larger values give
+        faster, noisier estimates.
     backoff : float or None, optional
-        As in `ctrl_lpv.observer`.
+        Relax each mode's minimal H2 bound by this fraction for a
+        well-conditioned Lyapunov matrix (None: the raw optimum).
 
     Returns
     -------
