@@ -45,6 +45,7 @@ from ..certificate import Certificate
 from ..exceptions import SynthesisError
 from ..lmi import LMIProblem
 from ..systems import GriddedStateSpace, PolytopicStateSpace
+from .cellrates import rates_of
 from .objective import checked_objective
 from .quadratic import quadratic_certificate
 from .rates import RateSearch
@@ -216,6 +217,14 @@ def certify(
         loops = _gridded_loops(schedule, plant, controller, parameters)
     else:
         loops = _ClosedLoops.of(schedule, plant, controller, parameters)
+    nu = None
+    if rate_bounds is not None:
+        nu = rates_of(rate_bounds, loops.names)
+        if not isinstance(plant, GriddedStateSpace) and np.isinf(nu).any():
+            raise ValueError(
+                "rate_bounds: on a polytopic plant give a finite rate for every "
+                f"parameter {list(loops.names)}"
+            )
     tried = []
     frozen = loops.frozen_counterexample(samples)
     tried.append(f"frozen closed loops at {len(schedule.points)} points and "
@@ -225,6 +234,8 @@ def certify(
                                    Certificate(()), tuple(tried))  # fmt: skip
     quadratic = loops.quadratic(margin)
     tried.append("one quadratic Lyapunov function (arbitrary rates)")
+    with_rates = (nu is not None and isinstance(plant, GriddedStateSpace)
+                  and _is_hinf(objective) and loops.rate_refusal() is None)  # fmt: skip
     if quadratic is not None:
         rates = {n: math.inf for n in loops.names}
         if objective is None:
@@ -234,15 +245,34 @@ def certify(
                      f"{list(objective.z)}, one Lyapunov matrix")  # fmt: skip
         try:
             bound, certificate = loops.bound(objective, margin)
+            found = (rates, bound, quadratic + certificate)
         except SynthesisError as err:
             tried.append(f"{name} bound not certified: {str(err).splitlines()[0]}")
+            found = None
+        if with_rates:
+            # The rates asked for may certify a smaller bound.
+            better = _rate_bounded_bound(loops, objective, nu, margin, tried)
+            if better is not None and (found is None or better[1] < found[1]):
+                found = better
+        if found is None:
             return ScheduleCertificate(False, rates, None, quadratic, tuple(tried))
-        return ScheduleCertificate(True, rates, None, quadratic + certificate,
-                                   tuple(tried), bound)  # fmt: skip
+        rates, bound, certificate = found
+        return ScheduleCertificate(True, rates, None, certificate, tuple(tried),
+                                   bound)  # fmt: skip
+    if with_rates:
+        found = _rate_bounded_bound(loops, objective, nu, margin, tried)
+        if found is not None:
+            rates, bound, certificate = found
+            return ScheduleCertificate(True, rates, None, certificate,
+                                       tuple(tried), bound)  # fmt: skip
+        return ScheduleCertificate(False, {n: 0.0 for n in loops.names}, None,
+                                   Certificate(()), tuple(tried))  # fmt: skip
     if objective is not None:
         tried.append(
-            "the objective's bound: not certified (it needs one Lyapunov "
-            "matrix for arbitrary rates, and none exists)"
+            "the objective's bound: not certified (for arbitrary rates it needs "
+            "one Lyapunov matrix, and none exists; with rate_bounds, an Hinf "
+            "objective on a gridded plant in continuous time is certified with "
+            "P(p))"
         )
         return ScheduleCertificate(False, {n: 0.0 for n in loops.names}, None,
                                    Certificate(()), tuple(tried))  # fmt: skip
@@ -251,9 +281,7 @@ def certify(
         tried.append(f"rate-bounded analysis: not implemented {refusal}")
         return ScheduleCertificate(False, {n: 0.0 for n in loops.names},
                                    None, Certificate(()), tuple(tried))  # fmt: skip
-    if rate_bounds is not None:
-        nu = np.array([real_number(rate_bounds.get(n, math.inf), f"rate_bounds[{n!r}]",
-                                   minimum=0.0) for n in loops.names])  # fmt: skip
+    if nu is not None:
         found = loops.rate_bounded(nu, margin)
         tried.append(f"parameter-dependent P(p), rates {nu.tolist()}")
         certificate = Certificate(()) if found is None else found
@@ -271,6 +299,26 @@ def certify(
         tried.append("periodic parameter trajectories above the certified rate")
     certificate = certificate or Certificate(())
     return ScheduleCertificate(False, rates, example, certificate, tuple(tried))
+
+
+def _is_hinf(objective) -> bool:
+    from ..synthesis import Hinf
+
+    return isinstance(objective, Hinf)
+
+
+def _rate_bounded_bound(loops, objective, nu, margin, tried):
+    """``(rates, bound, certificate)`` of the `Hinf` bound with rates `nu`,
+    or None (what was tried is appended to `tried`)."""
+    tried.append(f"Hinf bound with P(p), rates {nu.tolist()}")
+    try:
+        bound, certificate = loops.rate_bounded_bound(objective, nu, margin)
+    except SynthesisError as err:
+        tried.append(
+            f"rate-bounded Hinf bound not certified: {str(err).splitlines()[0]}"
+        )
+        return None
+    return dict(zip(loops.names, nu.tolist())), bound, certificate
 
 
 def _gridded_loops(schedule, plant, controller, parameters):

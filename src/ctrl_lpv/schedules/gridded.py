@@ -242,20 +242,19 @@ class GriddedLoops(RateSearch):
         """Why the rate-bounded analysis does not apply (None: it does)."""
         if not self.continuous:
             return "in discrete time"
-        for piece in self.pieces:
-            if not _constant(self.K[list(piece.points)]) and not _constant(
-                self.B[list(piece.corners)]
-            ):
-                return "when B_u and the gains both vary on a grid cell"
         return None
 
     def families(self):
-        """``[(piece, M)]``: the loop is ``sum_a w_a M[a]`` on each piece."""
-        out = []
+        """``[(piece, K~)]``: each piece with its gains extended to the
+        cell's corners (`corner_gains`), pieces with the same cell and
+        gains once."""
+        out, seen = [], set()
         for piece in self.pieces:
             K = self.corner_gains(piece)
-            M = [self.A[i] - self.B[i] @ K[a] for a, i in enumerate(piece.corners)]
-            out.append((piece, np.array(M)))
+            key = (piece.cell, K.tobytes())
+            if key not in seen:
+                seen.add(key)
+                out.append((piece, K))
         return out
 
     def segments(self):
@@ -294,64 +293,122 @@ class GriddedLoops(RateSearch):
                     out.setdefault(key, (ends[0], ends[1], nodes, M))
         return list(out.values())
 
-    def _rate_problem(self, margin):
-        from ..lmi import LMIProblem
+    def rate_bounded(self, nu, margin, lmi=None):
+        """`RateSearch.rate_bounded`; an infinite rate makes ``P``
+        independent of its parameter (`ctrl_lpv.schedules.cellrates`)."""
+        nu = np.asarray(nu, float)
+        if lmi is None:
+            lmi = self._rate_problem(margin, tuple(np.flatnonzero(np.isinf(nu))))
+        return super().rate_bounded(np.where(np.isinf(nu), 0.0, nu), margin, lmi)
 
-        grid, n = self.grid, self.A.shape[1]
-        k = grid.nparams
+    def rate_bounded_bound(self, objective, nu, margin):
+        """``(bound, certificate)``: the `Hinf` bound with rates `nu`.
+
+        ``P(p)`` multilinear on the grid (an infinite rate: independent of
+        its parameter), the bounded-real inequality with ``dP/dt`` at the
+        vertices of the rate box, minimising the bound.
+
+        Raises
+        ------
+        SynthesisError
+            When the engine certifies no bound.
+        """
+        from ..certificate import Certificate, Check
+
+        nu = np.asarray(nu, float)
+        lmi = self._rate_problem(margin, tuple(np.flatnonzero(np.isinf(nu))),
+                                 objective)  # fmt: skip
+        lmi.set_parameter("nu", np.where(np.isinf(nu), 0.0, nu))
+        sol = lmi.solve(lambda v: v.g[0, 0])
+        bound = float(np.sqrt(sol.g[0, 0]))
+        checks = tuple(Check.from_lmi_check(c, group="rate-bounded L2 gain")
+                       for c in sol.checks)  # fmt: skip
+        rates = ", ".join(f"|d{n}/dt| <= {v:.4g}" for n, v in zip(self.names, nu))
+        statement = (
+            f"L2 gain from {list(objective.w)} to {list(objective.z)} below "
+            f"{bound:.6g} for parameter trajectories {self.region} with {rates} "
+            f"({self.lyapunov_form})"
+        )
+        return bound, Certificate(checks, statement=statement)
+
+    def _rate_problem(self, margin, unbounded=(), objective=None):
+        """The rate-bounded LMIs, with the rates a parameter ``"nu"``.
+
+        On a piece the loop is ``sum_ij w_i w_j M_ij`` (``M_ij = A_i - B_i
+        K~_j``; linear, ``sum_i w_i M_ii``, when ``B_u`` is constant on the
+        cell or the gain on the piece) and ``P = sum_k w_k P_k``, so
+        ``dV/dt`` is a homogeneous form of degree three (two) in ``w``
+        with coefficients ``He(M_ij' P_k) + D_k``, imposed through
+        `orderings`. With an `Hinf` objective, the bounded-real inequality
+        ``[[He(M' P) + dP/dt, *, *], [B_w' P, -I, *], [C_cl, D_zw, -g I]]
+        < 0`` (bound ``sqrt(g)``), of the same degree.
+        """
+        from ..lmi import LMIProblem
+        from .cellrates import CellRates, lyapunov_index, orderings
+
+        grid, n, k = self.grid, self.A.shape[1], self.grid.nparams
+        index = lyapunov_index(grid, unbounded)
+        data = self.plant.vertex_data()
+        inputs = [self.B]
+        if objective is not None:
+            from .objective import channel
+
+            iw, iz, _, _ = channel(objective, self.plant, self.u)
+            Bw = np.array([d[1][:, iw] for d in data])
+            Cz = np.array([d[2][iz] for d in data])
+            Dzu = np.array([d[3][np.ix_(iz, self.u)] for d in data])
+            Dzw = np.array([d[3][np.ix_(iz, iw)] for d in data])
+            inputs.append(Dzu)
         families = self.families()
-        scale = max(1.0, max(float(np.linalg.norm(M, 2))
-                             for _, Ms in families for M in Ms))  # fmt: skip
+        scale = max(1.0, max(float(np.linalg.norm(self.A[i] - self.B[i] @ K[a], 2))
+                             for piece, K in families
+                             for a, i in enumerate(piece.corners)))  # fmt: skip
         lmi = LMIProblem(margin=margin * scale)
-        for i in sorted({int(i) for piece, _ in families for i in piece.corners}):
-            lmi.variable(f"P{i}", (n, n), symmetric=True)
-            lmi.add(f"P{i} > 0", lambda v, i=i: [[-getattr(v, f"P{i}")]])
-            lmi.add(f"P{i} <= I", lambda v, i=i: [[getattr(v, f"P{i}") - np.eye(n)]],
-                    strict=False, normalization=True)  # fmt: skip
+        used = sorted({int(index[i]) for p, _ in families for i in p.corners})
+        for q in used:
+            lmi.variable(f"P{q}", (n, n), symmetric=True)
+            lmi.add(f"P{q} > 0", lambda v, q=q: [[-getattr(v, f"P{q}")]])
+            if objective is None:
+                lmi.add(f"P{q} <= I",
+                        lambda v, q=q: [[getattr(v, f"P{q}") - np.eye(n)]],
+                        strict=False, normalization=True)  # fmt: skip
+        if objective is not None:
+            lmi.variable("g", (1, 1), symmetric=True)
         lmi.parameter("nu", (k,), value=np.zeros(k), nonneg=True)
-        bits = grid._bits
-        # across[a][d]: the corner position across axis d from position a.
-        weights = 2 ** np.arange(k - 1, -1, -1)
-        across = [[int((bits[a] ^ np.eye(k, dtype=int)[d]) @ weights)
-                   for d in range(k)] for a in range(len(bits))]  # fmt: skip
-        seen = set()
-        for piece, M in families:
-            key = (piece.cell, M.tobytes())
-            if key in seen:
-                continue
-            seen.add(key)
+
+        def sym(X):
+            return X + X.T
+
+        for count, (piece, K) in enumerate(families):
             corners = [int(i) for i in piece.corners]
-            lo = grid.points[corners[0]]
-            h = grid.points[corners[-1]] - lo
+            cell = CellRates.of(grid, corners, unbounded)
+            cubic = not _constant(K) and not all(_constant(M[corners]) for M in inputs)
+            degree = 3 if cubic else 2
 
             def P(v, a, corners=corners):
-                return getattr(v, f"P{corners[a]}")
+                return getattr(v, f"P{index[corners[a]]}")
 
-            def edge(v, a, d, corners=corners):
-                """(P at the upper end - P at the lower end) of the edge."""
-                b = across[a][d]
-                up, down = (a, b) if bits[a][d] else (b, a)
-                return P(v, up) - P(v, down)
+            def term(v, order, signs, corners=corners, cell=cell, K=K, P=P):
+                """The coefficient of ``w_order``: plant, gain, then P."""
+                i, j, a = (order[0], order[0], order[1]) if len(order) == 2 else order
+                c = corners[i]
+                Pa = P(v, a)
+                D = cell.derivative(lambda b: P(v, b), a, signs, v.nu)
+                M = self.A[c] - self.B[c] @ K[j]
+                top = sym(M.T @ Pa) + D
+                if objective is None:
+                    return [[top]]
+                return [[top], [Bw[c].T @ Pa, -np.eye(Bw.shape[2])],
+                        [Cz[c] - Dzu[c] @ K[j], Dzw[c],
+                         -v.g[0, 0] * np.eye(Cz.shape[1])]]  # fmt: skip
 
-            for signs in itertools.product((-1.0, 1.0), repeat=k):
-
-                def D(v, a, signs=signs, h=h, edge=edge):
-                    return sum(s * v.nu[d] * edge(v, a, d) / h[d]
-                               for d, s in enumerate(signs))  # fmt: skip
-
-                def sym(X):
-                    return X + X.T
-
-                where = f"cell {list(piece.cell)} rates {signs}"
-                for a in range(len(corners)):
-                    name = f"{where} loop {len(seen)} corner {corners[a]}"
-                    lmi.add(name, lambda v, a=a, M=M, P=P, D=D:
-                            [[sym(M[a].T @ P(v, a)) + D(v, a)]])  # fmt: skip
-                for a, b in itertools.combinations(range(len(corners)), 2):
-                    name = f"{where} loop {len(seen)} pair {corners[a]},{corners[b]}"
-                    lmi.add(name, lambda v, a=a, b=b, M=M, P=P, D=D:
-                            [[sym(M[a].T @ P(v, b)) + sym(M[b].T @ P(v, a))
-                              + D(v, a) + D(v, b)]])  # fmt: skip
+            for signs in cell.vertices():
+                for multiset, orders in orderings(len(corners), degree):
+                    name = (f"cell {list(piece.cell)} piece {count} rates {signs} "
+                            f"corners {[corners[a] for a in multiset]}")  # fmt: skip
+                    lmi.add(name, lambda v, orders=orders, signs=signs,
+                            term=term: _sum_blocks([term(v, o, signs)
+                                                    for o in orders]))  # fmt: skip
         return lmi
 
     # ------------------------------------------------------------------
@@ -426,3 +483,8 @@ class GriddedLoops(RateSearch):
 
 def _constant(M) -> bool:
     return all(np.array_equal(M[0], X) for X in M)
+
+
+def _sum_blocks(terms):
+    """The block triangles `terms` added block by block."""
+    return [[sum(parts) for parts in zip(*rows)] for rows in zip(*terms)]

@@ -29,6 +29,9 @@ import numpy as np
 
 from .._checks import real_number, signal_indices
 from ..exceptions import CertificationError
+from ..lmi import solver_chain
+from ..schedules.cellrates import rates_of
+from .gridded_rates import rate_bounded_gains
 
 __all__ = ["GriddedDesign", "synthesize_gridded"]
 
@@ -118,7 +121,6 @@ def synthesize_gridded(sys, u, *, y=None, objective=None, constraints=(),
         `ctrl_lpv.certify`.
     """
     from ..lmi import LMIProblem
-    from ..schedules import certify
     from ..schedules.gridded import GriddedLoops
     from ..schedules.schedule import schedule_of
     from .specs import Hinf
@@ -127,11 +129,19 @@ def synthesize_gridded(sys, u, *, y=None, objective=None, constraints=(),
         raise ValueError("y: output feedback is not implemented on gridded plants")
     if constraints not in ((), None, []):
         raise ValueError("constraints: not implemented on gridded plants")
-    if lyapunov != "constant" or rate_bounds is not None:
+    if lyapunov not in ("constant", "affine"):
+        raise ValueError(f"lyapunov: expected 'constant' or 'affine', got {lyapunov!r}")
+    if lyapunov == "constant" and rate_bounds is not None:
         raise ValueError(
-            "lyapunov: on gridded plants one constant Lyapunov matrix (arbitrary "
-            "rates) is implemented; rate-bounded synthesis is not"
+            "rate_bounds: only used with lyapunov='affine' (a constant Lyapunov "
+            "matrix holds for any rate)"
         )
+    if lyapunov == "affine":
+        if rate_bounds is None:
+            raise ValueError(
+                "rate_bounds: lyapunov='affine' needs the rate bounds {name: nu}"
+            )
+        nu = rates_of(rate_bounds, sys.param_names)
     gains = "scheduled" if gains is None else gains
     if gains not in ("common", "scheduled"):
         raise ValueError(f"gains: expected 'common' or 'scheduled', got {gains!r}")
@@ -146,9 +156,14 @@ def synthesize_gridded(sys, u, *, y=None, objective=None, constraints=(),
     if sys.isdtime(strict=True):
         raise ValueError("sys: synthesis on gridded plants is continuous-time only")
     margin = real_number(margin, "margin", positive=True, below=1.0)
+    solvers = solver_chain(solvers)
     backoff = real_number(0.0 if backoff is None else backoff, "backoff",
                           minimum=0.0)  # fmt: skip
     iu = signal_indices(u, sys.physical_inputs, "u")
+    if lyapunov == "affine":
+        K = rate_bounded_gains(sys, iu, objective, gains == "scheduled", nu,
+                               backoff, margin, solvers)  # fmt: skip
+        return _certified(sys, iu, K, objective, rate_bounds, margin)
     points = sys.grid.points
     n, m = sys.nstates, len(iu)
     # The geometry (pieces, barycentric maps) of python-control's
@@ -244,9 +259,23 @@ def synthesize_gridded(sys, u, *, y=None, objective=None, constraints=(),
     Winv = np.linalg.inv(0.5 * (W + W.T))
     K = [-getattr(solution, f"Z{g if scheduled else 0}") @ Winv
          for g in range(len(points))]  # fmt: skip
+    return _certified(sys, iu, K, objective, None, margin)
+
+
+def _certified(sys, iu, K, objective, rate_bounds, margin) -> GriddedDesign:
+    """The design of gains `K`, certified by `certify` on the plant.
+
+    Raises
+    ------
+    CertificationError
+        When `certify` does not certify it (with its verdict).
+    """
+    from ..schedules import certify
+
     names = tuple(sys.physical_inputs[i] for i in iu)
-    design = GriddedDesign(sys, names, tuple(K), points, None, None)
-    verdict = certify(design, sys, objective=objective, margin=margin)
+    design = GriddedDesign(sys, names, tuple(K), sys.grid.points, None, None)
+    verdict = certify(design, sys, objective=objective, rate_bounds=rate_bounds,
+                      margin=margin, counterexample=False)  # fmt: skip
     if not verdict.certified:
         raise CertificationError(
             "the designed gains are not certified by certify on the plant:\n"

@@ -1,0 +1,194 @@
+"""Rate-bounded synthesis on a `GriddedStateSpace` (``lyapunov="affine"``).
+
+Checked against independent facts: a plant for which no constant Lyapunov
+matrix exists (an argument on the data, below) gets a design for a bounded
+rate; the frozen closed loops on a grid ten times denser (``G.at(p)``
+under the gains interpolated by numpy/scipy, as python-control interpolates
+them) are stable and their `control.linfnorm` is below the certified bound;
+simulated random parameter trajectories within the rate bound converge;
+`certify`, called here on the design's table, confirms the rate and the
+bound; a rate bound helps (the bound is below the one for arbitrary rates).
+"""
+
+import control as ct
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+from scipy.interpolate import LinearNDInterpolator
+
+import ctrl_lpv as lpv
+from ctrl_lpv.exceptions import SynthesisError
+
+# ------------------------------------------------- a rotating input matrix
+
+# x' = A x + b(p) u with A unstable (eigenvalues 0.2 +- i) and b(p) turning
+# half a circle as p goes from 0 to pi.
+A_ROT = np.array([[0.2, 1.0], [-1.0, 0.2]])
+
+
+def rotating(p):
+    b = np.array([[np.cos(p)], [np.sin(p)]])
+    return ct.ss(A_ROT, b, np.eye(2), 0, inputs="u", outputs=["x0", "x1"])
+
+
+@pytest.fixture(scope="module")
+def rotating_plant():
+    return lpv.gss(rotating, {"p": np.linspace(0.0, np.pi, 7)})
+
+
+def bounded_rate_signal(rng, nu, center, amplitude):
+    """A random smooth signal in center +- amplitude with |d/dt| <= nu."""
+    r, w, phase = rng.uniform(0.2, 1.0, (3, 3))
+    a = amplitude * r / r.sum()
+    w = w * nu / np.sum(a * w)
+    return lambda t: center + np.sum(a * np.sin(w * t + 2 * np.pi * phase))
+
+
+def test_rotating_input_no_constant_lyapunov_matrix_but_a_rate_bounded_design(
+    rotating_plant,
+):
+    """With one W, ``A W + W A' + b Z + Z' b' < 0`` at every p needs
+    ``v' (A W + W A') v < 0`` for every v orthogonal to some b(p): the
+    interpolated b turns from (1, 0) to (-1, 0), so every direction is
+    orthogonal to one of them, and A would be Hurwitz. It is not."""
+    G = rotating_plant
+    assert np.linalg.eigvals(A_ROT).real.max() > 0
+    with pytest.raises(SynthesisError):
+        lpv.synthesize(G, "u", solvers="CLARABEL")
+    nu = 0.1
+    design = lpv.synthesize(G, "u", lyapunov="affine", rate_bounds={"p": nu})
+    assert design.certificate.certified and design.gamma is None
+    assert design.certificate.rate_bound == {"p": nu}
+    # The independent analysis on the table, as a user would call it.
+    verdict = lpv.certify(design.table, G, rate_bounds={"p": nu})
+    assert verdict.certified and verdict.certificate.verified
+    assert not lpv.certify(design.table, G, counterexample=False).certified
+
+    points = G.grid.points[:, 0]
+    gains = np.array(design.gains)[:, 0, :]
+
+    b = np.array([rotating(p).B[:, 0] for p in points])
+
+    def interpolated(p, values):
+        return np.array([np.interp(p, points, values[:, j]) for j in range(2)])
+
+    def loop(p):
+        """The model between grid points: b and K interpolated linearly."""
+        return A_ROT - np.outer(interpolated(p, b), interpolated(p, gains))
+
+    for p in np.linspace(0.0, np.pi, 61):  # 10x the design grid
+        np.testing.assert_allclose(G.at([p]).B[:, 0], interpolated(p, b), atol=1e-12)
+        assert np.linalg.eigvals(loop(p)).real.max() < 0
+    rng = np.random.default_rng(4)
+    for _ in range(3):
+        traj = bounded_rate_signal(rng, 0.95 * nu, 0.5 * np.pi, 0.5 * np.pi)
+        sol = solve_ivp(lambda t, x, traj=traj: loop(traj(t)) @ x, (0.0, 80.0),
+                        [1.0, 0.5], rtol=1e-9, atol=1e-12, max_step=0.1)  # fmt: skip
+        assert np.linalg.norm(sol.y[:, -1]) < 1e-3 * np.linalg.norm(sol.y[:, 0])
+
+
+# ----------------------------------------------------- the pendulum, H-inf
+
+GRAVITY, DAMPING = 9.81, 0.5
+
+
+def pendulum_dynamics(t, x, u, params):
+    m = params.get("m", 1.0)
+    # w disturbs the angle's rate; the control acts through the torque.
+    torque = -m * GRAVITY * np.sin(x[0]) - DAMPING * x[1] + u[0]
+    return [x[1] + u[1], torque / m]
+
+
+PENDULUM = ct.nlsys(pendulum_dynamics, None, inputs=["u", "w"],
+                    states=["theta", "omega"], outputs=["theta", "omega"],
+                    params={"m": 1.0})  # fmt: skip
+HINF = lpv.Hinf(w="w", z=["theta", "effort"])
+
+
+def with_effort(theta0, m=1.0):
+    """The pendulum linearized at the trim angle theta0, with the control
+    effort as a third output."""
+    lin = ct.linearize(PENDULUM, [theta0, 0.0], [m * GRAVITY * np.sin(theta0), 0.0],
+                       params={"m": m}, copy_names=True)  # fmt: skip
+    C = np.vstack([lin.C, [0.0, 0.0]])
+    D = np.vstack([lin.D, [1.0, 0.0]])
+    outputs = ["theta", "omega", "effort"]
+    return ct.ss(lin.A, lin.B, C, D, inputs=lin.input_labels,
+                 states=lin.state_labels, outputs=outputs)  # fmt: skip
+
+
+def channel(S, K):
+    """The frozen loop from w to (theta, effort) under u = -K x."""
+    return ct.ss(S.A - S.B[:, [0]] @ K, S.B[:, [1]],
+                 S.C[[0, 2]] - S.D[[0, 2]][:, [0]] @ K, 0)  # fmt: skip
+
+
+def test_rate_bounded_hinf_design_on_one_parameter():
+    G = lpv.gss(with_effort, {"theta0": np.linspace(0.0, 1.2, 4)})
+    arbitrary = lpv.synthesize(G, "u", objective=HINF)
+    nu = 0.1
+    design = lpv.synthesize(G, "u", objective=HINF, lyapunov="affine",
+                            rate_bounds={"theta0": nu})  # fmt: skip
+    # A rate bound helps: a clearly smaller certified bound.
+    assert design.gamma < 0.8 * arbitrary.gamma
+    verdict = lpv.certify(design.table, G, objective=HINF,
+                          rate_bounds={"theta0": nu})  # fmt: skip
+    assert verdict.certified and verdict.certificate.verified
+    assert verdict.bound == pytest.approx(design.gamma, rel=1e-6)
+    assert verdict.rate_bound == {"theta0": nu}
+    points = G.grid.points[:, 0]
+    gains = np.array(design.gains)[:, 0, :]
+    worst = 0.0
+    for theta0 in np.linspace(0.0, 1.2, 31):  # 10x the design grid
+        K = np.array([[np.interp(theta0, points, gains[:, j]) for j in range(2)]])
+        loop = channel(G.at([theta0]), K)
+        assert np.linalg.eigvals(loop.A).real.max() < 0
+        worst = max(worst, float(ct.linfnorm(loop)[0]))
+    assert worst <= design.gamma
+    # The frozen norms are a lower bound of any rate's bound: not vacuous.
+    assert design.gamma < 3 * worst
+
+
+def test_bad_rate_bounds_are_refused_naming_the_argument():
+    G = lpv.gss(with_effort, {"theta0": [0.0, 0.6]})
+    with pytest.raises(
+        ValueError, match=r"rate_bounds: unknown parameter\(s\) \['m'\]"
+    ):
+        lpv.synthesize(G, "u", lyapunov="affine", rate_bounds={"m": 1.0})
+    with pytest.raises(ValueError, match=r"rate_bounds\['theta0'\]"):
+        lpv.synthesize(G, "u", lyapunov="affine", rate_bounds={"theta0": -1.0})
+    with pytest.raises(TypeError, match="rate_bounds: expected a mapping"):
+        lpv.synthesize(G, "u", lyapunov="affine", rate_bounds=[1.0])
+    with pytest.raises(ValueError, match=r"rate_bounds: unknown parameter"):
+        lpv.certify(([np.zeros((1, 2))] * 2, [0.0, 0.6]), G, rate_bounds={"m": 1})
+    discrete = lpv.gss(lambda theta0: ct.c2d(with_effort(theta0), 0.01),
+                       {"theta0": [0.0, 0.6]})  # fmt: skip
+    with pytest.raises(ValueError, match="continuous-time"):
+        lpv.synthesize(discrete, "u", lyapunov="affine", rate_bounds={"theta0": 1.0})
+
+
+@pytest.mark.slow
+def test_two_parameter_hinf_design_with_b_and_gains_varying():
+    """``B_u`` depends on m: the loop is quadratic in the cell's weights
+    (pairs in the synthesis, triples in `certify`). One rate bound given,
+    the other parameter arbitrarily fast."""
+    axes = {"theta0": np.linspace(0.0, 1.2, 3), "m": np.linspace(0.8, 1.25, 3)}
+    G = lpv.gss(with_effort, axes)
+    arbitrary = lpv.synthesize(G, "u", objective=HINF)
+    both = lpv.synthesize(G, "u", objective=HINF, lyapunov="affine",
+                          rate_bounds={"theta0": 0.1, "m": 0.1})  # fmt: skip
+    one = lpv.synthesize(G, "u", objective=HINF, lyapunov="affine",
+                         rate_bounds={"theta0": 0.1})  # fmt: skip
+    assert one.certificate.rate_bound == {"theta0": 0.1, "m": np.inf}
+    assert both.gamma < 0.8 * arbitrary.gamma
+    assert one.gamma < arbitrary.gamma
+    points = G.grid.points
+    for design in (both, one):
+        interp = LinearNDInterpolator(points, np.array(design.gains).reshape(9, 2))
+        worst = 0.0
+        for theta0 in np.linspace(0.0, 1.2, 21):
+            for m in np.linspace(0.8, 1.25, 21):
+                loop = channel(G.at([theta0, m]), interp([theta0, m]).reshape(1, 2))
+                assert np.linalg.eigvals(loop.A).real.max() < 0
+                worst = max(worst, float(ct.linfnorm(loop)[0]))
+        assert worst <= design.gamma
