@@ -192,3 +192,57 @@ def test_two_parameter_hinf_design_with_b_and_gains_varying():
                 assert np.linalg.eigvals(loop.A).real.max() < 0
                 worst = max(worst, float(ct.linfnorm(loop)[0]))
         assert worst <= design.gamma
+
+
+# --------------------------------------- certify: what the synthesis relies on
+
+
+def test_certify_rate_bound_when_input_matrix_and_gains_both_vary(rotating_plant):
+    """An LQR schedule on the rotating plant: frozen stable, no common
+    Lyapunov function (the argument above holds for any gains), so the
+    rate-bounded analysis (triples of terms: b and K both vary on a cell)
+    gives a finite rate; below it random trajectories of the model decay."""
+    G = rotating_plant
+    points = G.grid.points[:, 0]
+    gains = [ct.lqr(rotating(p), np.eye(2), 1.0)[0] for p in points]
+    c = lpv.certify((gains, points), G, counterexample=False)
+    nu = c.rate_bound["p"]
+    assert not c.certified and 0 < nu < np.inf and c.certificate.verified
+    assert lpv.certify((gains, points), G, rate_bounds={"p": 0.5 * nu}).certified
+    b = np.array([rotating(p).B[:, 0] for p in points])
+    K = np.array(gains)[:, 0, :]
+
+    def loop(p):
+        bp = np.array([np.interp(p, points, b[:, j]) for j in range(2)])
+        Kp = np.array([np.interp(p, points, K[:, j]) for j in range(2)])
+        return A_ROT - np.outer(bp, Kp)
+
+    rng = np.random.default_rng(5)
+    for _ in range(3):
+        traj = bounded_rate_signal(rng, 0.9 * nu, 0.5 * np.pi, 0.5 * np.pi)
+        sol = solve_ivp(lambda t, x, traj=traj: loop(traj(t)) @ x, (0.0, 60.0),
+                        [1.0, 0.5], rtol=1e-9, atol=1e-12, max_step=0.1)  # fmt: skip
+        assert np.linalg.norm(sol.y[:, -1]) < 1e-3 * np.linalg.norm(sol.y[:, 0])
+
+
+def test_certify_rate_bounded_hinf_bound_between_frozen_norms_and_arbitrary_rates():
+    """A rate-bounded L2 bound (``B_u`` varies with m: triples of terms)
+    is at least every frozen norm (frozen parameters have rate 0) and at
+    most the bound for arbitrary rates."""
+    axes = {"theta0": np.linspace(0.0, 1.2, 3), "m": np.linspace(0.8, 1.25, 3)}
+    G = lpv.gss(with_effort, axes)
+    points = G.grid.points
+    gains = [ct.lqr(G.at(p)[:, "u"], np.diag([10.0, 1.0]), 1.0)[0] for p in points]
+    arbitrary = lpv.certify((gains, points), G, objective=HINF)
+    slow = lpv.certify((gains, points), G, objective=HINF,
+                       rate_bounds={"theta0": 0.1, "m": 0.1})  # fmt: skip
+    assert arbitrary.certified and slow.certified and slow.certificate.verified
+    assert slow.rate_bound == {"theta0": 0.1, "m": 0.1}
+    assert slow.bound <= arbitrary.bound
+    interp = LinearNDInterpolator(points, np.array(gains).reshape(len(points), -1))
+    worst = max(
+        float(ct.linfnorm(channel(G.at([a, m]), interp([a, m]).reshape(1, 2)))[0])
+        for a in np.linspace(0.0, 1.2, 11)
+        for m in np.linspace(0.8, 1.25, 11)
+    )
+    assert worst <= slow.bound

@@ -265,6 +265,11 @@ class GriddedLoops(RateSearch):
         and the plant piecewise affine between the grid points, so the loop
         is the linear interpolation of its values at them (``nodes``, the
         relative positions from 0 to 1; see `destabilising_trajectory`).
+        When ``B_u`` and the gain both vary, the loop is quadratic between
+        grid points and this interpolation approximates it: the trajectory
+        is evidence to confirm by simulation (sampling 8 points per grid
+        step instead took 35 times longer on a rotating-input example and
+        found nothing more).
         """
         grid, out = self.grid, {}
         for s in {piece.simplex for piece in self.pieces}:
