@@ -25,11 +25,14 @@ with a `ScheduleCertificate`. For a polytopic plant:
    trajectory that destabilises the loop;
 4. **objective** (`Hinf` or `H2` of a named channel): the bound with one
    Lyapunov matrix for the channel's terms spanning the loops (arbitrary
-   rates; `ctrl_lpv.schedules.objective`).
+   rates; `ctrl_lpv.schedules.objective`). On a gridded plant in
+   continuous time, an `Hinf` objective with ``rate_bounds`` is also
+   bounded with ``P(p)`` and those rates (the smaller bound is reported).
 
 For a `ctrl_lpv.GriddedStateSpace` the same steps run on the pieces of
 grid cells and schedule simplices, with the terms and the multilinear
-``P(p)`` of `ctrl_lpv.schedules.gridded`.
+``P(p)`` of `ctrl_lpv.schedules.gridded` (independent of a parameter
+whose rate is not bounded).
 """
 
 from __future__ import annotations
@@ -97,8 +100,9 @@ class ScheduleCertificate:
         What was tried, in order.
     bound : float or None
         With an `objective`: the certified bound of its channel (L2 gain for
-        `Hinf`, H2 for `H2`) for arbitrarily fast parameters; None otherwise
-        or when it is not certified (then `certified` is False).
+        `Hinf`, H2 for `H2`) for the rates of `rate_bound` (arbitrarily
+        fast parameters: ``inf``); None otherwise or when it is not
+        certified (then `certified` is False).
     """
 
     certified: bool
@@ -155,11 +159,16 @@ def certify(
         or else in order.
     rate_bounds : mapping of str to float, optional
         Rates to certify, ``{parameter: nu}``; default: find the largest
-        ``nu`` for every parameter (per time unit).
+        ``nu`` for every parameter (per time unit). On a gridded plant a
+        parameter not listed (or ``inf``) may vary arbitrarily fast; on a
+        polytopic plant every parameter needs a finite rate.
     objective : `Hinf` or `H2`, optional
         A channel ``Hinf(w=..., z=...)`` (or `H2`) whose bound to certify
-        (L2 gain, or H2), for arbitrarily fast parameters: `certified`
-        then also requires the bound, reported in ``.bound``. Its ``w`` are
+        (L2 gain, or H2), for arbitrarily fast parameters or, for an
+        `Hinf` objective on a gridded plant in continuous time with
+        `rate_bounds`, for those rates if that gives a smaller bound:
+        `certified` then also requires the bound, reported in ``.bound``
+        (and the rates it holds for in ``.rate_bound``). Its ``w`` are
         plant inputs, its ``z`` plant outputs; ``bound=`` must be None.
     margin : float, optional
         Relative margin of the strict LMIs.

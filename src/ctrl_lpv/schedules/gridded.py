@@ -61,17 +61,18 @@ class Piece:
 class GriddedLoops(RateSearch):
     """The closed loops of a schedule on a `GriddedStateSpace`, by pieces.
 
-    Rate-bounded analysis (continuous time, on every cell ``B_u`` constant
-    or the gain constant on each piece, so that the loop is multilinear on
-    the piece, ``sum_a w_a M_a``): ``P(p) = sum_i w_i(p) P_i`` multilinear
-    on the grid, continuous across cells. On a cell of widths ``h``,
-    ``dw_a/dp_d`` is ``+-(w_a + w_a')/h_d`` (``a'`` the corner across axis
-    ``d``), so ``dP/dt = sum_a w_a D_a`` with ``D_a = sum_d (dp_d/dt)
-    (P_a+ - P_a-) / h_d`` (the difference of ``P`` along the cell's edge
-    through corner ``a``). Then ``dV/dt = x' (sum_ab w_a w_b Q_ab) x`` with
+    Rate-bounded analysis (continuous time): ``P(p) = sum_i w_i(p) P_i``
+    multilinear on the grid, continuous across cells, with ``dP/dt =
+    sum_a w_a D_a`` on a cell (`ctrl_lpv.schedules.cellrates`). When
+    ``B_u`` is constant on the cell or the gain on the piece, the loop is
+    ``sum_a w_a M_a`` and ``dV/dt = x' (sum_ab w_a w_b Q_ab) x`` with
     ``Q_ab = M_a' P_b + P_b M_a + (D_a + D_b) / 2``, negative when the
     ``Q_aa`` and the ``Q_ab + Q_ba`` are, at the ``2**k`` corners of the
-    rate box (the terms are affine in the rates).
+    rate box (the terms are affine in the rates); when both vary, the loop
+    is ``sum_ab w_a w_b M_ab`` and ``dV/dt`` a cubic form, imposed on the
+    sums over the orderings of each triple of corners (`_rate_problem`).
+    With an `Hinf` objective the bounded-real inequality with ``P(p)``
+    (`rate_bounded_bound`).
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""State feedback for a gridded plant: gains at the grid points, one P.
+"""State feedback for a gridded plant: gains at the grid points.
 
 `synthesize` on a `ctrl_lpv.GriddedStateSpace` designs gains ``K_g`` at the
 grid points, interpolated as python-control's
@@ -18,6 +18,12 @@ Lyapunov inequality ``sym(A_cl W) < 0`` or the dual bounded-real one
 (``[[sym(A_cl W), *, *], [B_w', -I, *], [C_cl W, D_zw, -g I]] < 0``, bound
 ``sqrt(g)``), which are affine in the terms. One ``W`` for every piece:
 valid for arbitrarily fast parameters.
+
+With ``lyapunov="affine"`` and ``rate_bounds`` the Lyapunov matrix depends
+on the parameters (multilinear on the grid, continuous) and the rates are
+bounded: `ctrl_lpv.synthesis.gridded_rates` (a slack form that keeps the
+gains python-control's). Either way the design is returned only when
+`ctrl_lpv.certify` certifies it, with the same rates.
 """
 
 from __future__ import annotations
@@ -28,7 +34,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .._checks import real_number, signal_indices
-from ..exceptions import CertificationError
+from ..exceptions import CertificationError, SynthesisError
 from ..lmi import solver_chain
 from ..schedules.cellrates import rates_of
 from .gridded_rates import rate_bounded_gains
@@ -52,7 +58,8 @@ class GriddedDesign:
         The grid points, ``(N, k)``.
     gamma : float or None
         The certified bound of the objective (L2 gain for `Hinf`), from
-        `ctrl_lpv.certify` on the plant; None without an objective.
+        `ctrl_lpv.certify` on the plant (for the rates of ``rate_bounds``
+        when given); None without an objective.
     certificate : `ctrl_lpv.ScheduleCertificate`
         The verdict of `ctrl_lpv.certify` on the plant (its float64 checks
         in ``.certificate``).
@@ -92,12 +99,25 @@ def synthesize_gridded(sys, u, *, y=None, objective=None, constraints=(),
         The plant (continuous time).
     u : str, int or list
         Control inputs.
-    y, constraints, lyapunov, rate_bounds
-        Not implemented on grids: None, (), "constant", None.
+    y, constraints
+        Not implemented on grids: None, ().
     objective : `Hinf` or None
         The channel whose L2 gain to minimise, or None for stability.
     gains : {"scheduled", "common"}, optional
         Gains at the grid points (default) or one gain.
+    lyapunov : {"constant", "affine"}, optional
+        One Lyapunov matrix, valid for arbitrarily fast parameters
+        (default), or one multilinear on each grid cell with its values at
+        the grid points (needs `rate_bounds`; continuous time). With an
+        objective the constant-matrix design is computed too and the one
+        with the smaller certified bound (for the rates) returned; without
+        one it is the fallback when the rate-bounded design fails.
+    rate_bounds : mapping of str to float, optional
+        ``{parameter: nu}``, ``|dp/dt| <= nu`` (``nu = 0``: a constant
+        parameter). A parameter not listed (or ``inf``) may vary
+        arbitrarily fast: the Lyapunov matrix does not depend on it. The
+        design and its bound (`GriddedDesign.gamma`) are certified for
+        these rates, on every grid cell (not only at the grid points).
     backoff : float, optional
         The L2 bound is relaxed by this fraction from its optimum to
         minimise the gains' size (default 0.2; 0 keeps the optimum, up to
@@ -115,14 +135,24 @@ def synthesize_gridded(sys, u, *, y=None, objective=None, constraints=(),
     Raises
     ------
     ValueError, TypeError
-        Options not implemented on grids (named).
+        Options not implemented on grids, a discrete-time plant, rate
+        bounds naming an unknown parameter or negative (named).
     SynthesisError
         When no design is found, or the one found is not certified by
-        `ctrl_lpv.certify`.
+        `ctrl_lpv.certify` (`CertificationError`).
+
+    Examples
+    --------
+    >>> import control as ct, numpy as np
+    >>> import ctrl_lpv as lpv
+    >>> G = lpv.gss(lambda a: ct.ss([[a, 1.0], [0.0, -1.0]], [[0.0], [1.0]],
+    ...                             np.eye(2), 0, inputs="u"),
+    ...             {"a": [0.0, 0.5, 1.0]})
+    >>> design = lpv.synthesize(G, "u", lyapunov="affine",
+    ...                         rate_bounds={"a": 0.5})
+    >>> design.certificate.certified
+    True
     """
-    from ..lmi import LMIProblem
-    from ..schedules.gridded import GriddedLoops
-    from ..schedules.schedule import schedule_of
     from .specs import Hinf
 
     if y is not None:
@@ -160,10 +190,39 @@ def synthesize_gridded(sys, u, *, y=None, objective=None, constraints=(),
     backoff = real_number(0.0 if backoff is None else backoff, "backoff",
                           minimum=0.0)  # fmt: skip
     iu = signal_indices(u, sys.physical_inputs, "u")
-    if lyapunov == "affine":
-        K = rate_bounded_gains(sys, iu, objective, gains == "scheduled", nu,
-                               backoff, margin, solvers)  # fmt: skip
-        return _certified(sys, iu, K, objective, rate_bounds, margin)
+    scheduled = gains == "scheduled"
+    if lyapunov == "constant":
+        K = _constant_gains(sys, iu, objective, scheduled, backoff, margin, solvers)
+        return _certified(sys, iu, K, objective, None, margin)
+    # The constant-W design holds for any rate and is no slack form: it can
+    # be the better one (a bound the slack's scale search does not reach,
+    # e.g. with large gains), or the only one found.
+    designs, errors = [], []
+    methods = (
+        lambda: rate_bounded_gains(sys, iu, objective, scheduled, nu, backoff,
+                                   margin, solvers),
+        lambda: _constant_gains(sys, iu, objective, scheduled, backoff, margin,
+                                solvers),
+    )  # fmt: skip
+    for method in methods:
+        if designs and objective is None:
+            break
+        try:
+            designs.append(_certified(sys, iu, method(), objective, rate_bounds,
+                                      margin))  # fmt: skip
+        except SynthesisError as err:
+            errors.append(err)
+    if not designs:
+        raise errors[0]
+    return min(designs, key=lambda d: d.gamma or 0.0)
+
+
+def _constant_gains(sys, iu, objective, scheduled, backoff, margin, solvers):
+    """The gains at the grid points with one ``W`` (see the module)."""
+    from ..lmi import LMIProblem
+    from ..schedules.gridded import GriddedLoops
+    from ..schedules.schedule import schedule_of
+
     points = sys.grid.points
     n, m = sys.nstates, len(iu)
     # The geometry (pieces, barycentric maps) of python-control's
@@ -184,7 +243,6 @@ def synthesize_gridded(sys, u, *, y=None, objective=None, constraints=(),
     lmi = LMIProblem(margin=margin * scale)
     lmi.variable("W", (n, n), symmetric=True)
     lmi.add("W > 0", lambda v: [[-v.W]])
-    scheduled = gains == "scheduled"
     for g in range(len(points) if scheduled else 1):
         lmi.variable(f"Z{g}", (m, n))
     if objective is None:
@@ -259,7 +317,7 @@ def synthesize_gridded(sys, u, *, y=None, objective=None, constraints=(),
     Winv = np.linalg.inv(0.5 * (W + W.T))
     K = [-getattr(solution, f"Z{g if scheduled else 0}") @ Winv
          for g in range(len(points))]  # fmt: skip
-    return _certified(sys, iu, K, objective, None, margin)
+    return K
 
 
 def _certified(sys, iu, K, objective, rate_bounds, margin) -> GriddedDesign:
