@@ -123,6 +123,7 @@ def channel(S, K):
                  S.C[[0, 2]] - S.D[[0, 2]][:, [0]] @ K, 0)  # fmt: skip
 
 
+@pytest.mark.filterwarnings("ignore:cannot verify system output:UserWarning")
 def test_rate_bounded_hinf_design_on_one_parameter():
     G = lpv.gss(with_effort, {"theta0": np.linspace(0.0, 1.2, 4)})
     arbitrary = lpv.synthesize(G, "u", objective=HINF)
@@ -147,6 +148,31 @@ def test_rate_bounded_hinf_design_on_one_parameter():
     assert worst <= design.gamma
     # The frozen norms are a lower bound of any rate's bound: not vacuous.
     assert design.gamma < 3 * worst
+    # The table drives python-control's scheduled controller, certified as is.
+    sys = with_effort(0.6)[["theta", "omega"], "u"]
+    ctrl, _ = ct.create_statefbk_iosystem(sys, design.table,
+                                          gainsched_indices=["xd[0]"])  # fmt: skip
+    from_object = lpv.certify(ctrl, G, objective=HINF, rate_bounds={"theta0": nu})
+    assert from_object.certified
+    assert from_object.bound == pytest.approx(design.gamma, rel=1e-3)
+
+
+def test_a_design_certify_refuses_is_not_returned(monkeypatch):
+    """The design is returned only with `certify`'s verdict: stand in a
+    refusing `certify` and the synthesis raises."""
+    import ctrl_lpv.schedules as schedules
+    from ctrl_lpv.certificate import Certificate
+    from ctrl_lpv.exceptions import CertificationError
+    from ctrl_lpv.schedules import ScheduleCertificate
+
+    def refusing(*args, **kwargs):
+        return ScheduleCertificate(False, {"theta0": 0.0}, None, Certificate(()))
+
+    G = lpv.gss(with_effort, {"theta0": np.linspace(0.0, 1.2, 3)})
+    monkeypatch.setattr(schedules, "certify", refusing)
+    with pytest.raises(CertificationError, match="not certified by certify"):
+        lpv.synthesize(G, "u", objective=HINF, lyapunov="affine",
+                       rate_bounds={"theta0": 0.1})  # fmt: skip
 
 
 def test_bad_rate_bounds_are_refused_naming_the_argument():
