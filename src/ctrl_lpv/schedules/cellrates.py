@@ -20,46 +20,11 @@ synthesis on grids (``X = P^-1`` in the dual ones) use this module.
 from __future__ import annotations
 
 import itertools
-import math
-from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
-from .._checks import real_number
-
-__all__ = ["CellRates", "lyapunov_index", "orderings", "rates_of"]
-
-
-def rates_of(rate_bounds, names) -> np.ndarray:
-    """``rate_bounds`` checked, one rate per parameter of `names`.
-
-    A parameter not given (or given ``inf``) may vary arbitrarily fast.
-
-    Raises
-    ------
-    TypeError
-        `rate_bounds` is not a mapping, or a rate not a real number.
-    ValueError
-        An unknown parameter, or a negative or NaN rate (named).
-    """
-    if not isinstance(rate_bounds, Mapping):
-        raise TypeError(
-            f"rate_bounds: expected a mapping {{parameter: nu}}, got {rate_bounds!r}"
-        )
-    unknown = sorted(set(rate_bounds) - set(names))
-    if unknown:
-        raise ValueError(
-            f"rate_bounds: unknown parameter(s) {unknown}; the plant has {list(names)}"
-        )
-    out = []
-    for n in names:
-        value = rate_bounds.get(n, math.inf)
-        if isinstance(value, (float, np.floating)) and value == math.inf:
-            out.append(math.inf)  # arbitrarily fast
-        else:
-            out.append(real_number(value, f"rate_bounds[{n!r}]", minimum=0.0))
-    return np.array(out)
+__all__ = ["CellRates", "lyapunov_index", "orderings"]
 
 
 def lyapunov_index(grid, unbounded=()) -> np.ndarray:

@@ -43,12 +43,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._checks import real_number
+from .._checks import checked_rates, real_number
 from ..certificate import Certificate
 from ..exceptions import SynthesisError
 from ..lmi import LMIProblem
 from ..systems import GriddedStateSpace, PolytopicStateSpace
-from .cellrates import rates_of
 from .objective import checked_objective
 from .quadratic import quadratic_certificate
 from .rates import RateSearch
@@ -228,7 +227,7 @@ def certify(
         loops = _ClosedLoops.of(schedule, plant, controller, parameters)
     nu = None
     if rate_bounds is not None:
-        nu = rates_of(rate_bounds, loops.names)
+        nu = checked_rates(rate_bounds, loops.names)
         if not isinstance(plant, GriddedStateSpace) and np.isinf(nu).any():
             raise ValueError(
                 "rate_bounds: on a polytopic plant give a finite rate for every "

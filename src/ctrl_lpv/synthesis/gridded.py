@@ -33,10 +33,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .._checks import real_number, signal_indices
+from .._checks import checked_rates, real_number, signal_indices
 from ..exceptions import CertificationError, SynthesisError
 from ..lmi import solver_chain
-from ..schedules.cellrates import rates_of
 from .gridded_rates import rate_bounded_gains
 
 __all__ = ["GriddedDesign", "synthesize_gridded"]
@@ -109,9 +108,10 @@ def synthesize_gridded(sys, u, *, y=None, objective=None, constraints=(),
         One Lyapunov matrix, valid for arbitrarily fast parameters
         (default), or one multilinear on each grid cell with its values at
         the grid points (needs `rate_bounds`; continuous time). With an
-        objective the constant-matrix design is computed too and the one
-        with the smaller certified bound (for the rates) returned; without
-        one it is the fallback when the rate-bounded design fails.
+        objective the constant-matrix design is computed too (certified
+        for arbitrary rates) and the one with the smaller certified bound
+        returned; without one it is the fallback when the rate-bounded
+        design fails.
     rate_bounds : mapping of str to float, optional
         ``{parameter: nu}``, ``|dp/dt| <= nu`` (``nu = 0``: a constant
         parameter). A parameter not listed (or ``inf``) may vary
@@ -171,7 +171,7 @@ def synthesize_gridded(sys, u, *, y=None, objective=None, constraints=(),
             raise ValueError(
                 "rate_bounds: lyapunov='affine' needs the rate bounds {name: nu}"
             )
-        nu = rates_of(rate_bounds, sys.param_names)
+        nu = checked_rates(rate_bounds, sys.param_names)
     gains = "scheduled" if gains is None else gains
     if gains not in ("common", "scheduled"):
         raise ValueError(f"gains: expected 'common' or 'scheduled', got {gains!r}")
@@ -197,19 +197,19 @@ def synthesize_gridded(sys, u, *, y=None, objective=None, constraints=(),
     # The constant-W design holds for any rate and is no slack form: it can
     # be the better one (a bound the slack's scale search does not reach,
     # e.g. with large gains), or the only one found.
+    # It is certified for arbitrary rates (so for any bounded ones too).
     designs, errors = [], []
     methods = (
-        lambda: rate_bounded_gains(sys, iu, objective, scheduled, nu, backoff,
-                                   margin, solvers),
-        lambda: _constant_gains(sys, iu, objective, scheduled, backoff, margin,
-                                solvers),
+        (lambda: rate_bounded_gains(sys, iu, objective, scheduled, nu, backoff,
+                                    margin, solvers), rate_bounds),
+        (lambda: _constant_gains(sys, iu, objective, scheduled, backoff, margin,
+                                 solvers), None),
     )  # fmt: skip
-    for method in methods:
+    for method, rates in methods:
         if designs and objective is None:
             break
         try:
-            designs.append(_certified(sys, iu, method(), objective, rate_bounds,
-                                      margin))  # fmt: skip
+            designs.append(_certified(sys, iu, method(), objective, rates, margin))
         except SynthesisError as err:
             errors.append(err)
     if not designs:
