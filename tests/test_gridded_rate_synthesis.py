@@ -272,3 +272,64 @@ def test_certify_rate_bounded_hinf_bound_between_frozen_norms_and_arbitrary_rate
         for m in np.linspace(0.8, 1.25, 11)
     )
     assert worst <= slow.bound
+
+
+# The switched pair of tests/test_certify_gridded.py: with K(p) = -((1 - p)
+# A1 + p A2) on x' = u, the closed loop is (1 - p) A1 + p A2.
+A1 = np.array([[-0.1, 1.0], [-2.0, -0.1]])
+A2 = np.array([[-0.1, 2.0], [-1.0, -0.1]])
+
+
+def integrator(p):
+    return ct.ss(np.zeros((2, 2)), np.eye(2), np.eye(2), 0, inputs=["u0", "u1"])
+
+
+@pytest.mark.parametrize("case", ["switched pair", "rotating input"])
+def test_certified_lyapunov_function_decreases_between_the_grid_points(case):
+    """The ``P_i`` of the rate-bounded analysis, read as documented (``P``
+    linear between grid points), make ``A_cl' P + P A_cl + (dp/dt) dP/dp``
+    negative definite at dense points of every cell for both signs of the
+    rate. (Regression: the derivative once took the last cell's ``P`` on
+    every cell, and certified 0.308 and 0.440 on three and five points for
+    the switched pair, where this check fails.)"""
+    from ctrl_lpv.schedules.certify import _gridded_loops
+    from ctrl_lpv.schedules.schedule import schedule_of
+
+    if case == "switched pair":
+        G = lpv.gss(integrator, {"p": np.linspace(0.0, 1.0, 5)})
+        table = ([-A1, -A2], [0.0, 1.0])
+
+        def loop(p):
+            return (1 - p) * A1 + p * A2
+
+    else:
+        points = np.linspace(0.0, np.pi, 7)
+        G = lpv.gss(rotating, {"p": points})
+        gains = [ct.lqr(rotating(p), np.eye(2), 1.0)[0] for p in points]
+        table = (gains, points)
+        b = np.array([rotating(p).B[:, 0] for p in points])
+        K = np.array(gains)[:, 0, :]
+
+        def loop(p):
+            bp = [np.interp(p, points, b[:, j]) for j in range(2)]
+            Kp = [np.interp(p, points, K[:, j]) for j in range(2)]
+            return A_ROT - np.outer(bp, Kp)
+
+    nu = lpv.certify(table, G, counterexample=False).rate_bound["p"]
+    assert 0 < nu < np.inf
+    loops = _gridded_loops(schedule_of(table, names=G.param_names), G, table, None)
+    lmi = loops._rate_problem(1e-6)
+    lmi.set_parameter("nu", [nu])
+    solution = lmi.solve()
+    grid = G.grid.points[:, 0]
+    P = [getattr(solution, f"P{i}") for i in range(len(grid))]
+    for i in range(len(grid) - 1):
+        h = grid[i + 1] - grid[i]
+        slope = (P[i + 1] - P[i]) / h
+        for f in np.linspace(0.0, 1.0, 11):
+            p = grid[i] + f * h
+            Pp = (1 - f) * P[i] + f * P[i + 1]
+            M = loop(p)
+            for sign in (-1.0, 1.0):
+                Q = M.T @ Pp + Pp @ M + sign * nu * slope
+                assert np.linalg.eigvalsh(Q).max() < 0, (case, p, sign)
