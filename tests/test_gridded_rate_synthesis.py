@@ -333,3 +333,56 @@ def test_certified_lyapunov_function_decreases_between_the_grid_points(case):
             for sign in (-1.0, 1.0):
                 Q = M.T @ Pp + Pp @ M + sign * nu * slope
                 assert np.linalg.eigvalsh(Q).max() < 0, (case, p, sign)
+
+
+def test_certified_bounded_real_inequality_holds_between_the_grid_points():
+    """The rate-bounded L2 bound's ``P_i`` and ``g`` (``B_u`` varies with
+    m, the gains with both parameters: the cubic relaxation), read as
+    documented (``P`` multilinear on each cell), satisfy the bounded-real
+    inequality with ``dP/dt`` at the corners of the rate box, at points
+    inside the cells (``G.at`` and scipy's interpolation of the gains)."""
+    from ctrl_lpv.schedules.certify import _gridded_loops
+    from ctrl_lpv.schedules.schedule import schedule_of
+
+    axes = {"theta0": np.linspace(0.0, 1.2, 3), "m": np.linspace(0.8, 1.25, 3)}
+    G = lpv.gss(with_effort, axes)
+    points = G.grid.points
+    gains = [ct.lqr(G.at(p)[:, "u"], np.diag([10.0, 1.0]), 1.0)[0] for p in points]
+    table = (gains, points)
+    nu = np.array([0.1, 0.1])
+    loops = _gridded_loops(schedule_of(table, names=G.param_names), G, table, None)
+    lmi = loops._rate_problem(1e-6, (), HINF)
+    lmi.set_parameter("nu", nu)
+    solution = lmi.solve(lambda v: v.g[0, 0])
+    P = np.array([getattr(solution, f"P{i}") for i in range(len(points))])
+    g = float(solution.g[0, 0])
+    interp = LinearNDInterpolator(points, np.array(gains).reshape(len(points), -1))
+
+    def P_at(p):
+        return np.tensordot(G.grid.weights(p), P, axes=1)
+
+    rng = np.random.default_rng(7)
+    for cell in G.grid.cells():
+        lo = np.array([a[i] for a, i in zip(G.grid.axes, cell)])
+        hi = np.array([a[i + 1] for a, i in zip(G.grid.axes, cell)])
+        for p in rng.uniform(lo, hi, size=(6, 2)):
+            S = G.at(p)
+            K = interp(p).reshape(1, 2)
+            loop = channel(S, K)
+            Pp = P_at(p)
+            # P is affine along each axis within the cell: the difference
+            # quotient over the cell's width is its partial derivative.
+            slopes = []
+            for d in range(2):
+                a, b = p.copy(), p.copy()
+                a[d], b[d] = lo[d], hi[d]
+                slopes.append((P_at(b) - P_at(a)) / (hi[d] - lo[d]))
+            for signs in ((-1, -1), (-1, 1), (1, -1), (1, 1)):
+                Pdot = sum(s * r * D for s, r, D in zip(signs, nu, slopes))
+                A, B, C, D = loop.A, loop.B, loop.C, loop.D
+                F = np.block([
+                    [A.T @ Pp + Pp @ A + Pdot, Pp @ B, C.T],
+                    [B.T @ Pp, -np.eye(1), D.T],
+                    [C, D, -g * np.eye(2)],
+                ])  # fmt: skip
+                assert np.linalg.eigvalsh(F).max() < 0, (p, signs)
