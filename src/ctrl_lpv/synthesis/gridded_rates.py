@@ -186,13 +186,17 @@ def _search(lmi, bounded, backoff, scale, solvers):
 
     Each ``epsilon`` is tried with the first solver of the chain (the others
     would only spend their iterations on a slack scale that does not fit);
-    the whole chain solves at the chosen one, or at each in turn when the
-    first solver found none.
+    the whole chain solves at the chosen one, or, when the first solver
+    found none, at each ``epsilon`` where it did not report the problem
+    infeasible (a failed search otherwise spends minutes in SCS to find
+    nothing more).
     """
     from ..lmi.solvers import default_solvers
 
     chain = solvers or default_solvers()
     failures = []
+
+    infeasible = set()
 
     def attempt(eps, stage, objective, chain, certify=True):
         lmi.set_parameter("eps", eps / scale)
@@ -200,6 +204,8 @@ def _search(lmi, bounded, backoff, scale, solvers):
             return lmi.solve(objective, stage=stage, solvers=chain, certify=certify)
         except SynthesisError as err:
             failures.append(f"epsilon {eps / scale:.3g}: {str(err).splitlines()[0]}")
+            if [a.status for a in err.attempts] == ["infeasible"]:
+                infeasible.add(eps)
             return None
 
     def size(v):
@@ -211,7 +217,8 @@ def _search(lmi, bounded, backoff, scale, solvers):
             estimate = attempt(eps, "optimal", lambda v: v.g[0, 0], chain[:1], False)
             if estimate is not None:
                 found.append((float(estimate.g[0, 0]), eps))
-        for value, eps in sorted(found) or [(None, e) for e in EPSILONS]:
+        retry = [(None, e) for e in EPSILONS if e not in infeasible]
+        for value, eps in sorted(found) or retry:
             if value is None:
                 estimate = attempt(eps, "optimal", lambda v: v.g[0, 0], chain, False)
                 if estimate is None:
@@ -222,11 +229,14 @@ def _search(lmi, bounded, backoff, scale, solvers):
             if solution is not None:
                 return solution
     else:
-        for quick in (True, False):
-            for eps in EPSILONS:
-                solution = attempt(eps, "backoff", size, chain[:1] if quick else chain)
-                if solution is not None:
-                    return solution
+        for eps in EPSILONS:
+            solution = attempt(eps, "backoff", size, chain[:1])
+            if solution is not None:
+                return solution
+        for eps in [e for e in EPSILONS if e not in infeasible]:
+            solution = attempt(eps, "backoff", size, chain)
+            if solution is not None:
+                return solution
     raise CertificationError(
         "rate-bounded synthesis on the grid: no solution for any slack scale "
         "epsilon:\n" + "\n".join(failures)
