@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["CellRates", "lyapunov_index", "orderings"]
+__all__ = ["CellRates", "lyapunov_index", "orderings", "sum_blocks"]
 
 
 def lyapunov_index(grid, unbounded=()) -> np.ndarray:
@@ -105,3 +105,9 @@ class CellRates:
             up, down = (a, b) if self._bits[a][d] else (b, a)
             total = total + signs[d] * nu[d] * (P(up) - P(down)) / self.widths[d]
         return total
+
+
+def sum_blocks(terms):
+    """The lower block triangles `terms` (of `orderings`' coefficients)
+    added block by block."""
+    return [[sum(parts) for parts in zip(*rows)] for rows in zip(*terms)]

@@ -350,7 +350,7 @@ class GriddedLoops(RateSearch):
         < 0`` (bound ``sqrt(g)``), of the same degree.
         """
         from ..lmi import LMIProblem
-        from .cellrates import CellRates, lyapunov_index, orderings
+        from .cellrates import CellRates, lyapunov_index, orderings, sum_blocks
 
         grid, n, k = self.grid, self.A.shape[1], self.grid.nparams
         index = lyapunov_index(grid, unbounded)
@@ -413,7 +413,7 @@ class GriddedLoops(RateSearch):
                     name = (f"cell {list(piece.cell)} piece {count} rates {signs} "
                             f"corners {[corners[a] for a in multiset]}")  # fmt: skip
                     lmi.add(name, lambda v, orders=orders, signs=signs,
-                            term=term: _sum_blocks([term(v, o, signs)
+                            term=term: sum_blocks([term(v, o, signs)
                                                     for o in orders]))  # fmt: skip
         return lmi
 
@@ -489,8 +489,3 @@ class GriddedLoops(RateSearch):
 
 def _constant(M) -> bool:
     return all(np.array_equal(M[0], X) for X in M)
-
-
-def _sum_blocks(terms):
-    """The block triangles `terms` added block by block."""
-    return [[sum(parts) for parts in zip(*rows)] for rows in zip(*terms)]

@@ -83,8 +83,8 @@ def rate_bounded_gains(sys, iu, objective, scheduled, nu, backoff, margin,
         When no ``epsilon`` gives a certified solution.
     """
     from ..lmi import LMIProblem
-    from ..schedules.cellrates import CellRates, lyapunov_index, orderings
-    from ..schedules.gridded import GriddedLoops
+    from ..schedules.cellrates import CellRates, lyapunov_index, orderings, sum_blocks
+    from ..schedules.gridded import GriddedLoops, _constant
     from ..schedules.schedule import schedule_of
 
     grid, points = sys.grid, sys.grid.points
@@ -158,7 +158,7 @@ def rate_bounded_gains(sys, iu, objective, scheduled, nu, backoff, margin,
                 name = (f"cell {list(piece.cell)} simplex {piece.simplex} rates "
                         f"{signs} corners {at_corners}")  # fmt: skip
                 lmi.add(name, lambda v, orders=orders, signs=signs, term=term:
-                        _sum_blocks([term(v, o, signs) for o in orders]))  # fmt: skip
+                        sum_blocks([term(v, o, signs) for o in orders]))  # fmt: skip
     # The gains' size, K_g X_g K_g' <= kappa I (implied by the LMI below,
     # as G' X^-1 G >= G + G' - X), minimised in a second stage with the
     # bound backed off from its optimum.
@@ -258,12 +258,3 @@ def _block(v, A, B, Y, X, Xdot, channel, i):
     nw, nz = Bw.shape[1], Cz.shape[0]
     return [[top], [Bw.T, -np.eye(nw)], [CG, Dzw, -v.g[0, 0] * np.eye(nz)],
             [last, np.zeros((A.shape[0], nw)), eps * CG.T, corner]]  # fmt: skip
-
-
-def _sum_blocks(terms):
-    """The block triangles `terms` added block by block."""
-    return [[sum(parts) for parts in zip(*rows)] for rows in zip(*terms)]
-
-
-def _constant(M) -> bool:
-    return all(np.array_equal(M[0], X) for X in M)
