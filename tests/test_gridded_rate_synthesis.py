@@ -157,6 +157,52 @@ def test_rate_bounded_hinf_design_on_one_parameter():
     assert from_object.bound == pytest.approx(design.gamma, rel=1e-3)
 
 
+def test_rate_bounded_l2_bound_holds_along_simulated_parameter_trajectories():
+    """From rest, ``||z||_2 <= gamma ||w||_2`` for a random disturbance
+    while theta0 moves at up to the rate bound (the model between grid
+    points interpolated linearly, as `GriddedStateSpace` does)."""
+    grid = np.linspace(0.0, 1.2, 4)
+    G = lpv.gss(with_effort, {"theta0": grid})
+    nu = 0.1
+    design = lpv.synthesize(G, "u", objective=HINF, lyapunov="affine",
+                            rate_bounds={"theta0": nu})  # fmt: skip
+    data = [with_effort(t) for t in grid]
+    A, B, C, D = (np.array([getattr(S, name) for S in data]) for name in "ABCD")
+    K = np.array(design.gains)
+
+    def at(M, theta0):
+        """M (given at the grid points) interpolated linearly at theta0."""
+        i = min(max(int(np.searchsorted(grid, theta0)) - 1, 0), len(grid) - 2)
+        f = (theta0 - grid[i]) / (grid[i + 1] - grid[i])
+        return (1 - f) * M[i] + f * M[i + 1]
+
+    rng = np.random.default_rng(11)
+    T = 30.0
+    for _ in range(2):
+        theta0 = bounded_rate_signal(rng, 0.95 * nu, 0.6, 0.6)
+        a, f, phase = rng.uniform(0.2, 1.0, (3, 4))
+        f = 3 * f
+
+        def w(t, a=a, f=f, phase=phase):
+            return float(np.sum(a * np.sin(f * t + 2 * np.pi * phase))) * (t < 0.6 * T)
+
+        def rhs(t, xe, theta0=theta0, w=w):
+            p = theta0(t)
+            Kp = at(K, p)
+            x = xe[:2]
+            dx = (at(A, p) - at(B, p)[:, [0]] @ Kp) @ x + at(B, p)[:, 1] * w(t)
+            Cp, Dp = at(C, p), at(D, p)
+            z = (Cp[[0, 2]] - Dp[[0, 2]][:, [0]] @ Kp) @ x + Dp[[0, 2], 1] * w(t)
+            return np.concatenate([dx, [z @ z, w(t) ** 2]])
+
+        sol = solve_ivp(rhs, (0.0, T), np.zeros(4), rtol=1e-8, atol=1e-10,
+                        max_step=0.1)  # fmt: skip
+        energy_z, energy_w = sol.y[2, -1], sol.y[3, -1]
+        assert energy_w > 0.1
+        gain = np.sqrt(energy_z / energy_w)
+        assert gain <= design.gamma
+
+
 def test_a_design_certify_refuses_is_not_returned(monkeypatch):
     """The design is returned only with `certify`'s verdict: stand in a
     refusing `certify` and the synthesis raises."""
