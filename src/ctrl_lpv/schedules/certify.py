@@ -293,7 +293,7 @@ def certify(
         found = loops.rate_bounded(nu, margin)
         tried.append(f"parameter-dependent P(p), rates {nu.tolist()}")
         certificate = Certificate(()) if found is None else found
-        rates = dict(zip(loops.names, nu if found is not None else 0 * nu))
+        rates = dict(zip(loops.names, (nu if found is not None else 0 * nu).tolist()))
         return ScheduleCertificate(found is not None, rates, None, certificate,
                                    tuple(tried))  # fmt: skip
     scale, certificate = loops.largest_rate(margin)
