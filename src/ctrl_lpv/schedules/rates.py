@@ -102,6 +102,8 @@ class RateSearch:
 
     region = "in the points' convex hull"
     lyapunov_form = "P(p) affine on each cell, continuous"
+    #: Whether a parameter may be left out of the rates.
+    unbounded_rates = False
 
     def rate_bounded(self, nu, margin, lmi=None, solvers=None):
         """The certificate with rates `nu` (one per parameter), or None.
