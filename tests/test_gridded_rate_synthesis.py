@@ -338,7 +338,7 @@ def test_certified_lyapunov_function_decreases_between_the_grid_points(case):
     rate. (Regression: the derivative once took the last cell's ``P`` on
     every cell, and certified 0.308 and 0.440 on three and five points for
     the switched pair, where this check fails.)"""
-    from ctrl_lpv.schedules.certify import _gridded_loops
+    from ctrl_lpv.schedules.polytopic import gridded_loops as _gridded_loops
     from ctrl_lpv.schedules.schedule import schedule_of
 
     if case == "switched pair":
@@ -387,7 +387,7 @@ def test_certified_bounded_real_inequality_holds_between_the_grid_points():
     documented (``P`` multilinear on each cell), satisfy the bounded-real
     inequality with ``dP/dt`` at the corners of the rate box, at points
     inside the cells (``G.at`` and scipy's interpolation of the gains)."""
-    from ctrl_lpv.schedules.certify import _gridded_loops
+    from ctrl_lpv.schedules.polytopic import gridded_loops as _gridded_loops
     from ctrl_lpv.schedules.schedule import schedule_of
 
     axes = {"theta0": np.linspace(0.0, 1.2, 3), "m": np.linspace(0.8, 1.25, 3)}

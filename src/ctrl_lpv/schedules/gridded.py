@@ -72,7 +72,7 @@ class GriddedLoops(RateSearch):
     is ``sum_ab w_a w_b M_ab`` and ``dV/dt`` a cubic form, imposed on the
     sums over the orderings of each triple of corners (`_rate_problem`).
     With an `Hinf` objective the bounded-real inequality with ``P(p)``
-    (`rate_bounded_bound`).
+    (`rate_bound`).
 
     Parameters
     ----------
