@@ -299,13 +299,15 @@ class GriddedLoops(RateSearch):
                     out.setdefault(key, (ends[0], ends[1], nodes, M))
         return list(out.values())
 
-    def rate_bounded(self, nu, margin, lmi=None):
+    def rate_bounded(self, nu, margin, lmi=None, solvers=None):
         """`RateSearch.rate_bounded`; an infinite rate makes ``P``
         independent of its parameter (`ctrl_lpv.schedules.cellrates`)."""
         nu = np.asarray(nu, float)
         if lmi is None:
             lmi = self._rate_problem(margin, tuple(np.flatnonzero(np.isinf(nu))))
-        return super().rate_bounded(np.where(np.isinf(nu), 0.0, nu), margin, lmi)
+        return super().rate_bounded(
+            np.where(np.isinf(nu), 0.0, nu), margin, lmi, solvers
+        )
 
     #: A parameter may be left out of the rates (its P does not depend on it).
     unbounded_rates = True
