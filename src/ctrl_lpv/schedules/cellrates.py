@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["CellRates", "lyapunov_index", "orderings", "sum_blocks"]
+__all__ = ["CellRates", "lyapunov_index"]
 
 
 def lyapunov_index(grid, unbounded=()) -> np.ndarray:
@@ -36,18 +36,6 @@ def lyapunov_index(grid, unbounded=()) -> np.ndarray:
     multi = np.array(np.unravel_index(np.arange(len(grid.points)), grid.shape))
     multi[list(unbounded)] = 0
     return np.ravel_multi_index(multi, grid.shape)
-
-
-def orderings(ncorners: int, degree: int):
-    """The coefficients of a homogeneous form of `degree` in the weights.
-
-    Yields, for each multiset of `degree` corner positions, its distinct
-    orderings: the form ``sum w_i w_j ... T(i, j, ...)`` is negative on the
-    simplex when, for every multiset, the sum of ``T`` over its orderings
-    is (a Polya relaxation of degree zero; Oliveira and Peres 2007).
-    """
-    for multiset in itertools.combinations_with_replacement(range(ncorners), degree):
-        yield multiset, sorted(set(itertools.permutations(multiset)))
 
 
 @dataclass(frozen=True)
@@ -105,9 +93,3 @@ class CellRates:
             up, down = (a, b) if self._bits[a][d] else (b, a)
             total = total + signs[d] * nu[d] * (P(up) - P(down)) / self.widths[d]
         return total
-
-
-def sum_blocks(terms):
-    """The lower block triangles `terms` (of `orderings`' coefficients)
-    added block by block."""
-    return [[sum(parts) for parts in zip(*rows)] for rows in zip(*terms)]

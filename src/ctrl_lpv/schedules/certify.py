@@ -28,7 +28,7 @@ with a `ScheduleCertificate`. For a polytopic plant:
    Lyapunov matrix for the channel's terms spanning the loops (arbitrary
    rates; `ctrl_lpv.schedules.objective`); with ``rate_bounds``, the L2
    gain under them too (the bounded-real form of step 3,
-   `ctrl_lpv.schedules.rates.family_lmis`), the smaller of the two
+   `ctrl_lpv.schedules.rates.form_lmis`), the smaller of the two
    reported. Without a common Lyapunov function only the rate-bounded L2
    gain exists, so it needs ``rate_bounds``.
 

@@ -37,12 +37,13 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from scipy.optimize import linprog
 
 from .quadratic import quadratic_certificate
-from .rates import RateSearch
+from .rates import RateSearch, form_lmis
 
 __all__ = ["GriddedLoops"]
 
@@ -361,7 +362,7 @@ class GriddedLoops(RateSearch):
         < 0`` (bound ``sqrt(g)``), of the same degree.
         """
         from ..lmi import LMIProblem
-        from .cellrates import CellRates, lyapunov_index, orderings, sum_blocks
+        from .cellrates import CellRates, lyapunov_index
 
         grid, n, k = self.grid, self.A.shape[1], self.grid.nparams
         index = lyapunov_index(grid, unbounded)
@@ -420,12 +421,8 @@ class GriddedLoops(RateSearch):
                          -v.g[0, 0] * np.eye(Cz.shape[1])]]  # fmt: skip
 
             for signs in cell.vertices():
-                for multiset, orders in orderings(len(corners), degree):
-                    name = (f"cell {list(piece.cell)} piece {count} rates {signs} "
-                            f"corners {[corners[a] for a in multiset]}")  # fmt: skip
-                    lmi.add(name, lambda v, orders=orders, signs=signs,
-                            term=term: sum_blocks([term(v, o, signs)
-                                                    for o in orders]))  # fmt: skip
+                where = f"cell {list(piece.cell)} piece {count} rates {signs}"
+                form_lmis(lmi, where, corners, degree, partial(term, signs=signs))
         return lmi
 
     # ------------------------------------------------------------------

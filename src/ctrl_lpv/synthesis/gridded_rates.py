@@ -42,6 +42,8 @@ the vertices of the rate box. The design is then certified by
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 
 from .._checks import signal_indices
@@ -83,8 +85,9 @@ def rate_bounded_gains(sys, iu, objective, scheduled, nu, backoff, margin,
         When no ``epsilon`` gives a certified solution.
     """
     from ..lmi import LMIProblem
-    from ..schedules.cellrates import CellRates, lyapunov_index, orderings, sum_blocks
+    from ..schedules.cellrates import CellRates, lyapunov_index
     from ..schedules.gridded import GriddedLoops, _constant
+    from ..schedules.rates import form_lmis
     from ..schedules.schedule import schedule_of
 
     grid, points = sys.grid, sys.grid.points
@@ -153,12 +156,9 @@ def rate_bounded_gains(sys, iu, objective, scheduled, nu, backoff, margin,
             return _block(v, A[i], B[i], Yt(v, b), X(v, i), Xdot, channel, i)
 
         for signs in cell.vertices():
-            for multiset, orders in orderings(len(corners), 1 if linear else 2):
-                at_corners = [corners[a] for a in multiset]
-                name = (f"cell {list(piece.cell)} simplex {piece.simplex} rates "
-                        f"{signs} corners {at_corners}")  # fmt: skip
-                lmi.add(name, lambda v, orders=orders, signs=signs, term=term:
-                        sum_blocks([term(v, o, signs) for o in orders]))  # fmt: skip
+            where = f"cell {list(piece.cell)} simplex {piece.simplex} rates {signs}"
+            form_lmis(lmi, where, corners, 1 if linear else 2,
+                      partial(term, signs=signs))  # fmt: skip
     # The gains' size, K_g X_g K_g' <= kappa I (implied by the LMI below,
     # as G' X^-1 G >= G + G' - X), minimised in a second stage with the
     # bound backed off from its optimum.
