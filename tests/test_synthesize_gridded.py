@@ -1,5 +1,7 @@
 """`synthesize` on a `GriddedStateSpace`: gains at the grid points, one P.
 
+(Rate-bounded synthesis: tests/test_gridded_rate_synthesis.py.)
+
 Checked against independent facts: the frozen closed loops (``G.at(p)``
 under the gains interpolated by scipy, as python-control interpolates them)
 are stable and their `control.linfnorm` stays below the certified bound on
@@ -104,7 +106,11 @@ def test_design_table_drives_a_python_control_controller():
 
 def test_options_not_implemented_on_grids_are_refused(G):
     with pytest.raises(ValueError, match="lyapunov"):
-        lpv.synthesize(G, "u", lyapunov="affine", rate_bounds={"m": 1.0})
+        lpv.synthesize(G, "u", lyapunov="quadratic")
+    with pytest.raises(ValueError, match="rate_bounds: lyapunov='affine' needs"):
+        lpv.synthesize(G, "u", lyapunov="affine")
+    with pytest.raises(ValueError, match="rate_bounds: only used"):
+        lpv.synthesize(G, "u", rate_bounds={"m": 1.0})
     with pytest.raises(ValueError, match="y: output feedback"):
         lpv.synthesize(G, "u", y="theta", objective=HINF)
     with pytest.raises(TypeError, match="objective"):

@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import math
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
 __all__ = [
     "as_matrix",
     "as_ss_data",
+    "checked_rates",
     "flag",
     "per_input",
     "positive_levels",
@@ -270,3 +272,34 @@ def signal_indices(spec, labels: Sequence[str], name: str) -> list[int]:
     if len(set(out)) != len(out):
         raise ValueError(f"{name}: a signal is listed twice: {items}")
     return out
+
+
+def checked_rates(rate_bounds, names) -> np.ndarray:
+    """``rate_bounds`` checked, one rate per parameter of `names`.
+
+    A parameter not given (or given ``inf``) may vary arbitrarily fast.
+
+    Raises
+    ------
+    TypeError
+        `rate_bounds` is not a mapping, or a rate not a real number.
+    ValueError
+        An unknown parameter, or a negative or NaN rate (named).
+    """
+    if not isinstance(rate_bounds, Mapping):
+        raise TypeError(
+            f"rate_bounds: expected a mapping {{parameter: nu}}, got {rate_bounds!r}"
+        )
+    unknown = sorted(set(rate_bounds) - set(names))
+    if unknown:
+        raise ValueError(
+            f"rate_bounds: unknown parameter(s) {unknown}; the plant has {list(names)}"
+        )
+    out = []
+    for n in names:
+        value = rate_bounds.get(n, math.inf)
+        if isinstance(value, (float, np.floating)) and value == math.inf:
+            out.append(math.inf)  # arbitrarily fast
+        else:
+            out.append(real_number(value, f"rate_bounds[{n!r}]", minimum=0.0))
+    return np.array(out)

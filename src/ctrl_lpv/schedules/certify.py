@@ -28,13 +28,14 @@ with a `ScheduleCertificate`. For a polytopic plant:
    Lyapunov matrix for the channel's terms spanning the loops (arbitrary
    rates; `ctrl_lpv.schedules.objective`); with ``rate_bounds``, the L2
    gain under them too (the bounded-real form of step 3,
-   `ctrl_lpv.schedules.rates.family_lmis`), the smaller of the two
+   `ctrl_lpv.schedules.rates.form_lmis`), the smaller of the two
    reported. Without a common Lyapunov function only the rate-bounded L2
    gain exists, so it needs ``rate_bounds``.
 
 For a `ctrl_lpv.GriddedStateSpace` the same steps run on the pieces of
 grid cells and schedule simplices, with the terms and the multilinear
-``P(p)`` of `ctrl_lpv.schedules.gridded`. A dynamic (output-feedback)
+``P(p)`` of `ctrl_lpv.schedules.gridded` (independent of a parameter
+whose rate is not bounded). A dynamic (output-feedback)
 controller is closed with the plant by signal names and analysed the same
 way, with the terms of `ctrl_lpv.schedules.dynamic`.
 """
@@ -46,7 +47,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._checks import real_number
+from .._checks import checked_rates, real_number
 from ..certificate import Certificate
 from ..exceptions import SynthesisError
 from ..systems import GriddedStateSpace
@@ -175,7 +176,9 @@ def certify(
         parameter: plant parameter}``, default the same names (required).
     rate_bounds : mapping of str to float, optional
         Rates to certify, ``{parameter: nu}``; default: find the largest
-        ``nu`` for every parameter (per time unit).
+        ``nu`` for every parameter (per time unit). On a gridded plant a
+        parameter not listed (or ``inf``) may vary arbitrarily fast; on a
+        polytopic plant every parameter needs a finite rate.
     objective : `Hinf` or `H2`, optional
         A channel ``Hinf(w=..., z=...)`` (or `H2`) whose bound to certify
         (L2 gain, or H2): `certified` then also requires the bound,
@@ -267,16 +270,19 @@ def certify(
 
 def _verdict(loops, where, rate_bounds, objective, margin, samples, counterexample):
     """The steps of `certify` on closed loops of either kind."""
+    nu = None if rate_bounds is None else checked_rates(rate_bounds, loops.names)
+    if nu is not None and np.isinf(nu).any() and not loops.unbounded_rates:
+        raise ValueError(
+            f"rate_bounds: give a finite rate for every parameter {list(loops.names)} "
+            "(only on a gridded plant may a parameter be left out: its P(p) then "
+            "does not depend on it)"
+        )
     tried = []
     frozen = loops.frozen_counterexample(samples)
     tried.append(f"frozen closed loops at {where}")
     if frozen is not None:
         return ScheduleCertificate(False, {n: 0.0 for n in loops.names}, frozen,
                                    Certificate(()), tuple(tried))  # fmt: skip
-    nu = None
-    if rate_bounds is not None:
-        nu = np.array([real_number(rate_bounds.get(n, math.inf), f"rate_bounds[{n!r}]",
-                                   minimum=0.0) for n in loops.names])  # fmt: skip
     quadratic = loops.quadratic(margin)
     tried.append("one quadratic Lyapunov function (arbitrary rates)")
     if quadratic is not None:
@@ -284,7 +290,7 @@ def _verdict(loops, where, rate_bounds, objective, margin, samples, counterexamp
         if objective is None:
             return ScheduleCertificate(True, rates, None, quadratic, tuple(tried))
         found = _arbitrary_rate_bound(loops, objective, margin, tried)
-        if nu is not None and np.all(np.isfinite(nu)) and _rate_analysis(loops, tried):
+        if nu is not None and not np.isinf(nu).all() and _rate_analysis(loops, tried):
             # The rates asked for may give a smaller bound than any rate.
             under = _rate_bound(loops, objective, nu, margin, tried)
             if under is not None and (found is None or under[0] < found[0]):

@@ -52,7 +52,7 @@ import numpy as np
 
 from .._checks import signal_indices
 from .quadratic import quadratic_certificate
-from .rates import RateSearch, rate_variables
+from .rates import RateSearch, form_lmis, rate_variables
 
 __all__ = ["DynamicLoops", "is_dynamic"]
 
@@ -454,17 +454,11 @@ class DynamicLoops(RateSearch):
                     return sum(s * v.nu[e] * edge(v, a, e) / h[e]
                                for e, s in enumerate(signs))  # fmt: skip
 
-                for m in itertools.combinations_with_replacement(range(N), d + 1):
-                    orders = sorted(set(itertools.permutations(m)))
+                def term(v, order, T=T, P=P, D=D, d=d):
+                    M, X = T[order[:d]], P(v, order[d])
+                    return [[M.T @ X + X @ M + D(v, order[d])]]
 
-                    def term(v, orders=orders, T=T, P=P, D=D, d=d):
-                        total = 0
-                        for order in orders:
-                            M, X = T[order[:d]], P(v, order[d])
-                            total = total + M.T @ X + X @ M + D(v, order[d])
-                        return [[total]]
-
-                    lmi.add(f"cell {cell} rates {signs} terms {m}", term)
+                form_lmis(lmi, f"cell {cell} rates {signs}", corners, d + 1, term)
         return lmi
 
     def segments(self):

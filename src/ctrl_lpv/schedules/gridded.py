@@ -37,12 +37,13 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from scipy.optimize import linprog
 
 from .quadratic import quadratic_certificate
-from .rates import RateSearch, family_lmis, rate_variables
+from .rates import RateSearch, form_lmis
 
 __all__ = ["GriddedLoops"]
 
@@ -61,17 +62,18 @@ class Piece:
 class GriddedLoops(RateSearch):
     """The closed loops of a schedule on a `GriddedStateSpace`, by pieces.
 
-    Rate-bounded analysis (continuous time, on every cell ``B_u`` constant
-    or the gain constant on each piece, so that the loop is multilinear on
-    the piece, ``sum_a w_a M_a``): ``P(p) = sum_i w_i(p) P_i`` multilinear
-    on the grid, continuous across cells. On a cell of widths ``h``,
-    ``dw_a/dp_d`` is ``+-(w_a + w_a')/h_d`` (``a'`` the corner across axis
-    ``d``), so ``dP/dt = sum_a w_a D_a`` with ``D_a = sum_d (dp_d/dt)
-    (P_a+ - P_a-) / h_d`` (the difference of ``P`` along the cell's edge
-    through corner ``a``). Then ``dV/dt = x' (sum_ab w_a w_b Q_ab) x`` with
+    Rate-bounded analysis (continuous time): ``P(p) = sum_i w_i(p) P_i``
+    multilinear on the grid, continuous across cells, with ``dP/dt =
+    sum_a w_a D_a`` on a cell (`ctrl_lpv.schedules.cellrates`). When
+    ``B_u`` is constant on the cell or the gain on the piece, the loop is
+    ``sum_a w_a M_a`` and ``dV/dt = x' (sum_ab w_a w_b Q_ab) x`` with
     ``Q_ab = M_a' P_b + P_b M_a + (D_a + D_b) / 2``, negative when the
     ``Q_aa`` and the ``Q_ab + Q_ba`` are, at the ``2**k`` corners of the
-    rate box (the terms are affine in the rates).
+    rate box (the terms are affine in the rates); when both vary, the loop
+    is ``sum_ab w_a w_b M_ab`` and ``dV/dt`` a cubic form, imposed on the
+    sums over the orderings of each triple of corners (`_rate_problem`).
+    With an `Hinf` objective the bounded-real inequality with ``P(p)``
+    (`rate_bound`).
 
     Parameters
     ----------
@@ -242,20 +244,19 @@ class GriddedLoops(RateSearch):
         """Why the rate-bounded analysis does not apply (None: it does)."""
         if not self.continuous:
             return "in discrete time"
-        for piece in self.pieces:
-            if not _constant(self.K[list(piece.points)]) and not _constant(
-                self.B[list(piece.corners)]
-            ):
-                return "when B_u and the gains both vary on a grid cell"
         return None
 
     def families(self):
-        """``[(piece, M)]``: the loop is ``sum_a w_a M[a]`` on each piece."""
-        out = []
+        """``[(piece, K~)]``: each piece with its gains extended to the
+        cell's corners (`corner_gains`), pieces with the same cell and
+        gains once."""
+        out, seen = [], set()
         for piece in self.pieces:
             K = self.corner_gains(piece)
-            M = [self.A[i] - self.B[i] @ K[a] for a, i in enumerate(piece.corners)]
-            out.append((piece, np.array(M)))
+            key = (piece.cell, K.tobytes())
+            if key not in seen:
+                seen.add(key)
+                out.append((piece, K))
         return out
 
     def segments(self):
@@ -266,6 +267,11 @@ class GriddedLoops(RateSearch):
         and the plant piecewise affine between the grid points, so the loop
         is the linear interpolation of its values at them (``nodes``, the
         relative positions from 0 to 1; see `destabilising_trajectory`).
+        When ``B_u`` and the gain both vary, the loop is quadratic between
+        grid points and this interpolation approximates it: the trajectory
+        is evidence to confirm by simulation (sampling 8 points per grid
+        step instead took 35 times longer on a rotating-input example and
+        found nothing more).
         """
         grid, out = self.grid, {}
         for s in {piece.simplex for piece in self.pieces}:
@@ -294,75 +300,129 @@ class GriddedLoops(RateSearch):
                     out.setdefault(key, (ends[0], ends[1], nodes, M))
         return list(out.values())
 
-    def rate_channel(self, objective):
-        """``(B_w, C_z, D_zw)`` of each family's corners, with ``w``, ``z``."""
-        from .objective import channel
+    def rate_bounded(self, nu, margin, lmi=None, solvers=None):
+        """`RateSearch.rate_bounded`; an infinite rate makes ``P``
+        independent of its parameter (`ctrl_lpv.schedules.cellrates`)."""
+        nu = np.asarray(nu, float)
+        if lmi is None:
+            lmi = self._rate_problem(margin, tuple(np.flatnonzero(np.isinf(nu))))
+        return super().rate_bounded(
+            np.where(np.isinf(nu), 0.0, nu), margin, lmi, solvers
+        )
 
-        iw, iz, of, dzu = channel(objective, self.plant, self.u)
-        data = self.plant.vertex_data()
-        Dzu = np.array([dzu(d) for d in data])
-        out = []
-        for piece, _ in self.families():
-            if not _constant(self.K[list(piece.points)]) and not _constant(
-                Dzu[list(piece.corners)]
-            ):
-                raise ValueError(
-                    "objective: a bound under a rate bound is not implemented when "
-                    "the gains and D_zu both vary on a grid cell; pass "
-                    "rate_bounds=None for the bound at arbitrary rates"
-                )
-            K = self.corner_gains(piece)
-            loops = [of(data[i], K[a]) for a, i in enumerate(piece.corners)]
-            out.append(tuple([T[k] for T in loops] for k in (1, 2, 3)))
-        w = [self.plant.physical_inputs[i] for i in iw]
-        z = [self.plant.output_labels[i] for i in iz]
-        return out, w, z
+    #: A parameter may be left out of the rates (its P does not depend on it).
+    unbounded_rates = True
 
-    def _rate_problem(self, margin, channel=None):
+    def rate_bound(self, objective, nu, margin):
+        """``(bound, certificate)``: the `Hinf` bound with rates `nu`, or
+        None when it is not certified (`RateSearch.rate_bound`).
+
+        ``P(p)`` multilinear on the grid (an infinite rate: independent of
+        its parameter), the bounded-real inequality with ``dP/dt`` at the
+        vertices of the rate box, minimising the bound.
+        """
+        from ..certificate import Certificate, Check
+        from ..exceptions import SynthesisError
+        from ..synthesis import Hinf
+
+        if not isinstance(objective, Hinf):
+            raise ValueError(
+                "objective: under a rate bound only the L2 gain (Hinf) is "
+                "bounded; the H2 bound needs arbitrary rates"
+            )
+        nu = np.asarray(nu, float)
+        lmi = self._rate_problem(margin, tuple(np.flatnonzero(np.isinf(nu))),
+                                 objective)  # fmt: skip
+        lmi.set_parameter("nu", np.where(np.isinf(nu), 0.0, nu))
+        try:
+            sol = lmi.solve(lambda v: v.g[0, 0])
+        except SynthesisError:
+            return None
+        bound = float(np.sqrt(sol.g[0, 0]))
+        checks = tuple(Check.from_lmi_check(c, group="rate-bounded L2 gain")
+                       for c in sol.checks)  # fmt: skip
+        rates = ", ".join(f"|d{n}/dt| <= {v:.4g}" for n, v in zip(self.names, nu))
+        statement = (
+            f"L2 gain from {list(objective.w)} to {list(objective.z)} below "
+            f"{bound:.6g} for parameter trajectories {self.region} with {rates} "
+            f"({self.lyapunov_form})"
+        )
+        return bound, Certificate(checks, statement=statement)
+
+    def _rate_problem(self, margin, unbounded=(), objective=None):
+        """The rate-bounded LMIs, with the rates a parameter ``"nu"``.
+
+        On a piece the loop is ``sum_ij w_i w_j M_ij`` (``M_ij = A_i - B_i
+        K~_j``; linear, ``sum_i w_i M_ii``, when ``B_u`` is constant on the
+        cell or the gain on the piece) and ``P = sum_k w_k P_k``, so
+        ``dV/dt`` is a homogeneous form of degree three (two) in ``w``
+        with coefficients ``He(M_ij' P_k) + D_k``, imposed through
+        `orderings`. With an `Hinf` objective, the bounded-real inequality
+        ``[[He(M' P) + dP/dt, *, *], [B_w' P, -I, *], [C_cl, D_zw, -g I]]
+        < 0`` (bound ``sqrt(g)``), of the same degree.
+        """
         from ..lmi import LMIProblem
+        from .cellrates import CellRates, lyapunov_index
 
-        grid, n = self.grid, self.A.shape[1]
-        k = grid.nparams
+        grid, n, k = self.grid, self.A.shape[1], self.grid.nparams
+        index = lyapunov_index(grid, unbounded)
+        data = self.plant.vertex_data()
+        inputs = [self.B]
+        if objective is not None:
+            from .objective import channel
+
+            iw, iz, _, _ = channel(objective, self.plant, self.u)
+            Bw = np.array([d[1][:, iw] for d in data])
+            Cz = np.array([d[2][iz] for d in data])
+            Dzu = np.array([d[3][np.ix_(iz, self.u)] for d in data])
+            Dzw = np.array([d[3][np.ix_(iz, iw)] for d in data])
+            inputs.append(Dzu)
         families = self.families()
-        scale = max(1.0, max(float(np.linalg.norm(M, 2))
-                             for _, Ms in families for M in Ms))  # fmt: skip
+        scale = max(1.0, max(float(np.linalg.norm(self.A[i] - self.B[i] @ K[a], 2))
+                             for piece, K in families
+                             for a, i in enumerate(piece.corners)))  # fmt: skip
         lmi = LMIProblem(margin=margin * scale)
-        used = sorted({int(i) for piece, _ in families for i in piece.corners})
-        rate_variables(lmi, used, n, k, bounded=channel is not None)
-        bits = grid._bits
-        # across[a][d]: the corner position across axis d from position a.
-        weights = 2 ** np.arange(k - 1, -1, -1)
-        across = [[int((bits[a] ^ np.eye(k, dtype=int)[d]) @ weights)
-                   for d in range(k)] for a in range(len(bits))]  # fmt: skip
-        seen = set()
-        for f, (piece, M) in enumerate(families):
-            extra = None if channel is None else channel[f]
-            parts = () if extra is None else [X for part in extra for X in part]
-            key = (piece.cell, M.tobytes(), *(X.tobytes() for X in parts))
-            if key in seen:
-                continue
-            seen.add(key)
+        used = sorted({int(index[i]) for p, _ in families for i in p.corners})
+        for q in used:
+            lmi.variable(f"P{q}", (n, n), symmetric=True)
+            lmi.add(f"P{q} > 0", lambda v, q=q: [[-getattr(v, f"P{q}")]])
+            if objective is None:
+                lmi.add(f"P{q} <= I",
+                        lambda v, q=q: [[getattr(v, f"P{q}") - np.eye(n)]],
+                        strict=False, normalization=True)  # fmt: skip
+        if objective is not None:
+            lmi.variable("g", (1, 1), symmetric=True)
+        lmi.parameter("nu", (k,), value=np.zeros(k), nonneg=True)
+
+        def sym(X):
+            return X + X.T
+
+        for count, (piece, K) in enumerate(families):
             corners = [int(i) for i in piece.corners]
-            lo = grid.points[corners[0]]
-            h = grid.points[corners[-1]] - lo
+            cell = CellRates.of(grid, corners, unbounded)
+            cubic = not _constant(K) and not all(_constant(M[corners]) for M in inputs)
+            degree = 3 if cubic else 2
 
             def P(v, a, corners=corners):
-                return getattr(v, f"P{corners[a]}")
+                return getattr(v, f"P{index[corners[a]]}")
 
-            def edge(v, a, d, P=P):
-                """(P at the upper end - P at the lower end) of the edge."""
-                b = across[a][d]
-                up, down = (a, b) if bits[a][d] else (b, a)
-                return P(v, up) - P(v, down)
+            def term(v, order, signs, corners=corners, cell=cell, K=K, P=P):
+                """The coefficient of ``w_order``: plant, gain, then P."""
+                i, j, a = (order[0], order[0], order[1]) if len(order) == 2 else order
+                c = corners[i]
+                Pa = P(v, a)
+                D = cell.derivative(lambda b: P(v, b), a, signs, v.nu)
+                M = self.A[c] - self.B[c] @ K[j]
+                top = sym(M.T @ Pa) + D
+                if objective is None:
+                    return [[top]]
+                return [[top], [Bw[c].T @ Pa, -np.eye(Bw.shape[2])],
+                        [Cz[c] - Dzu[c] @ K[j], Dzw[c],
+                         -v.g[0, 0] * np.eye(Cz.shape[1])]]  # fmt: skip
 
-            for signs in itertools.product((-1.0, 1.0), repeat=k):
-
-                def D(v, a, signs=signs, h=h, edge=edge):
-                    return sum(s * v.nu[d] * edge(v, a, d) / h[d]
-                               for d, s in enumerate(signs))  # fmt: skip
-
-                family_lmis(lmi, f"cell {list(piece.cell)} rates {signs} loop "
-                                 f"{len(seen)}", corners, M, P, D, extra)  # fmt: skip
+            for signs in cell.vertices():
+                where = f"cell {list(piece.cell)} piece {count} rates {signs}"
+                form_lmis(lmi, where, corners, degree, partial(term, signs=signs))
         return lmi
 
     # ------------------------------------------------------------------

@@ -16,13 +16,14 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
 from ..lmi import LMIProblem
 from ..systems import PolytopicStateSpace
 from .quadratic import quadratic_certificate
-from .rates import RateSearch, family_lmis, rate_variables
+from .rates import RateSearch, form_lmis, rate_variables
 from .schedule import GainSchedule
 
 __all__ = ["PolytopicLoops", "gridded_loops"]
@@ -265,39 +266,35 @@ class PolytopicLoops(RateSearch):
                     dP = [sum(g * P for g, P in zip(grad[d], Ps)) for d in range(k)]
                     return sum(s * v.nu[d] * dP[d] for d, s in enumerate(signs))
 
-                if self.bilinear:
-                    self._cubic_terms(lmi, c, cell, signs, G)
-                    continue
-                family_lmis(
-                    lmi, f"cell {c} rates {signs}", list(cell),
-                    [self.Acl[i] for i in cell],
-                    lambda v, a, cell=cell: getattr(v, f"P{cell[a]}"),
-                    lambda v, a, G=G: G(v),
-                    None if channel is None else channel[c],
-                )  # fmt: skip
+                form_lmis(
+                    lmi,
+                    f"cell {c} rates {signs}",
+                    list(cell),
+                    3 if self.bilinear else 2,
+                    partial(
+                        self._term, cell, G, None if channel is None else channel[c]
+                    ),
+                )
         return lmi
 
-    def _cubic_terms(self, lmi, c, cell, signs, G):
-        """The rate-bounded LMIs of a cell where ``B_u`` and ``K`` both vary.
+    def _term(self, cell, G, channel, v, order):
+        """The coefficient of ``l_order`` in ``dV/dt`` (with a `channel`,
+        in the bounded-real matrix of the L2 gain ``g``).
 
-        With ``M_ij = A_i - B_i K_j`` the loop is ``sum_ij l_i l_j M_ij``
-        and ``P = sum_k l_k P_k``, so (``sum l = 1`` making ``dP/dt`` cubic
-        too) ``dV/dt = x' (sum_ijk l_i l_j l_k (He(M_ij' P_k) + G)) x``: a
-        cubic form in ``l >= 0``, negative when, for every multiset
-        ``{i, j, k}`` of the cell's points, the sum of its terms over the
-        multiset's distinct orderings is (Oliveira and Peres 2007).
+        ``order`` is ``(i, a)`` for the loop at point ``i``, or ``(i, j,
+        a)`` for ``A_i - B_i K_j`` when ``B_u`` and ``K`` both vary (the
+        loop is then quadratic on a cell), with ``P`` at point ``a``.
         """
-        for triple in itertools.combinations_with_replacement(cell, 3):
-            orders = sorted(set(itertools.permutations(triple)))
-
-            def term(v, orders=orders, G=G):
-                total = len(orders) * G(v)
-                for i, j, k in orders:
-                    M = self.A[i] - self.B[i] @ self.K[j]
-                    total = total + 2 * (M.T @ getattr(v, f"P{k}"))
-                return [[total]]
-
-            lmi.add(f"cell {c} triple {triple} rates {signs}", term)
+        i, j, a = (order[0], order[0], order[1]) if len(order) == 2 else order
+        M = self.A[cell[i]] - self.B[cell[i]] @ self.K[cell[j]]
+        Pa = getattr(v, f"P{cell[a]}")
+        top = M.T @ Pa + Pa @ M + G(v)
+        if channel is None:
+            return [[top]]
+        Bw, Cz, Dzw = (part[i] for part in channel)
+        g = v.g[0, 0]
+        return [[top], [Bw.T @ Pa, -g * np.eye(Bw.shape[1])],
+                [Cz, Dzw, -g * np.eye(len(Cz))]]  # fmt: skip
 
 
 def _plant_points(schedule, plant, parameters):

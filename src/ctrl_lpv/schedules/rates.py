@@ -6,19 +6,19 @@ nu_k`` as a parameter of one LMI problem; `RateSearch` solves it for given
 rates, finds the largest uniform rate by bisection, and bounds a channel's
 L2 gain under given rates.
 
-On a piece of the parameter domain (a schedule simplex, or a grid cell
-within one) both reduce to one **family**: nonnegative coordinates ``l``
-summing to one in which the loop is ``sum_a l_a M_a``, the Lyapunov matrix
-``P = sum_a l_a P_a`` and its derivative along a rate vertex ``dP/dt =
-sum_a l_a D_a``; with a channel also ``B_w``, ``C_z`` and ``D_zw`` are
-``sum_a l_a (.)_a``. `family_lmis` poses the homogeneous quadratic form in
-``l`` (``dV/dt``, or the bounded-real matrix of ``dV/dt + z'z/g - g w'w``)
-through its diagonal terms and the sums of its pairwise terms, each
-negative definite: sufficient, as ``l >= 0``.
+On a piece of the parameter domain (a schedule simplex, a grid cell
+within one, a cell of a dynamic controller's loop) every kind reduces to
+nonnegative coordinates ``l`` summing to one in which the loop, the
+Lyapunov matrix ``P = sum_a l_a P_a`` and its derivative along a rate
+vertex are polynomials: ``dV/dt`` (or the bounded-real matrix of ``dV/dt +
+z'z/g - g w'w``) is then a homogeneous form in ``l``, posed by `form_lmis`
+through the sums of its coefficients over the orderings of each multiset,
+each negative definite: sufficient, as ``l >= 0``.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -26,7 +26,7 @@ import numpy as np
 from ..certificate import Certificate, Check
 from ..exceptions import SynthesisError
 
-__all__ = ["RateSearch", "family_lmis", "rate_variables"]
+__all__ = ["RateSearch", "form_lmis", "orderings", "rate_variables", "sum_blocks"]
 
 
 def rate_variables(lmi, indices, n, k, bounded=False):
@@ -44,48 +44,36 @@ def rate_variables(lmi, indices, n, k, bounded=False):
     lmi.parameter("nu", (k,), value=np.zeros(k), nonneg=True)
 
 
-def _sym(X):
-    return X + X.T
+def orderings(count: int, degree: int):
+    """The coefficients of a homogeneous form of `degree` in `count` weights.
 
-
-def family_lmis(lmi, where, names, M, P, D, channel=None):
-    """Add the LMIs of one family (see the module docstring).
-
-    Parameters
-    ----------
-    lmi : `ctrl_lpv.lmi.LMIProblem`
-        With the variables read by `P` and `D` (and ``g``, the bound, with
-        a `channel`).
-    where : str
-        The family's label (cell, rate vertex) in the LMIs' names.
-    names : sequence
-        The label of each member (a point or corner index).
-    M : sequence of ndarray
-        The loops ``M_a``.
-    P, D : callable
-        ``P(v, a)`` and ``D(v, a)``: ``P_a`` and ``D_a`` of the point `v`.
-    channel : tuple of sequences, optional
-        ``(B_w, C_z, D_zw)`` of each member: the bounded-real LMIs of the L2
-        gain ``g`` (variable ``g``) instead of the Lyapunov ones.
+    Yields, for each multiset of `degree` positions, its distinct
+    orderings: the form ``sum w_i w_j ... T(i, j, ...)`` is negative on the
+    simplex when, for every multiset, the sum of ``T`` over its orderings
+    is (a Polya relaxation of degree zero; Oliveira and Peres 2007).
     """
+    for multiset in itertools.combinations_with_replacement(range(count), degree):
+        yield multiset, sorted(set(itertools.permutations(multiset)))
 
-    def block(v, terms):
-        top = sum(_sym(M[a].T @ P(v, b)) + D(v, a) for a, b in terms)
-        if channel is None:
-            return [[top]]
-        Bw, Cz, Dzw = channel
-        c = len(terms) * v.g[0, 0]
-        PB = sum(P(v, b) @ Bw[a] for a, b in terms)
-        C = sum(Cz[a] for a, _ in terms)
-        Dd = sum(Dzw[a] for a, _ in terms)
-        return [[top], [PB.T, -c * np.eye(PB.shape[1])], [C, Dd, -c * np.eye(len(C))]]
 
-    for a in range(len(M)):
-        lmi.add(f"{where} point {names[a]}", lambda v, a=a: block(v, [(a, a)]))
-    for a in range(len(M)):
-        for b in range(a + 1, len(M)):
-            lmi.add(f"{where} pair {names[a]},{names[b]}",
-                    lambda v, a=a, b=b: block(v, [(a, b), (b, a)]))  # fmt: skip
+def sum_blocks(terms):
+    """The lower block triangles `terms` added block by block."""
+    return [[sum(parts) for parts in zip(*rows)] for rows in zip(*terms)]
+
+
+def form_lmis(lmi, where, names, degree, term):
+    """Add the LMIs of a homogeneous form in the weights of `names`.
+
+    ``term(v, order)`` is the coefficient (a lower block triangle) of the
+    monomial of the positions `order`; for every multiset of `degree`
+    positions the sum of `term` over its orderings must be negative
+    definite (`orderings`): sufficient for the form on the simplex.
+    """
+    for multiset, orders in orderings(len(names), degree):
+        lmi.add(
+            f"{where} points {[names[a] for a in multiset]}",
+            lambda v, orders=orders: sum_blocks([term(v, o) for o in orders]),
+        )
 
 
 class RateSearch:
@@ -102,6 +90,8 @@ class RateSearch:
 
     region = "in the points' convex hull"
     lyapunov_form = "P(p) affine on each cell, continuous"
+    #: Whether a parameter may be left out of the rates.
+    unbounded_rates = False
 
     def rate_bounded(self, nu, margin, lmi=None, solvers=None):
         """The certificate with rates `nu` (one per parameter), or None.

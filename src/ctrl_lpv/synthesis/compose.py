@@ -70,10 +70,12 @@ def synthesize(
         True); all states are measured. On a `GriddedStateSpace`
         (continuous time): gains at the grid points, interpolated as
         python-control's ``create_statefbk_iosystem(...,
-        gainsched_method="linear")`` does, with one Lyapunov matrix, an
-        `Hinf` objective or none, certified by `ctrl_lpv.certify`; a
-        `GriddedDesign` is returned (``y``, ``constraints``, ``lyapunov``
-        and ``rate_bounds`` are not implemented there).
+        gainsched_method="linear")`` does, with one Lyapunov matrix or,
+        with ``lyapunov="affine"`` and `rate_bounds`, one multilinear on
+        the grid cells (`ctrl_lpv.synthesis.gridded_rates`), an `Hinf`
+        objective or none, certified by `ctrl_lpv.certify` with the same
+        rates; a `GriddedDesign` is returned (``y`` and ``constraints``
+        are not implemented there).
     u : str, int or list
         Control inputs.
     y : str, int or list, optional

@@ -1,4 +1,4 @@
-"""State feedback for a gridded plant: gains at the grid points, one P.
+"""State feedback for a gridded plant: gains at the grid points.
 
 `synthesize` on a `ctrl_lpv.GriddedStateSpace` designs gains ``K_g`` at the
 grid points, interpolated as python-control's
@@ -18,6 +18,12 @@ Lyapunov inequality ``sym(A_cl W) < 0`` or the dual bounded-real one
 (``[[sym(A_cl W), *, *], [B_w', -I, *], [C_cl W, D_zw, -g I]] < 0``, bound
 ``sqrt(g)``), which are affine in the terms. One ``W`` for every piece:
 valid for arbitrarily fast parameters.
+
+With ``lyapunov="affine"`` and ``rate_bounds`` the Lyapunov matrix depends
+on the parameters (multilinear on the grid, continuous) and the rates are
+bounded: `ctrl_lpv.synthesis.gridded_rates` (a slack form that keeps the
+gains python-control's). Either way the design is returned only when
+`ctrl_lpv.certify` certifies it, with the same rates.
 """
 
 from __future__ import annotations
@@ -27,8 +33,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .._checks import real_number, signal_indices
-from ..exceptions import CertificationError
+from .._checks import checked_rates, real_number, signal_indices
+from ..exceptions import CertificationError, SynthesisError
+from ..lmi import solver_chain
+from .gridded_rates import rate_bounded_gains
 
 __all__ = ["GriddedDesign", "synthesize_gridded"]
 
@@ -49,7 +57,8 @@ class GriddedDesign:
         The grid points, ``(N, k)``.
     gamma : float or None
         The certified bound of the objective (L2 gain for `Hinf`), from
-        `ctrl_lpv.certify` on the plant; None without an objective.
+        `ctrl_lpv.certify` on the plant (for the rates of ``rate_bounds``
+        when given); None without an objective.
     certificate : `ctrl_lpv.ScheduleCertificate`
         The verdict of `ctrl_lpv.certify` on the plant (its float64 checks
         in ``.certificate``).
@@ -89,12 +98,26 @@ def synthesize_gridded(sys, u, *, y=None, objective=None, constraints=(),
         The plant (continuous time).
     u : str, int or list
         Control inputs.
-    y, constraints, lyapunov, rate_bounds
-        Not implemented on grids: None, (), "constant", None.
+    y, constraints
+        Not implemented on grids: None, ().
     objective : `Hinf` or None
         The channel whose L2 gain to minimise, or None for stability.
     gains : {"scheduled", "common"}, optional
         Gains at the grid points (default) or one gain.
+    lyapunov : {"constant", "affine"}, optional
+        One Lyapunov matrix, valid for arbitrarily fast parameters
+        (default), or one multilinear on each grid cell with its values at
+        the grid points (needs `rate_bounds`; continuous time). With an
+        objective the constant-matrix design is computed too (certified
+        for arbitrary rates) and the one with the smaller certified bound
+        returned; without one it is the fallback when the rate-bounded
+        design fails.
+    rate_bounds : mapping of str to float, optional
+        ``{parameter: nu}``, ``|dp/dt| <= nu`` (``nu = 0``: a constant
+        parameter). A parameter not listed (or ``inf``) may vary
+        arbitrarily fast: the Lyapunov matrix does not depend on it. The
+        design and its bound (`GriddedDesign.gamma`) are certified for
+        these rates, on every grid cell (not only at the grid points).
     backoff : float, optional
         The L2 bound is relaxed by this fraction from its optimum to
         minimise the gains' size (default 0.2; 0 keeps the optimum, up to
@@ -112,26 +135,43 @@ def synthesize_gridded(sys, u, *, y=None, objective=None, constraints=(),
     Raises
     ------
     ValueError, TypeError
-        Options not implemented on grids (named).
+        Options not implemented on grids, a discrete-time plant, rate
+        bounds naming an unknown parameter or negative (named).
     SynthesisError
         When no design is found, or the one found is not certified by
-        `ctrl_lpv.certify`.
+        `ctrl_lpv.certify` (`CertificationError`).
+
+    Examples
+    --------
+    >>> import control as ct, numpy as np
+    >>> import ctrl_lpv as lpv
+    >>> G = lpv.gss(lambda a: ct.ss([[a, 1.0], [0.0, -1.0]], [[0.0], [1.0]],
+    ...                             np.eye(2), 0, inputs="u"),
+    ...             {"a": [0.0, 0.5, 1.0]})
+    >>> design = lpv.synthesize(G, "u", lyapunov="affine",
+    ...                         rate_bounds={"a": 0.5})
+    >>> design.certificate.certified
+    True
     """
-    from ..lmi import LMIProblem
-    from ..schedules import certify
-    from ..schedules.gridded import GriddedLoops
-    from ..schedules.schedule import schedule_of
     from .specs import Hinf
 
     if y is not None:
         raise ValueError("y: output feedback is not implemented on gridded plants")
     if constraints not in ((), None, []):
         raise ValueError("constraints: not implemented on gridded plants")
-    if lyapunov != "constant" or rate_bounds is not None:
+    if lyapunov not in ("constant", "affine"):
+        raise ValueError(f"lyapunov: expected 'constant' or 'affine', got {lyapunov!r}")
+    if lyapunov == "constant" and rate_bounds is not None:
         raise ValueError(
-            "lyapunov: on gridded plants one constant Lyapunov matrix (arbitrary "
-            "rates) is implemented; rate-bounded synthesis is not"
+            "rate_bounds: only used with lyapunov='affine' (a constant Lyapunov "
+            "matrix holds for any rate)"
         )
+    if lyapunov == "affine":
+        if rate_bounds is None:
+            raise ValueError(
+                "rate_bounds: lyapunov='affine' needs the rate bounds {name: nu}"
+            )
+        nu = checked_rates(rate_bounds, sys.param_names)
     gains = "scheduled" if gains is None else gains
     if gains not in ("common", "scheduled"):
         raise ValueError(f"gains: expected 'common' or 'scheduled', got {gains!r}")
@@ -146,9 +186,43 @@ def synthesize_gridded(sys, u, *, y=None, objective=None, constraints=(),
     if sys.isdtime(strict=True):
         raise ValueError("sys: synthesis on gridded plants is continuous-time only")
     margin = real_number(margin, "margin", positive=True, below=1.0)
+    solvers = solver_chain(solvers)
     backoff = real_number(0.0 if backoff is None else backoff, "backoff",
                           minimum=0.0)  # fmt: skip
     iu = signal_indices(u, sys.physical_inputs, "u")
+    scheduled = gains == "scheduled"
+    if lyapunov == "constant":
+        K = _constant_gains(sys, iu, objective, scheduled, backoff, margin, solvers)
+        return _certified(sys, iu, K, objective, None, margin)
+    # The constant-W design holds for any rate and is no slack form: it can
+    # be the better one (a bound the slack's scale search does not reach,
+    # e.g. with large gains), or the only one found.
+    # It is certified for arbitrary rates (so for any bounded ones too).
+    designs, errors = [], []
+    methods = (
+        (lambda: rate_bounded_gains(sys, iu, objective, scheduled, nu, backoff,
+                                    margin, solvers), rate_bounds),
+        (lambda: _constant_gains(sys, iu, objective, scheduled, backoff, margin,
+                                 solvers), None),
+    )  # fmt: skip
+    for method, rates in methods:
+        if designs and objective is None:
+            break
+        try:
+            designs.append(_certified(sys, iu, method(), objective, rates, margin))
+        except SynthesisError as err:
+            errors.append(err)
+    if not designs:
+        raise errors[0]
+    return min(designs, key=lambda d: d.gamma or 0.0)
+
+
+def _constant_gains(sys, iu, objective, scheduled, backoff, margin, solvers):
+    """The gains at the grid points with one ``W`` (see the module)."""
+    from ..lmi import LMIProblem
+    from ..schedules.gridded import GriddedLoops
+    from ..schedules.schedule import schedule_of
+
     points = sys.grid.points
     n, m = sys.nstates, len(iu)
     # The geometry (pieces, barycentric maps) of python-control's
@@ -169,7 +243,6 @@ def synthesize_gridded(sys, u, *, y=None, objective=None, constraints=(),
     lmi = LMIProblem(margin=margin * scale)
     lmi.variable("W", (n, n), symmetric=True)
     lmi.add("W > 0", lambda v: [[-v.W]])
-    scheduled = gains == "scheduled"
     for g in range(len(points) if scheduled else 1):
         lmi.variable(f"Z{g}", (m, n))
     if objective is None:
@@ -244,9 +317,23 @@ def synthesize_gridded(sys, u, *, y=None, objective=None, constraints=(),
     Winv = np.linalg.inv(0.5 * (W + W.T))
     K = [-getattr(solution, f"Z{g if scheduled else 0}") @ Winv
          for g in range(len(points))]  # fmt: skip
+    return K
+
+
+def _certified(sys, iu, K, objective, rate_bounds, margin) -> GriddedDesign:
+    """The design of gains `K`, certified by `certify` on the plant.
+
+    Raises
+    ------
+    CertificationError
+        When `certify` does not certify it (with its verdict).
+    """
+    from ..schedules import certify
+
     names = tuple(sys.physical_inputs[i] for i in iu)
-    design = GriddedDesign(sys, names, tuple(K), points, None, None)
-    verdict = certify(design, sys, objective=objective, margin=margin)
+    design = GriddedDesign(sys, names, tuple(K), sys.grid.points, None, None)
+    verdict = certify(design, sys, objective=objective, rate_bounds=rate_bounds,
+                      margin=margin, counterexample=False)  # fmt: skip
     if not verdict.certified:
         raise CertificationError(
             "the designed gains are not certified by certify on the plant:\n"

@@ -47,14 +47,13 @@ width is the width (``|p[k+1] - p[k]|`` cannot exceed it).
 from __future__ import annotations
 
 import itertools
-from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.linalg import matrix_balance
 
 from .. import budget
-from .._checks import real_number
+from .._checks import checked_rates
 from ..polytope import ParameterBox
 
 # A rate bound above this many crossings of the parameter's interval per
@@ -237,21 +236,7 @@ def lyapunov_structure(sys, lyapunov: str, rate_bounds) -> LyapunovStructure:
         raise ValueError(
             f"lyapunov: 'affine' needs a ParameterBox domain, the system has {domain!r}"
         )
-    if not isinstance(rate_bounds, Mapping):
-        raise TypeError(
-            f"rate_bounds: expected a mapping {{name: nu}}, got {rate_bounds!r}"
-        )
-    unknown = set(rate_bounds) - set(domain.names)
-    if unknown:
-        raise ValueError(
-            f"rate_bounds: unknown parameter(s) {sorted(unknown)}; the domain has "
-            f"{list(domain.names)}"
-        )
-    nu = np.full(domain.nparams, np.inf)
-    for i, name in enumerate(domain.names):
-        value = rate_bounds.get(name, np.inf)
-        if not (isinstance(value, (int, float, np.number)) and value == np.inf):
-            nu[i] = real_number(value, f"rate_bounds[{name!r}]", minimum=0.0)
+    nu = checked_rates(rate_bounds, domain.names)
     bits = domain._bits.astype(int)
     lookup = {tuple(row): j for j, row in enumerate(bits.tolist())}
     flip = np.zeros((N, domain.nparams, 2), int)
@@ -326,7 +311,18 @@ def step_terms(structure: LyapunovStructure, j: int, rate, continuous: bool):
 
     Continuous time: ``dW/dt = sum_i rate_i dW/dp_i``. Discrete time:
     ``W(p + rate)``, exact for a multi-affine ``W`` (module docstring).
+    Kept on the structure by ``(j, rate)``: every LMI and frozen check at
+    every point asks again (measured: 60 % of the float64 checks of an
+    affine H2 design with four parameters).
     """
+    key = (j, np.asarray(rate, float).tobytes(), continuous)
+    kept = structure.__dict__.setdefault("_steps", {})  # not a field
+    if key not in kept:
+        kept[key] = _step_terms(structure, j, rate, continuous)
+    return kept[key]
+
+
+def _step_terms(structure, j, rate, continuous):
     terms: dict[int, float] = {}
     if continuous:
         subsets = [(i,) for i in structure.moving]

@@ -14,6 +14,7 @@
   reproduction of the paper (``ctrl-lpv reproduce``);
 * `drive_observer`, `drive_estimator`: a certified estimator of the speeds
   and torques from the encoders, the gap handled as a scheduled contact;
+  `motor_observer`: the certified mode observers on the motor encoder alone;
 * `servo_design`: the torque-limited position servo (planner, feedforward,
   certified feedback, no hunting), its settings (`ServoPlanner`,
   `ServoSynthesis`, `ServoAntiHunting`, `ServoEstimator`) and its comparison
@@ -57,6 +58,7 @@ _EXPORTS = {
     "drive_model": "drive_observer",
     "drive_observer": "drive_observer",
     "drive_estimator": "drive_observer",
+    "motor_observer": "motor_estimator",
     "servo_design": "servo",
     "ServoDesign": "servo",
     "servo_polytope": "servo",

@@ -30,6 +30,7 @@ The settings of each part are one object of `ctrl_lpv.twomass.servo_config`
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import control as ct
@@ -42,6 +43,7 @@ from ..synthesis import StateFeedbackDesign, hinf_state_feedback
 from ..systems import PolytopicStateSpace
 from .drive_observer import drive_observer, observer_matrices
 from .model import lpv_model
+from .motor_estimator import MotorEstimator, MotorObserver, motor_observer
 from .parameters import Parameters
 from .servo_certificate import ServoCertificate, servo_certificate
 from .servo_config import (
@@ -60,6 +62,13 @@ from .stream import stream_gain
 from .trajectory import PEAK_ACCEL, move_duration
 
 __all__ = ["ServoDesign", "servo_design", "servo_polytope"]
+
+_READ = {"encoders": ("theta_m", "theta_l"), "motor": ("theta_m",)}
+#: Asked shaft torque, Nm, below which the motor-encoder design asks for no
+#: flank: at rest with a small load torque the motor waits mid-gap instead of
+#: crossing it on a load error it cannot see (the load is not observable in
+#: the gap).
+MOTOR_FLANK_DEADBAND = 1.0
 
 
 def servo_polytope(
@@ -144,7 +153,7 @@ class ServoDesign:
         Sample time of the controller, s (None: continuous time).
     delay : int
         Samples between reading the sensors and the command acting.
-    sensors : {"states", "encoders"}
+    sensors : {"states", "encoders", "motor"}
         What the controller reads.
     reference : {"plan", "stream"}
         What ``theta_r`` is: a target reached by a planned move, or a
@@ -153,8 +162,9 @@ class ServoDesign:
         Counts per revolution of the motor and load encoders (sampled).
     sampling : `ctrl_lpv.twomass.servo_sampled.SampledServo` or None
         The sampled law's numbers (None in continuous time).
-    observer : `ctrl_lpv.ObserverDesign` or None
-        The drive observer of an encoder design.
+    observer : `ctrl_lpv.ObserverDesign`, `MotorObserver` or None
+        The drive observer of an encoder design (the two mode observers of
+        a motor-encoder design, `ctrl_lpv.twomass.motor_estimator`).
     """
 
     params: Parameters
@@ -172,7 +182,7 @@ class ServoDesign:
     reference: str = "plan"
     encoder_counts: tuple | None = None
     sampling: SampledServo | None = field(default=None, repr=False)
-    observer: ObserverDesign | None = field(default=None, repr=False)
+    observer: ObserverDesign | MotorObserver | None = field(default=None, repr=False)
 
     @property
     def accel_limit(self) -> float:
@@ -235,7 +245,10 @@ class ServoDesign:
             "  feedback K = " + np.array2string(self.gain, precision=4, separator=", "),
             "  runs: continuous time, every state measured" if self.dt is None else
             f"  runs: every {self.dt * 1e3:g} ms, {self.delay} sample(s) of delay, "
-            "on the motor and load encoders (drive observer)",
+            + ("on the motor and load encoders (drive observer)"
+               if self.sensors == "encoders" else
+               "on the motor encoder alone (dead-zone estimator, half-gap "
+               "learnt at contacts)"),
             "  anti-hunting: "
             + ("flank chosen by the asked shaft torque, gap estimate, contact-aware "
                "integral" if t.anti_hunting else "off"),
@@ -314,8 +327,14 @@ def servo_design(
         ``"states"`` (continuous time: every state measured exactly);
         ``"encoders"`` (needs `dt`): the motor and load angles only, the
         speeds and torques estimated by `ctrl_lpv.twomass.drive_observer`;
-        ``"motor"``: the motor encoder alone (refused by the drive
-        observer: the load is not observable in the gap).
+        ``"motor"`` (needs `dt`): the motor encoder alone, read by
+        `ctrl_lpv.twomass.motor_estimator` (the backlash's dead zone in
+        the prediction, one certified H2 gain per mode, the half-gap
+        learnt from contacts made earlier or later than predicted). The
+        load is not observable in the gap: at rest with a load torque
+        below about twice `MOTOR_FLANK_DEADBAND` the motor waits mid-gap
+        and the load error is bounded by the gap, not corrected; no rest
+        certificate (``certificate.rest`` is None).
     encoder_counts : (int, int), optional
         Counts per revolution of the motor and load encoders (the
         observer's measurement noise and the rest certificate's reading
@@ -351,9 +370,6 @@ def servo_design(
         For non-positive limits, reversed ranges, a torque budget that
         leaves no acceleration, or `sensors`, `dt` and `delay` that do not
         go together.
-    InfeasibleError
-        For ``sensors="motor"`` (the drive observer's refusal, naming the
-        gap and the load's unobservable angle).
     """
     params = Parameters() if params is None else params
     if not isinstance(params, Parameters):
@@ -375,6 +391,11 @@ def servo_design(
         raise ValueError(
             "reference: 'stream' needs a sample time dt (a set-point streamed "
             "once per sample)"
+        )
+    if reference == "stream" and sensors == "motor":
+        raise ValueError(
+            "reference: 'stream' is not supported with sensors='motor' (the "
+            "motor-encoder estimator is designed and tested for planned moves)"
         )
     budget = (1.0 - planner.torque_reserve) * torque_limit - Td_max
     if budget <= 0:
@@ -413,24 +434,38 @@ def servo_design(
         integral_leak=anti_hunting.integral_leak,
         observer_bandwidth=estimator.observer_bandwidth,
         integral_hold=anti_hunting.integral_hold,
-        anti_hunting=anti_hunting.enabled, gap_estimate=estimator.gap_estimate,
+        flank_deadband=MOTOR_FLANK_DEADBAND if sensors == "motor" else 0.0,
+        anti_hunting=anti_hunting.enabled,
+        gap_estimate=estimator.gap_estimate and sensors != "motor",
         learn_torque=estimator.learn_torque, probe_error=estimator.probe_error,
-        rest_flank=anti_hunting.rest_flank,
+        # On the motor encoder alone the motor waits mid-gap at rest (the
+        # flank dead band): no flank to latch.
+        rest_flank=None if sensors == "motor" else anti_hunting.rest_flank,
     )  # fmt: skip
     observer = sampling = rest = None
     if dt is not None:
-        observer = drive_observer(
-            params, dt=dt, sensors=sensors, encoder_counts=encoder_counts
-        )
-        Phi, Gamma, M = observer_matrices(observer)
+        estimator = None
+        if sensors == "motor":
+            observer = motor_observer(params, dt=dt, motor_counts=encoder_counts[0])
+            estimator = MotorEstimator(
+                observer, alpha_max=alpha_max, alpha_spread=alpha_max / math.sqrt(12.0)
+            )
+            Phi = Gamma = M = None
+        else:
+            observer = drive_observer(
+                params, dt=dt, sensors=sensors, encoder_counts=encoder_counts
+            )
+            Phi, Gamma, M = observer_matrices(observer)
         tracker = None
         if reference == "stream":
             tracker = tuple(float(v) for v in stream_gain(dt, stream.bandwidth))
         sampling = SampledServo(
             dt=dt, delay=delay, Phi=Phi, Gamma=Gamma, M=M, reference=reference,
-            stream_gain=tracker,
+            stream_gain=tracker, measured=tuple(_READ[sensors]), estimator=estimator,
         )  # fmt: skip
-        if certify:
+        # On the motor encoder alone the load angle at rest is not observable
+        # (the motor sees theta_l + alpha, not theta_l): no rest certificate.
+        if certify and sensors == "encoders":
             rest = rest_bound(
                 params, K, sampling, Jl_range=(lo, hi), encoder_counts=encoder_counts,
                 flank_width=tuning.flank_width, contact_torque=tuning.contact_torque,

@@ -213,12 +213,14 @@ def run_sampled_servo_scenario(
         raise ValueError("design: a continuous-time design; use run_servo_scenario")
     params = Parameters() if params is None else params
     loop_plant = plant(params.replace(Jl=Jl * params.Jl), alpha=alpha)
+    controller = design.controller()
     sensors = {
         name: Encoder(c, noise)
         for name, c in zip(("theta_m", "theta_l"), design.encoder_counts)
+        if name in controller.input_labels  # a motor-encoder design: theta_m
     }
     res = sampled_response(
-        loop_plant, design.controller(), T, inputs={"Td": Td, "theta_r": theta_r},
+        loop_plant, controller, T, inputs={"Td": Td, "theta_r": theta_r},
         delay=design.delay, sensors=sensors, seed=seed,
     )  # fmt: skip
     p = res.plant

@@ -59,6 +59,9 @@ class ServoTuning:
     observer_bandwidth: float
     rest_speed: float = 0.01
     flank_lead: float = 0.0
+    # Asked shaft torque, Nm, below which the sampled law asks for no flank
+    # (the motor stays mid-gap): the motor-encoder design's quiet rest.
+    flank_deadband: float = 0.0
     integral_hold: float = 0.0
     goal_rate: float = 2000.0
     replan_rate: float = 1e4

@@ -53,6 +53,7 @@ from dataclasses import dataclass
 import control as ct
 import numpy as np
 
+from .drive_observer import DRIVE_STATES
 from .rest_flank import rest_flank_step
 from .servo_kernel import ServoTuning, _smoothstep
 from .stream import jerk_model
@@ -74,6 +75,13 @@ SAMPLED_STATES = [
     "flank_evidence",
 ]  # fmt: skip
 SAMPLED_INPUTS = ["theta_m", "theta_l", "theta_r"]
+#: The motor-encoder estimator's extra states: the sensitivity of the
+#: prediction to the half-gap and the half-gap variance (less its initial).
+MOTOR_STATES = [
+    "S_theta_m", "S_omega_m", "S_theta_l", "S_omega_l", "S_Td", "P_alpha_dev",
+    "learn_window",
+]  # fmt: skip
+
 _PLAN_SUBSTEPS = 4
 _STREAM_REST_ACCEL = 1e-3  # rad/s^2
 
@@ -101,6 +109,14 @@ class SampledServo:
         `ctrl_lpv.twomass.stream`.
     stream_gain : tuple of float or None
         The tracker's correction gain (``reference="stream"``).
+    measured : tuple of str
+        The encoder angles read, the controller's first inputs:
+        ``("theta_m", "theta_l")`` (both encoders) or ``("theta_m",)`` (the
+        motor encoder alone, `ctrl_lpv.twomass.motor_observer`); the
+        columns of `M`.
+    estimator : `ctrl_lpv.twomass.motor_estimator.MotorEstimator` or None
+        The motor-encoder estimator (`Phi`, `Gamma`, `M` unused), or None
+        for the linear drive observer.
     """
 
     dt: float
@@ -110,6 +126,8 @@ class SampledServo:
     M: tuple
     reference: str = "plan"
     stream_gain: tuple | None = None
+    measured: tuple = ("theta_m", "theta_l")
+    estimator: object = None
 
 
 def plan_stepper(c: ServoTuning, dt: float):
@@ -196,7 +214,11 @@ def sampled_servo(
     )
     learn, probe_error, rest = c.learn_torque, c.probe_error, c.rest_flank
     ratio = ks / k1
+    deadband = c.flank_deadband
     Phi, Gam, M = (np.asarray(m) for m in (s.Phi, s.Gamma, s.M))
+    rows = [DRIVE_STATES.index(name) for name in s.measured]
+    nread = len(rows)
+    motor = s.estimator
 
     def blend(pair, w):
         return pair[0] + w * (pair[1] - pair[0])
@@ -231,14 +253,27 @@ def sampled_servo(
         plan, xhat = list(x[0:6]), np.asarray(x[6:12])
         xi, dah, u_prev, side, evidence = x[12], x[13], x[14], x[15], x[16]
         contact = _smoothstep(abs(xhat[2]) / tc - 1.0)
-        Ph, Gh = blend(Phi, contact), blend(Gam, contact)
-        filtered = xhat + blend(M, contact) @ (np.asarray(y[:2]) - xhat[[0, 3]])
-        # With delay=1 the command computed now acts from the next sample, on
-        # the state the command already on its way leads to.
-        ahead = Ph @ filtered + Gh * u_prev
+        if motor is None:
+            Ph, Gh = blend(Phi, contact), blend(Gam, contact)
+            filtered = xhat + blend(M, contact) @ (np.asarray(y[:nread]) - xhat[rows])
+            # With delay=1 the command computed now acts from the next
+            # sample, on the state the command already on its way leads to.
+            ahead = Ph @ filtered + Gh * u_prev
+        else:
+            # Motor encoder alone: the dead-zone model, the half-gap
+            # estimated with it (`motor_estimator`).
+            # The half-gap learns for a few samples after the prediction
+            # makes or loses a contact (`MotorEstimator.learning_window`).
+            filtered, sens, dP, gap = motor.correct(
+                xhat, x[17:22], x[22], a0 + dah, y[0], x[23] > 0.0
+            )
+            resting = plan[5] <= hmin * (1.0 + 1e-9) and abs(plan[0] - plan[4]) < 1e-6
+            ahead, sens_ahead, dP_ahead = motor.predict(
+                filtered, sens, u_prev, gap, dP, resting
+            )
         at = ahead if delayed else filtered
         tm, wm, tsh, tl, wl = at[:5]
-        (r, v, a, F, wmf, tff, g, h), next_plan = reference(plan, y[2])
+        (r, v, a, F, wmf, tff, g, h), next_plan = reference(plan, y[nread])
         if streamed:
             # A streamed set-point rarely rests: the integral is held while
             # it moves, so the observer's load torque joins the feedforward
@@ -261,7 +296,7 @@ def sampled_servo(
             band = _smoothstep(abs(el) / rest.band - 1.0)
         kp = k3 * band
         tstar = F - ratio * (kp * el + k4 * dl + k5 * xi) if c.anti_hunting else F
-        psi = math.copysign(_smoothstep(abs(tstar) / teps), tstar)
+        psi = math.copysign(_smoothstep((abs(tstar) - deadband) / teps), tstar)
         if rest is not None and c.anti_hunting:
             side, evidence = rest_flank_step(
                 rest, dt, side, evidence, resting=at_rest, error=el, speed=dl,
@@ -309,9 +344,20 @@ def sampled_servo(
                 asked *= _smoothstep(abs(el) / probe_error - 1.0)
             still = _smoothstep(1.0 - (abs(v) + abs(wl)) / c.rest_speed)
             ddah += probe * (1.0 - contact) * asked * still * (ah < amax)
-        predicted = ahead if delayed else Ph @ filtered + Gh * u
-        state = [*next_plan, *predicted, xi + dt * dxi, dah + dt * ddah, u]
-        state += [side, evidence]
+        if delayed:
+            predicted = ahead
+        elif motor is None:
+            predicted = Ph @ filtered + Gh * u
+        else:
+            predicted, sens_ahead, dP_ahead = motor.predict(
+                filtered, sens, u, gap, dP, resting
+            )
+        state = [*next_plan, *predicted, xi + dt * dxi, dah + dt * ddah, u, side]
+        state.append(evidence)
+        if motor is not None:
+            window = motor.learning_window(filtered, predicted, gap, x[23])
+            state[13] = gap - a0
+            state += [*sens_ahead, dP_ahead, window]
         return u, np.asarray(state)
 
     last = {}
@@ -327,6 +373,7 @@ def sampled_servo(
     return ct.NonlinearIOSystem(
         lambda t, x, u, params=None: evaluate(t, x, u)[1],
         lambda t, x, u, params=None: [evaluate(t, x, u)[0]],
-        inputs=SAMPLED_INPUTS, outputs=["Tm"], states=SAMPLED_STATES,
+        inputs=[*s.measured, "theta_r"], outputs=["Tm"],
+        states=SAMPLED_STATES if motor is None else SAMPLED_STATES + MOTOR_STATES,
         dt=s.dt, name=name,
     )  # fmt: skip

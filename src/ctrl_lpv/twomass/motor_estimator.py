@@ -1,0 +1,390 @@
+"""The drive's estimator on the motor encoder alone.
+
+With only ``theta_m`` measured, `ctrl_lpv.twomass.drive_observer` has no
+certified LPV observer: in the gap no torque reaches the load, so the load
+(``theta_l``, ``omega_l``, ``Td``) does not reach the motor encoder. What
+*is* observable depends on the mode (`observability`):
+
+* **contact** (the shaft on a flank, the half-gap ``alpha`` known): the
+  shaft torque ``ks (theta_m - theta_l -+ alpha) + cs omega_d`` couples the
+  load to the motor, and the whole drive ``theta_m, omega_m, theta_l,
+  omega_l, Td`` is observable from ``theta_m``;
+* **gap**: only the motor ``theta_m, omega_m``; the load moves free,
+  decelerated by ``Td`` and its friction.
+
+`motor_observer` designs one certified H2 observer per mode (`ctrl_lpv.
+observer` on each mode's linear model, sampled with the zero-order hold).
+`MotorEstimator` runs them as drive engineers run a backlash observer on
+the motor side (a model of the backlash in the prediction, Lagerberg and
+Egardt's approach for powertrains): each sample it predicts the drive with
+the backlash's dead zone (the load open loop while in the gap), and
+corrects the prediction with the motor reading through the gain of the mode
+the prediction is in. A contact made earlier or later than predicted is a
+motor-side innovation, which the contact gain turns into a correction of
+the load's angle: contacts re-anchor the load estimate.
+
+What the certificates cover: each mode's error dynamics with the mode held
+and ``alpha`` exact. Not covered: the switching between modes, the load's
+open-loop prediction in the gap (its error grows over a crossing, by
+``|Td - Td_hat| t^2 / (2 Jl)`` from a load whose speed is known), and the
+half-gap itself: the motor encoder never sees ``alpha`` at rest, so the
+load angle estimated on a flank is off by the error of ``alpha_hat``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import control as ct
+import numpy as np
+
+from .._checks import real_number
+from ..estimation import ObserverDesign, observer
+from ..synthesis import H2
+from ..systems import PolytopicStateSpace
+from .drive_observer import _encoder_steps
+from .parameters import Parameters
+
+__all__ = [
+    "MODE_STATES", "MotorObserver", "MotorEstimator", "mode_model",
+    "motor_observer", "observability",
+]  # fmt: skip
+
+#: States the estimator carries, in order (the layout of `DRIVE_STATES`
+#: without the shaft torque, which the dead zone gives).
+MODE_STATES = {
+    "contact": ["theta_m", "omega_m", "theta_l", "omega_l", "Td"],
+    "gap": ["theta_m", "omega_m"],
+}
+_PREDICT_SUBSTEPS = 4
+#: Samples after a predicted contact change in which the half-gap learns.
+LEARN_SAMPLES = 10
+
+
+def mode_model(
+    params: Parameters,
+    mode: str,
+    *,
+    dt: float | None = None,
+    motor_counts: int = 2**20,
+    motor_torque_rate: float = 20.0,
+    load_torque_rate: float = 300.0,
+) -> ct.StateSpace:
+    """The linear model of one mode, read by the motor encoder.
+
+    Parameters
+    ----------
+    params : `Parameters`
+        Drive data.
+    mode : {"contact", "gap"}
+        Contact: the shaft on a flank (about it: the flank offset drops out
+        of the deviations); gap: the motor alone.
+    dt : float, optional
+        Sample time (zero-order hold); None for continuous time.
+    motor_counts : int, optional
+        Counts per revolution of the motor encoder.
+    motor_torque_rate, load_torque_rate : float, optional
+        Intensity of the torque disturbance on the motor (what the model
+        misses), Nm per unit input, and of the random walk of ``Td``, Nm/s.
+
+    Returns
+    -------
+    `control.StateSpace`
+        States `MODE_STATES` [mode], inputs ``["Tm", "w_m", "w_Td",
+        "n_m"]`` (``w_Td`` absent in the gap), outputs ``["theta_m",
+        "omega_m_err", ...]``: the reading, then the speeds (and in contact
+        ``theta_l`` in mrad) whose estimation error the H2 design weighs.
+    """
+    Jm, Jl, cm, cl, ks, cs = (
+        params.Jm, params.Jl, params.cm, params.cl, params.ks, params.cs
+    )  # fmt: skip
+    step = 2.0 * math.pi / motor_counts / math.sqrt(12.0)
+    if mode == "contact":
+        A = np.array([
+            [0.0, 1.0, 0.0, 0.0, 0.0],
+            [-ks / Jm, -(cm + cs) / Jm, ks / Jm, cs / Jm, 0.0],
+            [0.0, 0.0, 0.0, 1.0, 0.0],
+            [ks / Jl, cs / Jl, -ks / Jl, -(cl + cs) / Jl, -1.0 / Jl],
+            [0.0, 0.0, 0.0, 0.0, 0.0],
+        ])  # fmt: skip
+        B = np.zeros((5, 4))
+        B[1, :2] = [1.0 / Jm, motor_torque_rate / Jm]
+        B[4, 2] = load_torque_rate
+        C = np.zeros((4, 5))
+        C[0, 0] = C[1, 1] = C[2, 3] = 1.0
+        C[3, 2] = 1e3
+        D = np.zeros((4, 4))
+        D[0, 3] = step
+        inputs = ["Tm", "w_m", "w_Td", "n_m"]
+        outputs = ["theta_m", "omega_m_err", "omega_l_err", "theta_l_err"]
+    elif mode == "gap":
+        A = np.array([[0.0, 1.0], [0.0, -cm / Jm]])
+        B = np.array([[0.0, 0.0, 0.0], [1.0 / Jm, motor_torque_rate / Jm, 0.0]])
+        C = np.array([[1.0, 0.0], [0.0, 1.0]])
+        D = np.array([[0.0, 0.0, step], [0.0, 0.0, 0.0]])
+        inputs = ["Tm", "w_m", "n_m"]
+        outputs = ["theta_m", "omega_m_err"]
+    else:
+        raise ValueError(f"mode: expected 'contact' or 'gap', got {mode!r}")
+    sys = ct.ss(
+        A, B, C, D, inputs=inputs, outputs=outputs, states=MODE_STATES[mode],
+        name=f"twomass_{mode}",
+    )  # fmt: skip
+    return sys if dt is None else ct.c2d(sys, dt, "zoh")
+
+
+def observability(params: Parameters | None = None) -> dict:
+    """Rank of the observability matrix from ``theta_m``, per mode.
+
+    Returns
+    -------
+    dict
+        ``{"contact": (rank, n), "gap": (rank, n)}`` on the full drive
+        ``theta_m, omega_m, theta_l, omega_l, Td`` (in the gap the load is
+        decoupled: rank 2 of 5).
+    """
+    params = Parameters() if params is None else params
+    contact = mode_model(params, "contact")
+    gap = contact.A.copy()
+    # The gap: no shaft torque (the rows and columns of the coupling drop).
+    gap[1, [0, 2, 3]] = 0.0
+    gap[1, 1] = -params.cm / params.Jm
+    gap[3, [0, 1, 2]] = 0.0
+    gap[3, 3] = -params.cl / params.Jl
+    C = contact.C[:1]
+    return {
+        "contact": (int(np.linalg.matrix_rank(ct.obsv(contact.A, C))), 5),
+        "gap": (int(np.linalg.matrix_rank(ct.obsv(gap, C))), 5),
+    }
+
+
+@dataclass(frozen=True)
+class MotorObserver:
+    """The two certified mode observers of the motor-encoder estimator.
+
+    Attributes
+    ----------
+    contact, gap : `ctrl_lpv.ObserverDesign`
+        H2 observers of `mode_model` in contact and in the gap (predictor
+        form, discrete time), each certified with its mode held.
+    params : `Parameters`
+        The drive data of the models.
+    dt : float
+        Sample time, s.
+    """
+
+    contact: ObserverDesign
+    gap: ObserverDesign
+    params: Parameters
+    dt: float
+
+    @property
+    def certified(self) -> bool:
+        """Both modes' certificates verified in float64."""
+        return self.contact.certificate.verified and self.gap.certificate.verified
+
+    def filter_gains(self):
+        """``(M_gap, M_contact)``: the gains of the current estimate
+        ``x[k|k] = x[k|k-1] + M (theta_m[k] - theta_m_hat[k|k-1])`` on the
+        contact states (zero on the load in the gap), ``M = Phi^-1 L``."""
+        gains = []
+        for design, mode in ((self.gap, "gap"), (self.contact, "contact")):
+            Phi = _vertex(design).A
+            M = np.zeros(5)
+            M[: len(MODE_STATES[mode])] = np.linalg.solve(
+                Phi, np.asarray(design.gain([]), float)[:, 0]
+            )
+            gains.append(M)
+        return tuple(gains)
+
+
+def _vertex(design: ObserverDesign):
+    return design.system.vertices[0]
+
+
+def motor_observer(
+    params: Parameters | None = None,
+    *,
+    dt: float,
+    motor_counts: int = 2**20,
+    motor_torque_rate: float = 20.0,
+    load_torque_rate: float = 300.0,
+    backoff: float | None = 0.2,
+) -> MotorObserver:
+    """Certified H2 observers of the drive's modes from the motor encoder.
+
+    Parameters
+    ----------
+    params : `Parameters`, optional
+        Drive data.
+    dt : float
+        Sample time, s.
+    motor_counts : int, optional
+        Counts per revolution of the motor encoder.
+    motor_torque_rate, load_torque_rate : float, optional
+        Intensity of the torque disturbance on the motor, Nm per unit
+        input, and of the random walk of ``Td``, Nm/s: larger values give
+        faster, noisier estimates.
+    backoff : float or None, optional
+        Relax each mode's minimal H2 bound by this fraction for a
+        well-conditioned Lyapunov matrix (None: the raw optimum).
+
+    Returns
+    -------
+    `MotorObserver`
+    """
+    params = Parameters() if params is None else params
+    if not isinstance(params, Parameters):
+        raise TypeError(f"params: expected twomass.Parameters, got {type(params)!r}")
+    dt = real_number(dt, "dt", positive=True)
+    _encoder_steps((motor_counts, 2))
+    designs = {}
+    for mode in ("contact", "gap"):
+        sys = mode_model(
+            params, mode, dt=dt, motor_counts=motor_counts,
+            motor_torque_rate=motor_torque_rate, load_torque_rate=load_torque_rate,
+        )  # fmt: skip
+        w = [s for s in sys.input_labels if s != "Tm"]
+        designs[mode] = observer(
+            PolytopicStateSpace([sys]), ["theta_m"], u="Tm", w=w,
+            z=sys.output_labels[1:], objective=H2(), backoff=backoff,
+        )  # fmt: skip
+    return MotorObserver(
+        contact=designs["contact"], gap=designs["gap"], params=params, dt=dt
+    )
+
+
+class MotorEstimator:
+    """One sample of the motor-encoder estimator on the drive's 6-state layout.
+
+    The state is ``[theta_m, omega_m, Ts, theta_l, omega_l, Td]`` (as
+    `ctrl_lpv.twomass.drive_observer.DRIVE_STATES`); ``Ts`` is not
+    estimated on its own but given by the dead zone at the estimate. The
+    half-gap ``alpha`` is estimated by recursive least squares on the
+    motor reading's innovation, through the sensitivity ``S = d x_hat /
+    d alpha`` of the prediction: a contact made earlier or later than
+    predicted says the gap is narrower or wider (in a held contact ``S``
+    fades: the fixed gain moves the load angle instead, and the half-gap
+    learns nothing there).
+
+    Parameters
+    ----------
+    design : `MotorObserver`
+        The certified mode gains.
+    alpha_max : float
+        The half-gap estimate stays in ``[0, alpha_max]``.
+    alpha_spread : float
+        Standard deviation of the initial half-gap estimate, rad.
+    reading_error : float
+        Standard deviation of the innovation not explained by the gap
+        (reading and model errors), rad.
+    alpha_drift : float
+        Random walk of the half-gap, rad/sqrt(s) (wear; a gap that steps).
+    rest_fade : float
+        Time constant, s, with which the load's speed and torque estimates
+        fade at rest in the gap (where nothing observes them: a free load
+        predicted open loop would drift without bound on a wrong torque).
+    """
+
+    def __init__(
+        self,
+        design: MotorObserver,
+        *,
+        alpha_max: float,
+        alpha_spread: float,
+        reading_error: float = 1e-4,
+        alpha_drift: float = 1e-3,
+        rest_fade: float = 0.1,
+    ):
+        p = design.params
+        self.Jm, self.Jl, self.cm, self.cl = p.Jm, p.Jl, p.cm, p.cl
+        self.ks, self.cs, self.dt = p.ks, p.cs, design.dt
+        self.M_gap, self.M_contact = design.filter_gains()
+        self.alpha_max = alpha_max
+        self.P0 = alpha_spread**2
+        self.R = reading_error**2
+        self.Q = alpha_drift**2 * design.dt
+        self.fade = math.exp(-design.dt / rest_fade)
+
+    def shaft_torque(self, tm, wm, tl, wl, alpha):
+        """The dead zone's shaft torque (0 inside the gap)."""
+        d = tm - tl
+        if abs(d) <= alpha:
+            return 0.0
+        return self.ks * (d - math.copysign(alpha, d)) + self.cs * (wm - wl)
+
+    def correct(self, x, S, dP, alpha, theta_m, learning=True):
+        """The estimate ``x[k|k]``, its sensitivity, the half-gap estimate
+        and its variance (``P0 + dP``) from the prediction and the reading.
+        The half-gap learns only with `learning` (near a contact made or
+        lost: in a held contact the innovation is the load's, not the
+        gap's)."""
+        tm, wm, _, tl, wl, td = x
+        nu = theta_m - tm
+        # The half-gap: least squares on the innovation's part that the
+        # gap explains (nu ~ S[0] (alpha - alpha_hat) + noise).
+        P = self.P0 + dP
+        new = alpha
+        if learning:
+            K = P * S[0] / (S[0] * S[0] * P + self.R)
+            new = min(max(alpha + K * nu, 0.0), self.alpha_max)
+            P = (1.0 - K * S[0]) * P
+        delta = new - alpha
+        # The prediction under the new half-gap, then the state gain.
+        z = np.array([tm, wm, tl, wl, td]) + S * delta
+        nu = theta_m - z[0]
+        M = self.M_contact if abs(z[0] - z[2]) > new else self.M_gap
+        z = z + M * nu
+        S = S - M * S[0]
+        xf = np.array([z[0], z[1], self.shaft_torque(*z[:4], new), z[2], z[3], z[4]])
+        return xf, S, P - self.P0, new
+
+    def learning_window(self, filtered, predicted, alpha, window):
+        """Samples left in which the half-gap learns: `LEARN_SAMPLES` when
+        the prediction makes or loses a contact, else one fewer than
+        `window` (in a held contact or gap the innovation says nothing
+        of the gap)."""
+        switched = (abs(predicted[0] - predicted[3]) > alpha) != (
+            abs(filtered[0] - filtered[3]) > alpha
+        )
+        return float(LEARN_SAMPLES) if switched else max(window - 1.0, 0.0)
+
+    def predict(self, x, S, torque, alpha, dP=0.0, rest=False):
+        """The prediction one sample on under a held `torque`, its
+        sensitivity to the half-gap (a finite difference), and the
+        variance's growth. With `rest` (the move ended) a load in the gap
+        is taken to stop: its speed and torque estimates fade with the
+        time constant `rest_fade`."""
+        z = np.array([x[0], x[1], x[3], x[4], x[5]])
+        eps = 1e-6
+        nxt = self._advance(z, torque, alpha)
+        moved = self._advance(z + eps * S, torque, alpha + eps)
+        if rest and abs(nxt[0] - nxt[2]) <= alpha:
+            nxt[3:] *= self.fade
+            moved[3:] *= self.fade
+        out = np.array([nxt[0], nxt[1], self.shaft_torque(*nxt[:4], alpha),
+                        nxt[2], nxt[3], nxt[4]])  # fmt: skip
+        return out, (moved - nxt) / eps, dP + self.Q
+
+    def _advance(self, z, torque, alpha):
+        """RK4 substeps of the dead-zone model, ``Td`` constant."""
+        Jm, Jl, cm, cl = self.Jm, self.Jl, self.cm, self.cl
+        td = z[4]
+
+        def rate(s):
+            ts = self.shaft_torque(s[0], s[1], s[2], s[3], alpha)
+            return np.array([
+                s[1], (torque - cm * s[1] - ts) / Jm,
+                s[3], (ts - cl * s[3] - td) / Jl,
+            ])  # fmt: skip
+
+        s = z[:4]
+        h = self.dt / _PREDICT_SUBSTEPS
+        for _ in range(_PREDICT_SUBSTEPS):
+            q1 = rate(s)
+            q2 = rate(s + 0.5 * h * q1)
+            q3 = rate(s + 0.5 * h * q2)
+            q4 = rate(s + h * q3)
+            s = s + h / 6.0 * (q1 + 2.0 * q2 + 2.0 * q3 + q4)
+        return np.array([*s, td])

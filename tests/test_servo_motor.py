@@ -1,0 +1,206 @@
+"""The sampled servo on the motor encoder alone, held to independent facts.
+
+Observability per mode is computed here from the drive's equations with
+``control.obsv``; the estimator's prediction is compared with the dead-zone
+plant integrated by python-control; its half-gap estimate with the gap of
+the exact plant it reads; the servo's runs (slow) on the exact backlash
+plant read by a 20-bit motor encoder with half a count of noise.
+"""
+
+import control as ct
+import numpy as np
+import pytest
+
+from ctrl_lpv import twomass
+from ctrl_lpv.exceptions import InfeasibleError
+from ctrl_lpv.twomass.motor_estimator import (
+    MotorEstimator,
+    motor_observer,
+    observability,
+)
+from ctrl_lpv.twomass.servo_compare import run_sampled_servo_scenario
+
+DT = 1e-3
+P = twomass.Parameters()
+
+
+def _drive(contact):
+    """The drive about a flank (contact) or in the gap, by hand: states
+    theta_m, omega_m, theta_l, omega_l, Td; input Tm."""
+    Jm, Jl, cm, cl, ks, cs = P.Jm, P.Jl, P.cm, P.cl, P.ks, P.cs
+    c = 1.0 if contact else 0.0
+    A = np.array([
+        [0, 1, 0, 0, 0],
+        [-c * ks / Jm, -(cm + c * cs) / Jm, c * ks / Jm, c * cs / Jm, 0],
+        [0, 0, 0, 1, 0],
+        [c * ks / Jl, c * cs / Jl, -c * ks / Jl, -(cl + c * cs) / Jl, -1 / Jl],
+        [0, 0, 0, 0, 0],
+    ])  # fmt: skip
+    B = np.array([[0, 1 / Jm, 0, 0, 0]]).T
+    C = np.array([[1.0, 0, 0, 0, 0]])
+    return A, B, C
+
+
+@pytest.fixture(scope="module")
+def observers():
+    return motor_observer(dt=DT)
+
+
+def test_observability_per_mode_from_the_motor_angle():
+    ranks = {}
+    for mode, contact in (("contact", True), ("gap", False)):
+        A, _, C = _drive(contact)
+        obsv = ct.obsv(A, C)
+        ranks[mode] = (np.linalg.matrix_rank(obsv), 5)
+        if not contact:
+            # The load's angle, speed and torque are what the gap hides.
+            for state in (2, 3, 4):
+                e = np.zeros(5)
+                e[state] = 1.0
+                assert np.allclose(obsv @ e, 0.0)
+    assert ranks == {"contact": (5, 5), "gap": (2, 5)}
+    assert observability() == ranks
+    # The LPV drive observer over the contact range is refused on theta_m.
+    with pytest.raises(InfeasibleError):
+        twomass.drive_observer(dt=DT, sensors="motor")
+
+
+def test_mode_observers_error_dynamics_are_schur(observers):
+    """Each certified gain on the mode's own model, sampled by
+    python-control (the gap: the motor alone)."""
+    assert observers.certified
+    for mode, design, keep in (
+        ("contact", observers.contact, [0, 1, 2, 3, 4]),
+        ("gap", observers.gap, [0, 1]),
+    ):
+        A, B, C = _drive(mode == "contact")
+        sys = ct.ss(A[np.ix_(keep, keep)], B[keep], C[:, keep], 0)
+        Phi = ct.c2d(sys, DT, "zoh").A
+        L = np.asarray(design.gain([]), float)
+        radius = np.abs(np.linalg.eigvals(Phi - L @ C[:, keep])).max()
+        assert radius < 1.0, (mode, radius)
+
+
+def _plant_step(x, torque, alpha, T=DT):
+    """The dead-zone plant from x = [theta_m, omega_m, theta_l, omega_l]
+    under a held torque for T, integrated by python-control."""
+    plant = twomass.plant(model="deadzone", alpha=alpha)
+    t = np.linspace(0.0, T, 11)
+    res = ct.input_output_response(
+        plant, t, np.vstack([np.full_like(t, torque), np.zeros_like(t)]), x,
+        solve_ivp_kwargs={"rtol": 1e-11, "atol": 1e-13},
+    )  # fmt: skip
+    return res.states[:, -1]
+
+
+@pytest.mark.parametrize(
+    "x, torque",
+    [
+        ([0.040, 1.0, 0.0, 0.5], 100.0),  # in contact on the + flank
+        ([-0.030, 0.0, 0.0, 0.2], -50.0),  # on the - flank
+        ([0.0295, 2.0, 0.0, 0.0], 100.0),  # in the gap, contact mid-sample
+        ([0.0, 0.5, 0.0, 0.0], 20.0),  # in the gap throughout
+    ],
+)
+def test_prediction_is_the_dead_zone_plant(observers, x, torque):
+    est = MotorEstimator(observers, alpha_max=0.06, alpha_spread=0.017)
+    alpha = 0.03
+    x6 = np.array([x[0], x[1], 0.0, x[2], x[3], 0.0])
+    predicted, _, _ = est.predict(x6, np.zeros(5), torque, alpha)
+    exact = _plant_step(np.array(x, float), torque, alpha)
+    assert np.allclose(predicted[[0, 3]], exact[[0, 2]], atol=2e-7)
+    assert np.allclose(predicted[[1, 4]], exact[[1, 3]], atol=5e-4)
+
+
+def test_half_gap_is_learnt_from_the_motor_encoder(observers):
+    """Open loop on the exact plant (gap 0.045): the motor crosses the gap
+    into contact and back to the other flank; the estimate, started at
+    0.03, reads the gap from the motor angle alone."""
+    alpha, start = 0.045, 0.03
+    est = MotorEstimator(observers, alpha_max=0.06, alpha_spread=0.017)
+    plant = twomass.plant(alpha=alpha)
+    q = 2 * np.pi / 2**20
+    x = np.zeros(5)  # theta_m, omega_m, theta_l, omega_l, theta_b
+    xhat, S, dP, a, window = np.zeros(6), np.zeros(5), 0.0, start, 0.0
+    history = []
+    for k in range(400):
+        torque = 40.0 if k < 120 else (-40.0 if k < 300 else 0.0)
+        y = q * np.round(x[0] / q)
+        xf, S, dP, a = est.correct(xhat, S, dP, a, y, window > 0.0)
+        xhat, S, dP = est.predict(xf, S, torque, a, dP)
+        window = est.learning_window(xf, xhat, a, window)
+        t = np.linspace(0.0, DT, 5)
+        res = ct.input_output_response(
+            plant, t, np.vstack([np.full_like(t, torque), np.zeros_like(t)]), x,
+            solve_ivp_kwargs={"rtol": 1e-10, "atol": 1e-12},
+        )  # fmt: skip
+        x = res.states[:, -1]
+        history.append(a)
+    assert abs(history[-1] - alpha) < 0.05 * abs(start - alpha)
+    # And the load angle the motor never saw directly.
+    assert abs(xf[3] - x[2]) < 2e-3
+
+
+def test_motor_servo_reads_the_motor_encoder_only():
+    design = twomass.servo_design(dt=DT, delay=1, sensors="motor", certify=False)
+    servo = design.controller()
+    assert servo.dt == DT
+    assert servo.input_labels == ["theta_m", "theta_r"]
+    assert servo.output_labels == ["Tm"]
+    assert servo._out(0.0, np.zeros(servo.nstates), [0.0, 0.0])[0] == 0.0
+    # No certified rest: the load angle at rest is not observable.
+    assert design.certificate.rest is None
+    assert design.certificate.rest_error_bound is None
+    assert "motor encoder alone" in str(design)
+
+
+def _metrics(response, theta_r, T):
+    t = response.time
+    e = response.outputs[0] - theta_r
+    torque = response.outputs[1]
+    outside = np.flatnonzero(np.abs(e) > 0.02 * abs(theta_r))
+    settling = (
+        0.0
+        if not outside.size
+        else (t[outside[-1] + 1] if outside[-1] + 1 < t.size else np.inf)
+    )
+    last = t >= T - 1.0
+    return dict(
+        settling=settling,
+        overshoot=max(0.0, float(np.max(np.sign(theta_r) * e))) / abs(theta_r) * 100,
+        error=abs(e[-1]),
+        rest_error=np.abs(e[last]).max(),
+        torque_std=np.std(torque[last]),
+    )
+
+
+@pytest.fixture(scope="module")
+def motor_design():
+    return twomass.servo_design(dt=DT, delay=1, sensors="motor", certify=False)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [1, 2])
+def test_paper_scenario_on_the_motor_encoder(motor_design, seed):
+    """Td = 8 Nm, 0.5 rad, alpha 0.03: settling <= 0.5 s, overshoot <= 2 %,
+    |e| <= 1e-3 rad at the end."""
+    res = run_sampled_servo_scenario(
+        motor_design, alpha=0.03, Td=8.0, theta_r=0.5, T=5.0, seed=seed
+    )
+    m = _metrics(res, 0.5, 5.0)
+    assert m["settling"] <= 0.5
+    assert m["overshoot"] <= 2.0
+    assert m["error"] <= 1e-3
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("alpha", [0.03, 0.06])
+def test_no_load_torque_on_the_motor_encoder(motor_design, alpha):
+    """Td = 0: no limit cycle (torque std over the last second <= 3 Nm),
+    and the error within the gap (the load is not observable inside it)."""
+    res = run_sampled_servo_scenario(
+        motor_design, alpha=alpha, Td=0.0, theta_r=0.5, T=5.0, seed=1
+    )
+    m = _metrics(res, 0.5, 5.0)
+    assert m["torque_std"] <= 3.0
+    assert m["rest_error"] <= alpha
