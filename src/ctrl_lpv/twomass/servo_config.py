@@ -169,7 +169,10 @@ class ServoAntiHunting:
         Sampled servo (``dt`` set), with `enabled`: at rest with a small
         load torque the flank is latched and changed on evidence only
         (default ``RestFlank()``); None keeps the continuous flank choice
-        at rest (which chatters on encoders: 111-223 Nm at Td = 0).
+        at rest (which chatters on encoders: 111-223 Nm at Td = 0). With
+        ``reference="stream"`` the servo rests only once the streamed
+        set-point has stopped (tracker speed and acceleration near zero);
+        with ``sensors="motor"`` the latch is off (the motor waits mid-gap).
 
     Raises
     ------
