@@ -7,11 +7,10 @@ import numpy as np
 from ..budget import DEFAULT_TIME_LIMIT, TimeLimitReached
 from ..certificate import Certificate
 from ..exceptions import CertificationError, InfeasibleError, SynthesisError
-from ..regions import LMIRegion
 from ..stabilizability import check_detectability
 from ..synthesis.channels import require_pss
 from ..synthesis.compose import synthesize
-from ..synthesis.constraints import PoleRegion
+from ..synthesis.constraints import pole_regions
 from ..synthesis.parametric import lyapunov_structure
 from ..synthesis.specs import H2, Hinf
 from ..systems import PolytopicStateSpace
@@ -142,7 +141,7 @@ def observer(
                 f"objective: {objective} names its own w or z; give them to "
                 "observer(w=..., z=...) instead"
             )
-    regions = _regions(constraints)
+    regions = pole_regions(constraints, "an observer")
     ch = ObserverChannels.resolve(sys, y, u, w, z, objective is not None)
     scheduled = gains == "scheduled" and sys.nvertices > 1
     lyapunov_structure(sys, lyapunov, rate_bounds)  # validates both
@@ -281,26 +280,3 @@ def _names(sys, ch):
         [inputs[i] for i in ch.u],
         [inputs[i] for i in ch.w],
     )
-
-
-def _regions(constraints) -> tuple[LMIRegion, ...]:
-    """The pole regions of `constraints` (the only constraints an observer
-    takes)."""
-    if isinstance(constraints, (LMIRegion, PoleRegion)):
-        constraints = (constraints,)
-    if isinstance(constraints, (str, bytes)) or not hasattr(constraints, "__iter__"):
-        raise TypeError(
-            f"constraints: expected pole regions (halfplane, disk, sector), got "
-            f"{constraints!r}"
-        )
-    out = []
-    for item in constraints:
-        if isinstance(item, PoleRegion):
-            item = item.region
-        if not isinstance(item, LMIRegion):
-            raise TypeError(
-                "constraints: an observer takes pole regions (halfplane, disk, "
-                f"sector) only, got {item!r}"
-            )
-        out.append(item)
-    return tuple(out)

@@ -25,9 +25,8 @@ import numpy as np
 from ..certificate import Check, negative_definite
 from ..lmi import assemble
 from ..regions import LMIRegion, region_blocks
-from ..synthesis.constraints import PoleRegion, _require_unit_disk
+from ..synthesis.constraints import _require_unit_disk, pole_regions
 from ..synthesis.frozen import verification_points
-from ..synthesis.spec import Spec
 from . import lmis
 from .reconstruct import closed_loop
 
@@ -35,44 +34,14 @@ __all__ = ["RegionConstraint", "region_constraints"]
 
 
 def region_constraints(constraints, continuous) -> tuple:
-    """`RegionConstraint` of each pole region in `constraints`, checked.
-
-    Raises
-    ------
-    TypeError
-        For anything but `ctrl_lpv.regions.LMIRegion` (``halfplane``,
-        ``disk``, ``sector``) or `ctrl_lpv.PoleRegion` items.
-    ValueError
-        For the other specs (a bound, a gain bound: not implemented here),
-        and for a discrete-time plant, a region that is not a disk inside
-        the unit circle.
-    """
-    if constraints is None:
-        return ()
-    if isinstance(constraints, (LMIRegion, PoleRegion)):
-        constraints = (constraints,)
-    if isinstance(constraints, (str, bytes)) or not hasattr(constraints, "__iter__"):
-        raise TypeError(
-            f"constraints: expected pole regions (halfplane, disk, sector), got "
-            f"{constraints!r}"
-        )
-    out = []
-    for item in constraints:
-        region = item.region if isinstance(item, PoleRegion) else item
-        if isinstance(item, Spec) and not isinstance(item, PoleRegion):
-            raise ValueError(
-                f"constraints: {item} is not implemented for output feedback (y "
-                "given), which takes pole regions (halfplane, disk, sector)"
-            )
-        if not isinstance(region, LMIRegion):
-            raise TypeError(
-                "constraints: output feedback takes pole regions (halfplane, disk, "
-                f"sector) only, got {item!r}"
-            )
-        if not continuous:
+    """`RegionConstraint` of each pole region in `constraints`, checked
+    (`ctrl_lpv.synthesis.constraints.pole_regions`; for a discrete-time
+    plant a region must be a disk inside the unit circle)."""
+    regions = pole_regions(constraints, "output feedback (y given)")
+    if not continuous:
+        for region in regions:
             _require_unit_disk(region)
-        out.append(RegionConstraint(region))
-    return tuple(out)
+    return tuple(RegionConstraint(region) for region in regions)
 
 
 class RegionConstraint:

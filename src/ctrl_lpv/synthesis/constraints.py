@@ -438,6 +438,44 @@ def as_spec(item):
     )
 
 
+def pole_regions(constraints, who: str) -> tuple[LMIRegion, ...]:
+    """The pole regions of `constraints`, for `who`, which takes no other.
+
+    Raises
+    ------
+    ValueError
+        For another spec (a bound, a gain bound: not implemented for `who`).
+    TypeError
+        For anything else than `LMIRegion` (``halfplane``, ``disk``,
+        ``sector``) or `PoleRegion` items.
+    """
+    if constraints is None:
+        return ()
+    if isinstance(constraints, (LMIRegion, PoleRegion)):
+        constraints = (constraints,)
+    if isinstance(constraints, (str, bytes)) or not hasattr(constraints, "__iter__"):
+        raise TypeError(
+            f"constraints: expected pole regions (halfplane, disk, sector), got "
+            f"{constraints!r}"
+        )
+    out = []
+    for item in constraints:
+        if isinstance(item, PoleRegion):
+            item = item.region
+        elif isinstance(item, Spec):
+            raise ValueError(
+                f"constraints: {item} is not implemented for {who}, which takes "
+                "pole regions (halfplane, disk, sector)"
+            )
+        if not isinstance(item, LMIRegion):
+            raise TypeError(
+                f"constraints: {who} takes pole regions (halfplane, disk, sector) "
+                f"only, got {item!r}"
+            )
+        out.append(item)
+    return tuple(out)
+
+
 def _require_unit_disk(region: LMIRegion) -> None:
     """A discrete-time region must be a disk inside the unit circle."""
     L, M = region.L, region.M

@@ -65,7 +65,7 @@ import numpy as np
 from .._checks import real_number
 from .parameters import Parameters
 from .servo_kernel import ServoTuning
-from .servo_sampled import flat_feedforward, plan_stepper
+from .servo_sampled import flat_feedforward, law_system, plan_stepper
 
 __all__ = ["CascadeDesign", "cascade_design", "CASCADE_STATES"]
 
@@ -232,18 +232,4 @@ def _cascade_system(d: CascadeDesign, name: str) -> ct.NonlinearIOSystem:
                  xi if winding else xi + dt * error]  # fmt: skip
         return u, np.asarray(state)
 
-    last = {}
-
-    def evaluate(t, x, u):
-        key = (t, x.tobytes(), np.asarray(u, float).tobytes())
-        if key not in last:
-            last.clear()
-            last[key] = law(x, u)
-        return last[key]
-
-    return ct.NonlinearIOSystem(
-        lambda t, x, u, params=None: evaluate(t, x, u)[1],
-        lambda t, x, u, params=None: [evaluate(t, x, u)[0]],
-        inputs=["theta_m", "theta_l", "theta_r"], outputs=["Tm"],
-        states=CASCADE_STATES, dt=dt, name=name,
-    )  # fmt: skip
+    return law_system(law, ["theta_m", "theta_l", "theta_r"], CASCADE_STATES, dt, name)

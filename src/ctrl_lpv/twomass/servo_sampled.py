@@ -360,10 +360,17 @@ def sampled_servo(
             state += [*sens_ahead, dP_ahead, window]
         return u, np.asarray(state)
 
+    states = SAMPLED_STATES if motor is None else SAMPLED_STATES + MOTOR_STATES
+    return law_system(law, [*s.measured, "theta_r"], states, s.dt, name)
+
+
+def law_system(law, inputs, states, dt, name) -> ct.NonlinearIOSystem:
+    """A sampled law ``law(x, u) -> (Tm, next x)`` as a python-control
+    system with output ``Tm``; update and output see the same ``(t, x,
+    u)``, so the law runs once per sample."""
     last = {}
 
     def evaluate(t, x, u):
-        # update and output see the same (t, x, u): compute the law once.
         key = (t, x.tobytes(), np.asarray(u, float).tobytes())
         if key not in last:
             last.clear()
@@ -373,7 +380,5 @@ def sampled_servo(
     return ct.NonlinearIOSystem(
         lambda t, x, u, params=None: evaluate(t, x, u)[1],
         lambda t, x, u, params=None: [evaluate(t, x, u)[0]],
-        inputs=[*s.measured, "theta_r"], outputs=["Tm"],
-        states=SAMPLED_STATES if motor is None else SAMPLED_STATES + MOTOR_STATES,
-        dt=s.dt, name=name,
+        inputs=inputs, outputs=["Tm"], states=states, dt=dt, name=name,
     )  # fmt: skip
