@@ -29,7 +29,7 @@ __all__ = ["closed_loop_certificate", "closed_loop_analysis"]
 
 def closed_loop_certificate(plant, objective, controllers, P, values) -> Certificate:
     """Float64 checks that the vertex controllers meet the objective's bound
-    (and its constraints: pole regions).
+    (and its constraints: pole regions, bounds of other channels).
 
     `values` holds ``"level"`` and the objective's other variables at the
     point (e.g. the H2 bounds ``Q_j``).

@@ -64,19 +64,8 @@ def hinf_output_feedback(
     time_limit: float | None = DEFAULT_TIME_LIMIT,
 ) -> OutputFeedbackDesign:
     """Certified H-infinity dynamic output feedback of a polytopic plant."""
-    return _output_feedback(
-        HinfObjective,
-        sys,
-        w,
-        u,
-        z,
-        y,
-        gains,
-        constraints,
-        backoff,
-        margin,
-        solvers,
-    )
+    return _output_feedback(HinfObjective, sys, w, u, z, y, gains, constraints,
+                            backoff, margin, solvers)  # fmt: skip
 
 
 @time_budget
@@ -95,19 +84,8 @@ def h2_output_feedback(
     time_limit: float | None = DEFAULT_TIME_LIMIT,
 ) -> OutputFeedbackDesign:
     """Certified H2 dynamic output feedback of a polytopic plant."""
-    return _output_feedback(
-        H2Objective,
-        sys,
-        w,
-        u,
-        z,
-        y,
-        gains,
-        constraints,
-        backoff,
-        margin,
-        solvers,
-    )
+    return _output_feedback(H2Objective, sys, w, u, z, y, gains, constraints,
+                            backoff, margin, solvers)  # fmt: skip
 
 
 # One parameter description for both objectives (numpydoc, as rendered).

@@ -81,7 +81,7 @@ class RateSearch:
 
     Subclasses provide ``_rate_problem(margin, channel=None)`` (an
     `LMIProblem` with the parameter ``"nu"``, and with a channel the
-    variable ``g``, by `family_lmis`), ``rate_channel(objective)`` (the
+    variable ``g``, by `form_lmis`), ``rate_channel(objective)`` (the
     channel's matrices per family, or a `ValueError` saying why there are
     none), ``names``, ``plant`` (with a box domain), ``Acl`` (closed-loop
     matrices, for the scale of the first rate tried), and the texts
