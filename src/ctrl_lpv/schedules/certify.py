@@ -184,8 +184,8 @@ def certify(
         (L2 gain, or H2): `certified` then also requires the bound,
         reported in ``.bound``. For arbitrarily fast parameters where one
         Lyapunov matrix exists; with `rate_bounds` also the L2 gain under
-        them (continuous time, ``B_u`` or ``D_zu`` constant where the gains
-        vary), the smaller one reported with its rates. Its ``w`` are plant
+        them (continuous time; not with a dynamic controller), the smaller
+        one reported with its rates. Its ``w`` are plant
         inputs (with a dynamic controller: not those it drives), its ``z``
         plant outputs; ``bound=`` must be None.
     margin : float, optional

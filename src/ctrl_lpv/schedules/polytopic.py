@@ -153,15 +153,17 @@ class PolytopicLoops(RateSearch):
                                "in the points' convex hull")  # fmt: skip
 
     def rate_channel(self, objective):
-        """``(B_w, C_z, D_zw)`` of each cell's points, with ``w`` and ``z``."""
-        loops, bilinear, w, z = self._channel_loops(objective)
-        if bilinear:
-            raise ValueError(
-                "objective: a bound under a rate bound is not implemented when "
-                "the gains vary together with B_u or D_zu (the loop is quadratic "
-                "on a cell); pass rate_bounds=None for the bound at arbitrary rates"
-            )
-        return [tuple([loops[i][k] for i in cell] for k in (1, 2, 3))
+        """``(B_w, C_z, D_zu, D_zw)`` of each cell's points (open loop: the
+        gains enter in `_term`), with ``w`` and ``z``."""
+        from .objective import channel
+
+        _, _, w, z = self._channel_loops(objective)  # checks C, D affine
+        iw, iz, _, _ = channel(objective, self.plant, self._u)
+        data = [tuple(np.asarray(M) for M in _frozen(self.plant, self.points[i]))
+                for i in range(len(self.points))]  # fmt: skip
+        parts = [(B[:, iw], C[iz], D[np.ix_(iz, self._u)], D[np.ix_(iz, iw)])
+                 for _, B, C, D in data]  # fmt: skip
+        return [tuple([parts[i][k] for i in cell] for k in range(4))
                 for cell in self.schedule.cells], w, z  # fmt: skip
 
     @classmethod
@@ -283,7 +285,10 @@ class PolytopicLoops(RateSearch):
 
         ``order`` is ``(i, a)`` for the loop at point ``i``, or ``(i, j,
         a)`` for ``A_i - B_i K_j`` when ``B_u`` and ``K`` both vary (the
-        loop is then quadratic on a cell), with ``P`` at point ``a``.
+        loop is then quadratic on a cell), with ``P`` at point ``a``. The
+        output ``C_z - D_zu K`` takes the gain of ``order[1]``: the
+        coefficients of ``l_i l_a`` (or of ``l_i l_j l_a``) then add up to
+        it whether or not ``D_zu`` and ``K`` vary.
         """
         i, j, a = (order[0], order[0], order[1]) if len(order) == 2 else order
         M = self.A[cell[i]] - self.B[cell[i]] @ self.K[cell[j]]
@@ -291,7 +296,8 @@ class PolytopicLoops(RateSearch):
         top = M.T @ Pa + Pa @ M + G(v)
         if channel is None:
             return [[top]]
-        Bw, Cz, Dzw = (part[i] for part in channel)
+        Bw, Cz, Dzu, Dzw = (part[i] for part in channel)
+        Cz = Cz - Dzu @ self.K[cell[order[1]]]
         g = v.g[0, 0]
         return [[top], [Bw.T @ Pa, -g * np.eye(Bw.shape[1])],
                 [Cz, Dzw, -g * np.eye(len(Cz))]]  # fmt: skip
