@@ -52,6 +52,52 @@ class FrozenDataMixin:
     per point, in the domain's order) and ``_physical_inputs``.
     """
 
+    def _name_points(self, data, labels, weights, dt) -> StateSpace:
+        """Name the point data: the nominal frozen system (at `weights`,
+        which checks the `labels` ``(inputs, outputs, states, name)``),
+        ``vertices`` (one named system per point), ``_physical_inputs`` and
+        the stacked ``[A B]``, ``[C D]`` of the hot path (one matmul per
+        call). Returns the nominal system."""
+        inputs, outputs, states, name = labels
+        frozen = StateSpace(*self._combine(weights), inputs=inputs, outputs=outputs,
+                            states=states, name=name, dt=dt,
+                            remove_useless_states=False)  # fmt: skip
+        self._physical_inputs = tuple(frozen.input_labels)
+        self.vertices = tuple(
+            StateSpace(
+                *d,
+                inputs=frozen.input_labels,
+                outputs=frozen.output_labels,
+                states=frozen.state_labels,
+                name=f"{frozen.name}[{j}]",
+                dt=dt,
+                remove_useless_states=False,
+            )  # fmt: skip
+            for j, d in enumerate(data)
+        )
+        self._AB = np.stack([np.hstack(d[:2]) for d in data])
+        self._CD = np.stack([np.hstack(d[2:]) for d in data])
+        return frozen
+
+    def _system_arguments(self, frozen, dt) -> tuple[tuple, dict]:
+        """``(args, kwargs)`` of `control.StateSpace` for this system: the
+        nominal `frozen` system with one zero input column per parameter
+        when the parameters are scheduling inputs."""
+        names = list(self.domain.names) if self.scheduling == "inputs" else []
+        k = len(names)
+        A, B, C, D = frozen.A, frozen.B, frozen.C, frozen.D
+        args = (A, np.hstack([B, np.zeros((A.shape[0], k))]), C,
+                np.hstack([D, np.zeros((C.shape[0], k))]))  # fmt: skip
+        return args, dict(
+            inputs=list(frozen.input_labels) + names,
+            outputs=frozen.output_labels,
+            states=frozen.state_labels,
+            name=frozen.name,
+            params=dict(zip(self.domain.names, self.nominal.tolist())),
+            dt=dt,
+            remove_useless_states=False,
+        )
+
     @property
     def nparams(self) -> int:
         """Number of scheduling parameters."""

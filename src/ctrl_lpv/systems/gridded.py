@@ -156,42 +156,10 @@ class GriddedStateSpace(
             raise ValueError(f"nominal: {self.nominal} is outside {grid!r}")
         self._set_scheduling(scheduling)
 
-        inputs, outputs, states, name = signal_names(flat, data, kwargs)
-
-        A0, B0, C0, D0 = self._combine(grid._weights(self.nominal))
-        frozen = StateSpace(A0, B0, C0, D0, inputs=inputs, outputs=outputs,
-                            states=states, name=name, dt=dt,
-                            remove_useless_states=False)  # fmt: skip
-        self._physical_inputs = tuple(frozen.input_labels)
-        self.vertices = tuple(
-            StateSpace(
-                *d,
-                inputs=frozen.input_labels,
-                outputs=frozen.output_labels,
-                states=frozen.state_labels,
-                name=f"{frozen.name}[{j}]",
-                dt=dt,
-                remove_useless_states=False,
-            )  # fmt: skip
-            for j, d in enumerate(data)
-        )
-        self._AB = np.stack([np.hstack(d[:2]) for d in data])
-        self._CD = np.stack([np.hstack(d[2:]) for d in data])
-        sched_inputs = list(grid.names) if self.scheduling == "inputs" else []
-        k = len(sched_inputs)
-        super().__init__(
-            A0,
-            np.hstack([B0, np.zeros((A0.shape[0], k))]),
-            C0,
-            np.hstack([D0, np.zeros((C0.shape[0], k))]),
-            inputs=list(frozen.input_labels) + sched_inputs,
-            outputs=frozen.output_labels,
-            states=frozen.state_labels,
-            name=frozen.name,
-            params=dict(zip(grid.names, self.nominal.tolist())),
-            dt=dt,
-            remove_useless_states=False,
-        )
+        labels = signal_names(flat, data, kwargs)
+        frozen = self._name_points(data, labels, grid._weights(self.nominal), dt)
+        args, kwargs = self._system_arguments(frozen, dt)
+        super().__init__(*args, **kwargs)
         self._update_params(None)
 
     # ------------------------------------------------------------------

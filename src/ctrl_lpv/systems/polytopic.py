@@ -221,52 +221,11 @@ class PolytopicStateSpace(
             raise ValueError(f"nominal: {self.nominal} is outside {self.domain!r}")
         self._set_scheduling(scheduling)
 
-        inputs, outputs, states, name = signal_names(vertices, data, kwargs)
-
+        labels = signal_names(vertices, data, kwargs)
         # Physical signal names, checked by building the nominal system once.
-        delta0 = self.domain._weights(self.nominal)
-        frozen = StateSpace(
-            *self._combine(delta0),
-            inputs=inputs,
-            outputs=outputs,
-            states=states,
-            name=name,
-            dt=dt,
-            remove_useless_states=False,
-        )
-        self._physical_inputs = tuple(frozen.input_labels)
-        self.vertices = tuple(
-            StateSpace(
-                *d,
-                inputs=frozen.input_labels,
-                outputs=frozen.output_labels,
-                states=frozen.state_labels,
-                name=f"{frozen.name}[{j}]",
-                dt=dt,
-                remove_useless_states=False,
-            )
-            for j, d in enumerate(data)
-        )
-        # Stacked [A B] and [C D] for the hot path: one matmul per call.
-        self._AB = np.stack([np.hstack(d[:2]) for d in data])
-        self._CD = np.stack([np.hstack(d[2:]) for d in data])
-
-        A0, B0, C0, D0 = self._combine(delta0)
-        sched_inputs = list(self.domain.names) if self.scheduling == "inputs" else []
-        k = len(sched_inputs)
-        super().__init__(
-            A0,
-            np.hstack([B0, np.zeros((A0.shape[0], k))]),
-            C0,
-            np.hstack([D0, np.zeros((C0.shape[0], k))]),
-            inputs=list(frozen.input_labels) + sched_inputs,
-            outputs=frozen.output_labels,
-            states=frozen.state_labels,
-            name=frozen.name,
-            params=dict(zip(self.domain.names, self.nominal.tolist())),
-            dt=dt,
-            remove_useless_states=False,
-        )
+        frozen = self._name_points(data, labels, self.domain._weights(self.nominal), dt)
+        args, kwargs = self._system_arguments(frozen, dt)
+        super().__init__(*args, **kwargs)
         self._update_params(None)
 
     # ------------------------------------------------------------------
