@@ -226,36 +226,71 @@ def _run_simulate(args) -> int:
             check_destination(args.out, "--out", folder=True)
         except ValueError as exc:
             return usage(str(exc))
+    given = [
+        f"--{k}" for k in ("delay", "sensors", "seed") if getattr(args, k) is not None
+    ]
+    if args.dt is None and given:
+        return usage(f"{', '.join(given)}: only with --dt (the sampled servo)")
+    if args.dt is not None:
+        if args.controller != "servo":
+            return usage(
+                f"--dt: only --controller servo has a sampled mode, not "
+                f"{args.controller!r}"
+            )
+        if args.model != "exact":
+            return usage("--dt: the sampled servo runs on the exact plant only")
     from ._numba import INSTALL, numba_available
     from .twomass import metrics, simulate
     from .twomass.scenarios import alpha_step
 
     if args.engine == "compiled" and not numba_available():
         return usage(f"--engine compiled needs numba (not installed): {INSTALL}")
-    try:
-        controller = _controller(args)
-    except ValueError as exc:
-        return usage(str(exc))
     alpha = args.alpha
     if args.alpha_step is not None:
         after, at = args.alpha_step
         alpha = alpha_step(args.alpha, after, at)
-    response = simulate(
-        controller,
-        model=args.model,
-        alpha=alpha,
-        theta_r=args.theta_r,
-        Td=args.Td,
-        T=args.T,
-        npoints=int(round(1000 * args.T)) + 1,
-        engine=args.engine,
-    )
+    if args.dt is not None:
+        response = _sampled_servo_response(args, alpha)
+    else:
+        try:
+            controller = _controller(args)
+        except ValueError as exc:
+            return usage(str(exc))
+        response = simulate(
+            controller,
+            model=args.model,
+            alpha=alpha,
+            theta_r=args.theta_r,
+            Td=args.Td,
+            T=args.T,
+            npoints=int(round(1000 * args.T)) + 1,
+            engine=args.engine,
+        )
     values = metrics(response, args.theta_r).as_dict()
     _print_metrics(args, values)
     if args.out:
         written = _write_response(args, response, values)
         print(f"wrote {', '.join(written)} to {args.out}")
     return 0
+
+
+def _sampled_servo_response(args, alpha):
+    """The servo designed for ``args.dt`` run on its encoders."""
+    from .twomass import servo_design
+    from .twomass.servo_compare import run_sampled_servo_scenario
+
+    limit = {} if args.torque_limit is None else {"torque_limit": args.torque_limit}
+    design = servo_design(
+        dt=args.dt,
+        delay=1 if args.delay is None else args.delay,
+        sensors=args.sensors or "encoders",
+        certify=False,
+        **limit,
+    )
+    return run_sampled_servo_scenario(
+        design, alpha=alpha, Td=args.Td, theta_r=args.theta_r, T=args.T,
+        seed=args.seed or 0,
+    )  # fmt: skip
 
 
 def usage(message: str) -> int:

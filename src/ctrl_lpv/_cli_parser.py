@@ -78,6 +78,7 @@ _REFERENCE = _number_in(-100.0, 100.0, "rad")
 _P_BOUND = _number_in(-1.0, 0.0)
 _WEIGHT = _number_in(1e-6, 1e6)
 _BACKOFF = _number_in(0.0, 10.0)
+_SAMPLE_TIME = _number_in(1e-5, 0.05, "s")
 
 
 def _backoff(text: str) -> float | None:
@@ -355,6 +356,41 @@ def build_parser() -> argparse.ArgumentParser:
         type=_positive,
         default=None,
         help="|Tm| limit of the controller, Nm",
+    )
+    sampled = sim.add_argument_group(
+        "sampled servo",
+        "with --dt the servo runs as a drive runs it: a discrete-time "
+        "controller on the exact plant (zero-order hold), its angles read by "
+        "a 20-bit motor and a 17-bit load encoder with half a count of noise "
+        "(ctrl_lpv.sampled_response); --out then writes one row per sample",
+    )
+    sampled.add_argument(
+        "--dt",
+        metavar="S",
+        type=_SAMPLE_TIME,
+        default=None,
+        help="sample time of the servo, 1e-5 to 0.05 s (--controller servo only)",
+    )
+    sampled.add_argument(
+        "--delay",
+        type=int,
+        choices=(0, 1),
+        default=None,
+        help="samples of computation delay (default 1: the command computed "
+        "at t_k acts from t_k+1)",
+    )
+    sampled.add_argument(
+        "--sensors",
+        choices=("states", "encoders", "motor"),
+        default=None,
+        help="what the servo reads: every state (exact), the motor and load "
+        "encoders, or the motor encoder alone (default encoders)",
+    )
+    sampled.add_argument(
+        "--seed",
+        type=int,
+        default=None,
+        help="seed of the encoder noise (default 0)",
     )
     sim.add_argument(
         "--out",
