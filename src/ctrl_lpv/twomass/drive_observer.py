@@ -46,7 +46,7 @@ from .parameters import Parameters
 
 __all__ = [
     "DRIVE_STATES", "drive_model", "drive_observer", "drive_estimator",
-    "observer_matrices",
+    "drive_rates", "observer_matrices",
 ]  # fmt: skip
 
 #: States of the estimation model, in order.
@@ -136,8 +136,8 @@ def drive_observer(
     dt: float,
     sensors: str = "encoders",
     encoder_counts=(2**20, 2**17),
-    shaft_torque_rate: float = 3000.0,
-    load_torque_rate: float = 20.0,
+    shaft_torque_rate: float | None = None,
+    load_torque_rate: float | None = None,
     backoff: float | None = 0.2,
 ) -> ObserverDesign:
     """Certified H2 observer of the drive's speeds and torques from encoders.
@@ -154,9 +154,10 @@ def drive_observer(
     encoder_counts : (int, int), optional
         Counts per revolution of the motor and load encoders (their
         quantization is the measurement noise the gains weigh).
-    shaft_torque_rate, load_torque_rate : float, optional
+    shaft_torque_rate, load_torque_rate : float or None, optional
         Intensities of the random walks of ``Ts`` and ``Td``, Nm/s: larger
-        values give faster, noisier estimates of the torques.
+        values give faster, noisier estimates of the torques. None (the
+        default): `drive_rates` for `dt`.
     backoff : float or None, optional
         Relax the minimal H2 bound by this fraction for a well-conditioned
         Lyapunov matrix (default 0.2; None: the raw optimum).
@@ -179,6 +180,9 @@ def drive_observer(
     """
     if sensors not in _SENSORS:
         raise ValueError(f"sensors: expected 'encoders' or 'motor', got {sensors!r}")
+    rule = drive_rates(dt)
+    shaft_torque_rate = rule[0] if shaft_torque_rate is None else shaft_torque_rate
+    load_torque_rate = rule[1] if load_torque_rate is None else load_torque_rate
     model = drive_model(
         params, dt=dt, encoder_counts=encoder_counts,
         shaft_torque_rate=shaft_torque_rate, load_torque_rate=load_torque_rate,
@@ -281,3 +285,20 @@ def _smoothstep(s: float) -> float:
     """0 below 0, 1 above 1, ``s^2 (3 - 2 s)`` between."""
     s = min(max(s, 0.0), 1.0)
     return s * s * (3.0 - 2.0 * s)
+
+
+def drive_rates(dt: float) -> tuple[float, float]:
+    """The drive observer's random-walk intensities for a sample time.
+
+    Parameters
+    ----------
+    dt : float
+        Sample time, s.
+
+    Returns
+    -------
+    (float, float)
+        ``(shaft_torque_rate, load_torque_rate)``, Nm/s.
+    """
+    real_number(dt, "dt", positive=True)
+    return 3000.0, 20.0

@@ -444,6 +444,10 @@ def servo_design(
     )  # fmt: skip
     observer = sampling = rest = None
     if dt is not None:
+        rates = {
+            "shaft_torque_rate": estimator.shaft_torque_rate,
+            "load_torque_rate": estimator.load_torque_rate,
+        }
         estimator = None
         if sensors == "motor":
             observer = motor_observer(params, dt=dt, motor_counts=encoder_counts[0])
@@ -453,8 +457,9 @@ def servo_design(
             Phi = Gamma = M = None
         else:
             observer = drive_observer(
-                params, dt=dt, sensors=sensors, encoder_counts=encoder_counts
-            )
+                params, dt=dt, sensors=sensors, encoder_counts=encoder_counts,
+                **rates,
+            )  # fmt: skip
             Phi, Gamma, M = observer_matrices(observer)
         tracker = None
         if reference == "stream":

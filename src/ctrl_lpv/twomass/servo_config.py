@@ -239,6 +239,12 @@ class ServoEstimator:
         load encoder). A contact asked for and made but read as the gap
         (the shaft-torque estimate's noise at a small load torque) then
         does not widen it.
+    shaft_torque_rate, load_torque_rate : float or None, optional
+        Sampled servo on encoders: the intensities, Nm/s, of the random
+        walks of the shaft torque and the load torque in the drive
+        observer's model (`ctrl_lpv.twomass.drive_observer`); None (the
+        default) takes them from
+        `ctrl_lpv.twomass.drive_observer.drive_rates` for the sample time.
 
     Raises
     ------
@@ -254,6 +260,8 @@ class ServoEstimator:
     observer_bandwidth: float = 1000.0
     learn_torque: float = 15.0
     probe_error: float = 2e-4
+    shaft_torque_rate: float | None = None
+    load_torque_rate: float | None = None
 
     def __post_init__(self):
         _check(
@@ -262,6 +270,9 @@ class ServoEstimator:
             nonnegative=("estimate_rate", "probe_rate", "learn_torque", "probe_error"),
             flags=("gap_estimate",),
         )
+        for name in ("shaft_torque_rate", "load_torque_rate"):
+            if getattr(self, name) is not None:
+                _check(self, positive=(name,))
 
 
 @dataclass(frozen=True)
