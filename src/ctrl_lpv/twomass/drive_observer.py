@@ -43,10 +43,11 @@ from ..estimation import ObserverDesign, observer
 from ..synthesis import H2
 from ..systems import PolytopicStateSpace
 from .parameters import Parameters
+from .sampled_tuning import sampled_tuning
 
 __all__ = [
     "DRIVE_STATES", "drive_model", "drive_observer", "drive_estimator",
-    "drive_rates", "observer_matrices",
+    "observer_matrices",
 ]  # fmt: skip
 
 #: States of the estimation model, in order.
@@ -157,7 +158,8 @@ def drive_observer(
     shaft_torque_rate, load_torque_rate : float or None, optional
         Intensities of the random walks of ``Ts`` and ``Td``, Nm/s: larger
         values give faster, noisier estimates of the torques. None (the
-        default): `drive_rates` for `dt`.
+        default): the first intensities of
+        `ctrl_lpv.twomass.sampled_tuning.sampled_tuning` for `dt`.
     backoff : float or None, optional
         Relax the minimal H2 bound by this fraction for a well-conditioned
         Lyapunov matrix (default 0.2; None: the raw optimum).
@@ -180,7 +182,7 @@ def drive_observer(
     """
     if sensors not in _SENSORS:
         raise ValueError(f"sensors: expected 'encoders' or 'motor', got {sensors!r}")
-    rule = drive_rates(dt)
+    rule = sampled_tuning(dt).rates[0]
     shaft_torque_rate = rule[0] if shaft_torque_rate is None else shaft_torque_rate
     load_torque_rate = rule[1] if load_torque_rate is None else load_torque_rate
     model = drive_model(
@@ -285,20 +287,3 @@ def _smoothstep(s: float) -> float:
     """0 below 0, 1 above 1, ``s^2 (3 - 2 s)`` between."""
     s = min(max(s, 0.0), 1.0)
     return s * s * (3.0 - 2.0 * s)
-
-
-def drive_rates(dt: float) -> tuple[float, float]:
-    """The drive observer's random-walk intensities for a sample time.
-
-    Parameters
-    ----------
-    dt : float
-        Sample time, s.
-
-    Returns
-    -------
-    (float, float)
-        ``(shaft_torque_rate, load_torque_rate)``, Nm/s.
-    """
-    real_number(dt, "dt", positive=True)
-    return 3000.0, 20.0

@@ -38,6 +38,7 @@ import numpy as np
 
 from .._checks import as_matrix, flag, real_number
 from ..estimation import ObserverDesign
+from ..exceptions import CertificationError
 from ..interconnection import kernel_nlsys
 from ..synthesis import StateFeedbackDesign, hinf_state_feedback
 from ..systems import PolytopicStateSpace
@@ -45,6 +46,7 @@ from .drive_observer import drive_observer, observer_matrices
 from .model import lpv_model
 from .motor_estimator import MotorEstimator, MotorObserver, motor_observer
 from .parameters import Parameters
+from .sampled_tuning import FAST_TORQUE_WEIGHT, sampled_tuning
 from .servo_certificate import ServoCertificate, servo_certificate
 from .servo_config import (
     ServoAntiHunting,
@@ -76,7 +78,7 @@ def servo_polytope(
     *,
     p_bounds: tuple[float, float] = ServoSynthesis.p_bounds,
     Jl_range: tuple[float, float] = (0.8, 1.2),
-    torque_weight: float = ServoSynthesis.torque_weight,
+    torque_weight: float = FAST_TORQUE_WEIGHT,
     integral_weight: float = ServoSynthesis.integral_weight,
 ) -> PolytopicStateSpace:
     """The tracking-error model with the load inertia as a second parameter.
@@ -407,9 +409,14 @@ def servo_design(
 
     feedback = None
     if gain is None:
+        weight = synthesis.torque_weight
+        if weight is None:
+            weight = (
+                FAST_TORQUE_WEIGHT if dt is None else sampled_tuning(dt).torque_weight
+            )
         model = servo_polytope(
             params, p_bounds=synthesis.p_bounds, Jl_range=(lo, hi),
-            torque_weight=synthesis.torque_weight,
+            torque_weight=weight,
             integral_weight=synthesis.integral_weight,
         )  # fmt: skip
         if dt is not None:
@@ -444,40 +451,31 @@ def servo_design(
     )  # fmt: skip
     observer = sampling = rest = None
     if dt is not None:
-        rates = {
-            "shaft_torque_rate": estimator.shaft_torque_rate,
-            "load_torque_rate": estimator.load_torque_rate,
-        }
-        estimator = None
-        if sensors == "motor":
-            observer = motor_observer(params, dt=dt, motor_counts=encoder_counts[0])
-            estimator = MotorEstimator(
-                observer, alpha_max=alpha_max, alpha_spread=alpha_max / math.sqrt(12.0)
-            )
-            Phi = Gamma = M = None
-        else:
-            observer = drive_observer(
-                params, dt=dt, sensors=sensors, encoder_counts=encoder_counts,
-                **rates,
-            )  # fmt: skip
-            Phi, Gamma, M = observer_matrices(observer)
         tracker = None
         if reference == "stream":
             tracker = tuple(float(v) for v in stream_gain(dt, stream.bandwidth))
-        sampling = SampledServo(
-            dt=dt, delay=delay, Phi=Phi, Gamma=Gamma, M=M, reference=reference,
-            stream_gain=tracker, measured=tuple(_READ[sensors]), estimator=estimator,
-        )  # fmt: skip
-        # On the motor encoder alone the load angle at rest is not observable
-        # (the motor sees theta_l + alpha, not theta_l): no rest certificate.
-        if certify and sensors == "encoders":
-            rest = rest_bound(
-                params, K, sampling, Jl_range=(lo, hi), encoder_counts=encoder_counts,
-                flank_width=tuning.flank_width, contact_torque=tuning.contact_torque,
-                latch_torque=(
-                    0.0 if tuning.rest_flank is None or not tuning.anti_hunting
-                    else tuning.rest_flank.latch_torque
-                ),
+
+        def sampled(Phi=None, Gamma=None, M=None, motor=None):
+            return SampledServo(
+                dt=dt, delay=delay, Phi=Phi, Gamma=Gamma, M=M, reference=reference,
+                stream_gain=tracker, measured=tuple(_READ[sensors]), estimator=motor,
+            )  # fmt: skip
+
+        if sensors == "motor":
+            observer = motor_observer(params, dt=dt, motor_counts=encoder_counts[0])
+            motor = MotorEstimator(
+                observer, alpha_max=alpha_max, alpha_spread=alpha_max / math.sqrt(12.0)
+            )
+            sampling = sampled(motor=motor)
+        else:
+            # The observer intensities of the rule (`sampled_tuning`), in
+            # order, until the certified rest covers its target load torque.
+            # On the motor encoder alone the load angle at rest is not
+            # observable (the motor sees theta_l + alpha): no rest certificate.
+            observer, sampling, rest = _encoder_observer(
+                params, K, tuning, sampled, dt=dt, sensors=sensors,
+                encoder_counts=encoder_counts, Jl_range=(lo, hi), certify=certify,
+                rates=(estimator.shaft_torque_rate, estimator.load_torque_rate),
             )  # fmt: skip
     certificate = servo_certificate(
         params, K, feedback, alpha_max=alpha_max, Jl_range=(lo, hi),
@@ -534,3 +532,53 @@ def _settings(value, cls, label: str):
 
 # Keep the planner's constant visible for the docs and tests.
 PEAK_ACCEL = PEAK_ACCEL
+
+
+def _encoder_observer(
+    params, K, tuning, sampled, *, dt, sensors, encoder_counts, Jl_range, certify,
+    rates,
+):  # fmt: skip
+    """The drive observer, the sampled law's numbers and the certified rest.
+
+    Given intensities (`rates`, None: the rule's) are used as they are;
+    otherwise those of `sampled_tuning` are tried in order and the first
+    whose certified load-torque floor is at most the rule's target is kept,
+    else the lowest floor. A loop that does not certify is skipped; if none
+    does, the last refusal is raised.
+    """
+    rule = sampled_tuning(dt)
+    if rates == (None, None):
+        candidates = rule.rates
+    else:
+        default = rule.rates[0]
+        candidates = [tuple(d if r is None else r for r, d in zip(rates, default))]
+    latch = (
+        0.0 if tuning.rest_flank is None or not tuning.anti_hunting
+        else tuning.rest_flank.latch_torque
+    )  # fmt: skip
+    best, refusal = None, None
+    for shaft, load in candidates:
+        observer = drive_observer(
+            params, dt=dt, sensors=sensors, encoder_counts=encoder_counts,
+            shaft_torque_rate=shaft, load_torque_rate=load,
+        )  # fmt: skip
+        Phi, Gamma, M = observer_matrices(observer)
+        sampling = sampled(Phi, Gamma, M)
+        if not certify:
+            return observer, sampling, None
+        try:
+            rest = rest_bound(
+                params, K, sampling, Jl_range=Jl_range, encoder_counts=encoder_counts,
+                flank_width=tuning.flank_width, contact_torque=tuning.contact_torque,
+                latch_torque=latch,
+            )  # fmt: skip
+        except CertificationError as exc:
+            refusal = exc
+            continue
+        if best is None or rest.min_load_torque < best[2].min_load_torque:
+            best = (observer, sampling, rest)
+        if rest.min_load_torque <= rule.floor_target:
+            break
+    if best is None:
+        raise refusal
+    return best

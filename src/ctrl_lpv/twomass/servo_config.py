@@ -116,8 +116,10 @@ class ServoSynthesis:
     ----------
     p_bounds : (float, float), optional
         Interval of the backlash parameter (default ``(-0.5, 0)``).
-    torque_weight : float, optional
-        Weight of ``Tm`` in the performance output (default 5e-4).
+    torque_weight : float or None, optional
+        Weight of ``Tm`` in the performance output; None (the default):
+        5e-4 in continuous time, and per sample time the rule of
+        `ctrl_lpv.twomass.sampled_tuning.sampled_tuning`.
     integral_weight : float, optional
         Weight of the integral of the load-angle error (default 30).
 
@@ -129,11 +131,13 @@ class ServoSynthesis:
     """
 
     p_bounds: tuple[float, float] = (-0.5, 0.0)
-    torque_weight: float = 5e-4
+    torque_weight: float | None = None
     integral_weight: float = 30.0
 
     def __post_init__(self):
-        _check(self, positive=("torque_weight", "integral_weight"))
+        _check(self, positive=("integral_weight",))
+        if self.torque_weight is not None:
+            _check(self, positive=("torque_weight",))
         bounds = interval(self.p_bounds, "ServoSynthesis.p_bounds")
         object.__setattr__(self, "p_bounds", bounds)
 
@@ -244,7 +248,9 @@ class ServoEstimator:
         walks of the shaft torque and the load torque in the drive
         observer's model (`ctrl_lpv.twomass.drive_observer`); None (the
         default) takes them from
-        `ctrl_lpv.twomass.drive_observer.drive_rates` for the sample time.
+        `ctrl_lpv.twomass.sampled_tuning.sampled_tuning` for the sample
+        time (the first of its intensities whose certified rest covers its
+        target load torque).
 
     Raises
     ------

@@ -1,0 +1,81 @@
+"""The sampled servo's tuning per sample time (issue 22).
+
+One observer and one set of gain weights does not fit every sample time.
+The drive observer's fast tuning (shaft-torque and load-torque random walks
+of 3000 and 20 Nm/s) tracks the inertia error of a move through its
+load-torque estimate, which the moves with a load inertia off nominal need
+at 125 us and 1 ms; from 2 ms on, with one sample of delay, the same
+observer makes the rest loop ring at half the sample rate (certified torque
+ripple 722 Nm and load-torque floor 297 Nm at 2 ms, 10-12 Nm of torque
+standard deviation at rest in simulation). There a slower observer and a
+heavier torque weight give a well-damped rest loop (floor 6.4 Nm, ripple
+5.6 Nm at 2 ms).
+
+`sampled_tuning` states the rule: up to `FAST_SAMPLING` the fast tuning;
+above it the torque weight `SLOW_TORQUE_WEIGHT` and a short, fixed list of
+observer intensities, of which `servo_design` keeps the first whose
+certified rest covers `FLOOR_TARGET` (the paper's load torque), else the
+one with the lowest certified floor. The numbers behind the rule are
+printed by ``benchmarks/study_sample_time.py``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .._checks import real_number
+
+__all__ = ["SampledTuning", "sampled_tuning", "FAST_SAMPLING", "FLOOR_TARGET"]
+
+#: Largest sample time, s, of the fast observer tuning.
+FAST_SAMPLING = 1.5e-3
+#: Load torque, Nm, the rest certificate should cover (the paper's 8 Nm).
+FLOOR_TARGET = 8.0
+#: Weight of ``Tm`` in the synthesis up to `FAST_SAMPLING` (the continuous
+#: servo's).
+FAST_TORQUE_WEIGHT = 5e-4
+#: Weight of ``Tm`` above `FAST_SAMPLING`: a softer gain, which halves the
+#: certified ripple at 2 ms.
+SLOW_TORQUE_WEIGHT = 2e-3
+#: ``(shaft_torque_rate, load_torque_rate)``, Nm/s, tried in order above
+#: `FAST_SAMPLING` (each a measured well-damped rest loop at 2-8 ms).
+SLOW_RATES = ((300.0, 20.0), (300.0, 5.0), (1000.0, 2.0), (100.0, 5.0))
+
+
+@dataclass(frozen=True)
+class SampledTuning:
+    """The sampled servo's tuning at one sample time.
+
+    Attributes
+    ----------
+    torque_weight : float
+        Weight of ``Tm`` in the feedback synthesis.
+    rates : tuple of (float, float)
+        Drive-observer intensities ``(shaft_torque_rate,
+        load_torque_rate)``, Nm/s, in the order tried.
+    floor_target : float
+        Load torque, Nm, the rest certificate should cover: the first
+        intensities whose certified floor is at most this are kept.
+    """
+
+    torque_weight: float
+    rates: tuple
+    floor_target: float = FLOOR_TARGET
+
+
+def sampled_tuning(dt: float) -> SampledTuning:
+    """The tuning rule of the sampled servo for sample time `dt`, s.
+
+    Parameters
+    ----------
+    dt : float
+        Sample time, s.
+
+    Returns
+    -------
+    `SampledTuning`
+    """
+    dt = real_number(dt, "dt", positive=True)
+    if dt <= FAST_SAMPLING:
+        return SampledTuning(FAST_TORQUE_WEIGHT, ((3000.0, 20.0),))
+    return SampledTuning(SLOW_TORQUE_WEIGHT, SLOW_RATES)
