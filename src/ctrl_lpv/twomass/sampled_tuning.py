@@ -8,8 +8,10 @@ at 125 us and 1 ms; from 2 ms on, with one sample of delay, the same
 observer makes the rest loop ring at half the sample rate (certified torque
 ripple 722 Nm and load-torque floor 297 Nm at 2 ms, 10-12 Nm of torque
 standard deviation at rest in simulation). There a slower observer and a
-heavier torque weight give a well-damped rest loop (floor 6.4 Nm, ripple
-5.6 Nm at 2 ms).
+heavier torque weight give a well-damped rest loop (floor 7.8 Nm, ripple
+6.3 Nm at 2 ms). The list starts with the largest load-torque intensity
+that does (50 Nm/s): the load-torque estimate is what absorbs a load
+inertia off nominal during a move.
 
 `sampled_tuning` states the rule: up to `FAST_SAMPLING` the fast tuning;
 above it the torque weight `SLOW_TORQUE_WEIGHT` and a short, fixed list of
@@ -39,7 +41,9 @@ FAST_TORQUE_WEIGHT = 5e-4
 SLOW_TORQUE_WEIGHT = 2e-3
 #: ``(shaft_torque_rate, load_torque_rate)``, Nm/s, tried in order above
 #: `FAST_SAMPLING` (each a measured well-damped rest loop at 2-8 ms).
-SLOW_RATES = ((300.0, 20.0), (300.0, 5.0), (1000.0, 2.0), (100.0, 5.0))
+SLOW_RATES = (
+    (300.0, 50.0), (300.0, 20.0), (300.0, 5.0), (1000.0, 2.0), (100.0, 5.0),
+)  # fmt: skip
 
 
 @dataclass(frozen=True)
