@@ -20,6 +20,7 @@ from ctrl_lpv.twomass.sampled_tuning import (
     SampledTuning,
     sampled_tuning,
 )
+from ctrl_lpv.twomass.servo_rest import _rest_loop
 
 ENCODERS = {"theta_m": Encoder(2**20, 0.5), "theta_l": Encoder(2**17, 0.5)}
 
@@ -97,6 +98,22 @@ def test_2ms_rest_certificate_covers_the_paper_load_torque(design_2ms):
     # torque (the contact schedule) whatever the loop.
     assert cert.rest.min_load_torque > 2 * design_2ms.tuning.contact_torque
     assert cert.rest_ripple_bound <= 10.0
+
+
+def test_certified_time_constant_is_no_faster_than_the_loop(design_2ms):
+    """The rest's certified time constant is within the rule's limit and
+    not faster than the slowest eigenvalue of the loop that runs, rebuilt
+    at each certified inertia."""
+    rest = design_2ms.certificate.rest
+    assert 0.0 < rest.time_constant <= sampled_tuning(2e-3).max_time_constant
+    params = twomass.Parameters()
+    for scale in rest.inertias:
+        loop = _rest_loop(
+            params.replace(Jl=scale * params.Jl), design_2ms.gain.ravel(),
+            design_2ms.sampling,
+        )  # fmt: skip
+        radius = np.abs(np.linalg.eigvals(loop.A)).max()
+        assert radius <= np.exp(-2e-3 / rest.time_constant) < 1.0
 
 
 def test_2ms_paper_scenario_within_the_certified_rest(design_2ms):

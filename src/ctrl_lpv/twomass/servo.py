@@ -542,9 +542,10 @@ def _encoder_observer(
 
     Given intensities (`rates`, None: the rule's) are used as they are;
     otherwise those of `sampled_tuning` are tried in order and the first
-    whose certified load-torque floor is at most the rule's target is kept,
-    else the lowest floor. A loop that does not certify is skipped; if none
-    does, the last refusal is raised.
+    whose certified load-torque floor is at most the rule's target, with a
+    certified time constant at most the rule's, is kept, else the lowest
+    floor (among the fast enough, if any). A loop that does not certify is
+    skipped; if none does, the last refusal is raised.
     """
     rule = sampled_tuning(dt)
     if rates == (None, None):
@@ -575,10 +576,12 @@ def _encoder_observer(
         except CertificationError as exc:
             refusal = exc
             continue
-        if best is None or rest.min_load_torque < best[2].min_load_torque:
-            best = (observer, sampling, rest)
-        if rest.min_load_torque <= rule.floor_target:
+        slow = rest.time_constant > rule.max_time_constant
+        rank = (slow, rest.min_load_torque)
+        if best is None or rank < best[0]:
+            best = (rank, observer, sampling, rest)
+        if not slow and rest.min_load_torque <= rule.floor_target:
             break
     if best is None:
         raise refusal
-    return best
+    return best[1:]

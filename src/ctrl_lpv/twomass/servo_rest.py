@@ -70,6 +70,12 @@ class RestBound:
         then the shaft stays in contact, the observer's contact schedule at
         1 and the flank choice saturated along every admissible run (their
         deviations from the equilibrium are bounded the same way).
+    time_constant : float
+        Certified rate of approach, s: the loop contracts by
+        ``exp(-dt / time_constant)`` per sample in the norm of the Lyapunov
+        matrix of the tail bound (``A' P A < rho^2 P``), so the bounds are
+        approached like ``exp(-t / time_constant)`` (the largest over
+        `inertias`).
     certificate : `ctrl_lpv.Certificate`
         The float64 checks of every analysis, grouped by inertia.
     """
@@ -79,6 +85,7 @@ class RestBound:
     inertias: tuple
     counts_error: float
     min_load_torque: float
+    time_constant: float
     certificate: Certificate
 
     def __str__(self) -> str:
@@ -88,7 +95,8 @@ class RestBound:
             f"encoder error <= {self.counts_error:g} "
             f"counts, Jl = {inertias} x nominal): |theta_l - theta_r| <= "
             f"{self.error_bound:.3g} rad, torque ripple |Tm - mean| <= "
-            f"{self.ripple_bound:.3g} Nm"
+            f"{self.ripple_bound:.3g} Nm, approached with a time constant <= "
+            f"{self.time_constant:.3g} s"
         )
 
 
@@ -145,7 +153,7 @@ def rest_bound(
     K = np.asarray(gain, float).reshape(5)
     steps = 2.0 * math.pi / np.asarray(encoder_counts, float)
     inertias = (float(Jl_range[0]), 1.0, float(Jl_range[1]))
-    errors, ripples, floors, parts = [], [], [], []
+    errors, ripples, floors, rates, parts = [], [], [], [], []
     for scale in inertias:
         loop = _rest_loop(params.replace(Jl=scale * params.Jl), K, sampling)
         bounds, checks = _peak_to_peak(loop, counts_error * steps)
@@ -156,6 +164,10 @@ def rest_bound(
                 f"rest_bound: the sampled loop at rest with {where} is not "
                 f"certified: {next(c.what for c in checks if not c.passed)}"
             )
+        # The contraction rate the check `A' P A < rho^2 P` certifies (rho
+        # as `_peak_to_peak` chose it, from the same eigenvalues).
+        radius = float(np.abs(np.linalg.eigvals(np.asarray(loop.A))).max())
+        rates.append(-math.log(0.5 * (1.0 + radius)) / sampling.dt)
         errors.append(bounds[0])
         ripples.append(bounds[1])
         # The load torque that keeps the switches where the loop has them:
@@ -170,6 +182,7 @@ def rest_bound(
     return RestBound(
         error_bound=max(errors), ripple_bound=max(ripples), inertias=inertias,
         counts_error=float(counts_error), min_load_torque=max(floors),
+        time_constant=1.0 / min(rates),
         certificate=Certificate(tuple(parts)),
     )  # fmt: skip
 
