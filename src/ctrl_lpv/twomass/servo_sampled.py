@@ -263,6 +263,8 @@ def sampled_servo(
         if motor is None:
             Ph, Gh = blend(Phi, contact), blend(Gam, contact)
             correction = blend(M, contact) @ (np.asarray(y[:nread]) - xhat[rows])
+            # With delay=1 the command computed now acts from the next
+            # sample, on the state the command already on its way leads to.
             if inertia is None:
                 filtered = xhat + correction
                 ahead = Ph @ filtered + Gh * u_prev
@@ -273,8 +275,6 @@ def sampled_servo(
                     xhat, x[17], correction, plan[2], contact
                 )
                 ahead = inertia.predict(Ph, Gh, filtered, u_prev, dJ, plan[2])
-            # With delay=1 the command computed now acts from the next
-            # sample, on the state the command already on its way leads to.
         else:
             # Motor encoder alone: the dead-zone model, the half-gap
             # estimated with it (`motor_estimator`).
