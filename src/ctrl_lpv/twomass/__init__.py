@@ -67,6 +67,7 @@ _EXPORTS = {
     "ServoAntiHunting": "servo_config",
     "ServoEstimator": "servo_config",
     "ServoStream": "servo_config",
+    "ServoInertia": "inertia",
     "cascade_design": "cascade",
     "CascadeDesign": "cascade",
     "servo_loop": "servo_compare",

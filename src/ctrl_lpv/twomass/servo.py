@@ -43,6 +43,7 @@ from ..interconnection import kernel_nlsys
 from ..synthesis import StateFeedbackDesign, hinf_state_feedback
 from ..systems import PolytopicStateSpace
 from .drive_observer import drive_observer, observer_matrices
+from .inertia import ServoInertia, inertia_adaptation
 from .model import lpv_model
 from .motor_estimator import MotorEstimator, MotorObserver, motor_observer
 from .parameters import Parameters
@@ -278,6 +279,7 @@ def servo_design(
     encoder_counts=(2**20, 2**17),
     reference: str = "plan",
     stream: ServoStream | None = None,
+    inertia: ServoInertia | None = None,
 ) -> ServoDesign:
     """Design the torque-limited position servo of the two-mass drive.
 
@@ -357,6 +359,10 @@ def servo_design(
         step by 20 % (targets that jump are for ``"plan"``).
     stream : `ServoStream`, optional
         The tracker's bandwidth (``reference="stream"``).
+    inertia : `ServoInertia`, optional
+        The load-inertia estimate learnt along moves
+        (`ctrl_lpv.twomass.inertia`; ``sensors="encoders"``): on by
+        default, ``ServoInertia(enabled=False)`` keeps the nominal inertia.
 
     Returns
     -------
@@ -387,6 +393,7 @@ def servo_design(
     certify = flag(certify, "certify")
     dt, delay = _sampling(dt, delay, sensors)
     stream = _settings(stream, ServoStream, "stream")
+    inertia = _settings(inertia, ServoInertia, "inertia")
     if reference not in ("plan", "stream"):
         raise ValueError(f"reference: expected 'plan' or 'stream', got {reference!r}")
     if reference == "stream" and dt is None:
@@ -459,6 +466,10 @@ def servo_design(
             return SampledServo(
                 dt=dt, delay=delay, Phi=Phi, Gamma=Gamma, M=M, reference=reference,
                 stream_gain=tracker, measured=tuple(_READ[sensors]), estimator=motor,
+                inertia=(
+                    inertia_adaptation(inertia, params.Jl, (lo, hi))
+                    if sensors == "encoders" else None
+                ),
             )  # fmt: skip
 
         if sensors == "motor":

@@ -117,6 +117,9 @@ class SampledServo:
     estimator : `ctrl_lpv.twomass.motor_estimator.MotorEstimator` or None
         The motor-encoder estimator (`Phi`, `Gamma`, `M` unused), or None
         for the linear drive observer.
+    inertia : `ctrl_lpv.twomass.inertia.InertiaAdaptation` or None
+        The load-inertia estimate learnt along moves (drive observer only;
+        its state ``delta_Jl_hat`` last), or None for the nominal inertia.
     """
 
     dt: float
@@ -128,6 +131,7 @@ class SampledServo:
     stream_gain: tuple | None = None
     measured: tuple = ("theta_m", "theta_l")
     estimator: object = None
+    inertia: object = None
 
 
 def plan_stepper(c: ServoTuning, dt: float):
@@ -170,9 +174,10 @@ def plan_stepper(c: ServoTuning, dt: float):
     return plan_step
 
 
-def flat_feedforward(c: ServoTuning, v, a, j, snap):
+def flat_feedforward(c: ServoTuning, v, a, j, snap, scale=1.0):
     """Flat feedforward of the contact model along a reference (``cs``
-    neglected, as in `servo_kernel`).
+    neglected, as in `servo_kernel`), with the load inertia ``scale *
+    c.Jl``.
 
     Returns
     -------
@@ -183,7 +188,8 @@ def flat_feedforward(c: ServoTuning, v, a, j, snap):
     tff : float
         The motor torque, Nm.
     """
-    F, F1, F2 = c.Jl * a + c.cl * v, c.Jl * j + c.cl * a, c.Jl * snap + c.cl * j
+    Jl = scale * c.Jl
+    F, F1, F2 = Jl * a + c.cl * v, Jl * j + c.cl * a, Jl * snap + c.cl * j
     wmf = v + F1 / c.ks
     return F, wmf, c.Jm * (a + F2 / c.ks) + c.cm * wmf + F
 
@@ -219,6 +225,7 @@ def sampled_servo(
     rows = [DRIVE_STATES.index(name) for name in s.measured]
     nread = len(rows)
     motor = s.estimator
+    inertia = s.inertia
 
     def blend(pair, w):
         return pair[0] + w * (pair[1] - pair[0])
@@ -233,20 +240,20 @@ def sampled_servo(
         # hold applies it over a whole sample).
         to_act, to_hold = jerk_model(s.delay * dt), jerk_model((s.delay + 0.5) * dt)
 
-    def reference(plan, target):
+    def reference(plan, target, scale=1.0):
         """The reference where the command acts, its torque, the next plan."""
         if not streamed:
             r, v, a, j, g, h = plan
             snap = snap_of(r, v, a, j, g, h)
-            F, wmf, tff = flat_feedforward(c, v, a, j, snap)
+            F, wmf, tff = flat_feedforward(c, v, a, j, snap, scale)
             return (r, v, a, F, wmf, tff, g, h), plan_step(plan, target)
         # Streamed: correct the tracker with the sample, extrapolate it (the
         # constant-jerk model has no snap), no planning.
         predicted = np.asarray(plan[:4])
         z = predicted + Lz * (target - predicted[0])
         r, v, a, j = to_act @ z
-        F, wmf, _ = flat_feedforward(c, v, a, j, 0.0)
-        tff = flat_feedforward(c, *(to_hold @ z)[1:], 0.0)[2]
+        F, wmf, _ = flat_feedforward(c, v, a, j, 0.0, scale)
+        tff = flat_feedforward(c, *(to_hold @ z)[1:], 0.0, scale)[2]
         return (r, v, a, F, wmf, tff, target, hmin), [*(Pz @ z), target, hmin]
 
     def law(x, y):
@@ -255,10 +262,19 @@ def sampled_servo(
         contact = _smoothstep(abs(xhat[2]) / tc - 1.0)
         if motor is None:
             Ph, Gh = blend(Phi, contact), blend(Gam, contact)
-            filtered = xhat + blend(M, contact) @ (np.asarray(y[:nread]) - xhat[rows])
+            correction = blend(M, contact) @ (np.asarray(y[:nread]) - xhat[rows])
             # With delay=1 the command computed now acts from the next
             # sample, on the state the command already on its way leads to.
-            ahead = Ph @ filtered + Gh * u_prev
+            if inertia is None:
+                filtered = xhat + correction
+                ahead = Ph @ filtered + Gh * u_prev
+            else:
+                # The load inertia learnt along moves (`inertia`): a share
+                # of the load-torque correction while the plan accelerates.
+                filtered, dJ = inertia.correct(
+                    xhat, x[17], correction, plan[2], contact
+                )
+                ahead = inertia.predict(Ph, Gh, filtered, u_prev, dJ, plan[2])
         else:
             # Motor encoder alone: the dead-zone model, the half-gap
             # estimated with it (`motor_estimator`).
@@ -273,7 +289,8 @@ def sampled_servo(
             )
         at = ahead if delayed else filtered
         tm, wm, tsh, tl, wl = at[:5]
-        (r, v, a, F, wmf, tff, g, h), next_plan = reference(plan, y[nread])
+        scale = 1.0 if inertia is None else 1.0 + dJ
+        (r, v, a, F, wmf, tff, g, h), next_plan = reference(plan, y[nread], scale)
         if streamed:
             # A streamed set-point rarely rests: the integral is held while
             # it moves, so the observer's load torque joins the feedforward
@@ -346,6 +363,8 @@ def sampled_servo(
             ddah += probe * (1.0 - contact) * asked * still * (ah < amax)
         if delayed:
             predicted = ahead
+        elif motor is None and inertia is not None:
+            predicted = inertia.predict(Ph, Gh, filtered, u, dJ, plan[2])
         elif motor is None:
             predicted = Ph @ filtered + Gh * u
         else:
@@ -354,6 +373,8 @@ def sampled_servo(
             )
         state = [*next_plan, *predicted, xi + dt * dxi, dah + dt * ddah, u, side]
         state.append(evidence)
+        if inertia is not None:
+            state.append(dJ)
         if motor is not None:
             window = motor.learning_window(filtered, predicted, gap, x[23])
             state[13] = gap - a0
@@ -361,6 +382,8 @@ def sampled_servo(
         return u, np.asarray(state)
 
     states = SAMPLED_STATES if motor is None else SAMPLED_STATES + MOTOR_STATES
+    if inertia is not None:
+        states = SAMPLED_STATES + ["delta_Jl_hat"]
     return law_system(law, [*s.measured, "theta_r"], states, s.dt, name)
 
 
