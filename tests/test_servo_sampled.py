@@ -380,6 +380,27 @@ def test_rest_without_load_torque_is_quiet(design):
     assert np.std(torque[rest]) <= 0.3 * np.std(old_torque[rest])
 
 
+@pytest.mark.parametrize("seed", [2, 5])
+def test_small_load_torque_leans_on_the_latched_flank_held_by_the_integral(
+    design, seed
+):
+    """Td = 1 Nm, below the observer's contact torque (1.5 Nm), alpha 0.06:
+    the load leans on the latched flank and the integral holds the load
+    torque, so the load rests at the target (1-3e-5 rad on these seeds;
+    it sat 2.2-2.6e-4 rad off while the integral leaked and the faded
+    proportional term held the torque). Facts from the plant: the shaft
+    stays in contact all along the last second (shaft torque > 0) and
+    carries the load torque on average."""
+    res = _simulate(design, Td=1.0, alpha=0.06, T=2.5, seed=seed)
+    t, e = res.plant.time, res.plant.outputs[2] - 0.5
+    last = t >= 1.5
+    shaft = res.plant.outputs[4][last]
+    assert np.abs(e[last]).max() <= 5e-5
+    assert np.std(res.plant.inputs[0][last]) <= 3.0
+    assert shaft.min() > 0.0
+    assert abs(shaft.mean() - 1.0) <= 0.05
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize(
     "Td, alpha, Jl",

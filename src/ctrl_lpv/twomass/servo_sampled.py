@@ -312,11 +312,18 @@ def sampled_servo(
         if (raw > limit and el < 0.0) or (raw < -limit and el > 0.0):
             dxi = 0.0
         elif c.anti_hunting:
-            dxi = contact * el - (1.0 - contact) * leak * xi
+            held = contact
+            if side != 0.0:
+                # Latched, a load torque on the latched flank keeps the load
+                # leaning on it, in contact below the contact torque too:
+                # the integral holds it (leaking, the proportional term
+                # alone, faded near the target, left Td = 1 Nm 2.2-2.6e-4
+                # rad off).
+                held = max(contact, _smoothstep(side * at[5] / rest.lean_torque - 1.0))
+            dxi = held * el - (1.0 - held) * leak * xi
         else:
             dxi = el
         dxi *= _smoothstep(1.0 - abs(v) / hold) if hold > 0.0 else 1.0
-        dxi *= band
         # Gap estimate: the flank at contacts during moves, probing at rest.
         ddah = 0.0
         if c.gap_estimate:
