@@ -75,10 +75,12 @@ class RestFlank:
     band_torque : float
         ... and while the integral holds less than this load torque, Nm (a
         load held on its flank keeps the integral that holds it).
-    lean_torque : float
-        Load torque estimate, Nm, on the latched flank's side beyond which
-        the load leans on that flank: the integral runs (weight 1 from
-        twice this; the estimate's noise on encoders is about 0.1 Nm).
+    lean_torque, lean_time : float
+        Load torque estimate, Nm, filtered over `lean_time` s, on the latched
+        flank's side beyond which the load leans on that flank: the
+        integral runs (weight 1 from twice this; the observer's estimate on
+        encoders is 0.1 Nm noisy per sample at 1 ms; unfiltered, it crossed
+        0.4 Nm often enough at Td = 0 to change the rest).
     """
 
     latch_error: float = 3e-4
@@ -91,7 +93,8 @@ class RestFlank:
     clearance: float = 1e-3
     band: float = 1e-4
     band_torque: float = 5.0
-    lean_torque: float = 0.4
+    lean_torque: float = 0.2
+    lean_time: float = 0.05
 
 
 def rest_flank_step(
