@@ -94,7 +94,7 @@ class RestFlank:
     band: float = 1e-4
     band_torque: float = 5.0
     lean_torque: float = 0.2
-    lean_time: float = 0.05
+    lean_time: float = 0.2
 
 
 def rest_flank_step(

@@ -312,9 +312,11 @@ def sampled_servo(
         u = min(max(raw, -limit), limit)
 
         # Integral: conditional on saturation, in contact only, held in moves.
-        # The load torque at rest, filtered over `lean_time` (the observer's
-        # estimate is 0.1 Nm noisy per sample on encoders).
-        td_rest = x[17] + filtered_share * (at[5] - x[17])
+        # The load torque while latched, filtered over `lean_time` from the
+        # latch on (the observer's estimate is 0.1 Nm noisy per sample on
+        # encoders, and at the end of a move it holds the inertia error of
+        # the settling load: 1.8 Nm at Jl x0.8).
+        td_rest = 0.0 if side == 0.0 else x[17] + filtered_share * (at[5] - x[17])
         leaning = 0.0
         if side != 0.0:
             leaning = _smoothstep(side * td_rest / rest.lean_torque - 1.0)
