@@ -21,10 +21,16 @@ free mass).
   is not pushed by the gap estimate's error or the motor's noise; a load
   drifting onto the flank is caught at its own, small, speed);
 * **damp, do not push**: while latched and the load error is below
-  `band`, the load-position terms (proportional and integral) are faded
-  out, so that catching a drifting load brakes it without throwing it back
-  to the other flank (the shaft in contact is nearly undamped: a push from
-  one flank came back as an elastic bounce, a ping-pong limit cycle);
+  `band`, the load-position proportional term is faded out, so that
+  catching a drifting load brakes it without throwing it back to the other
+  flank (the shaft in contact is nearly undamped: a push from one flank
+  came back as an elastic bounce, a ping-pong limit cycle);
+* **hold a leaning load**: a load torque estimate beyond `lean_torque` on
+  the latched flank's side means the load leans on that flank, in contact
+  though below the observer's contact torque: the integral runs there
+  (elsewhere out of contact it leaks), so that the load torque is held
+  by the integral and not by a load error (with the proportional term
+  faded, 1 Nm sat 2.2-2.6e-4 rad off the target);
 * **flip on evidence**: the side changes only when ``-side T*`` stays beyond
   `flip_torque` long enough, a CUSUM test ``q <- max(0, q + dt (-side T* -
   flip_torque))`` against `flip_evidence` (a load torque of the other sign
@@ -69,6 +75,12 @@ class RestFlank:
     band_torque : float
         ... and while the integral holds less than this load torque, Nm (a
         load held on its flank keeps the integral that holds it).
+    lean_torque, lean_time : float
+        Load torque estimate, Nm, filtered over `lean_time` s, on the latched
+        flank's side beyond which the load leans on that flank: the
+        integral runs (weight 1 from twice this; the observer's estimate on
+        encoders is 0.1 Nm noisy per sample at 1 ms; unfiltered, it crossed
+        0.4 Nm often enough at Td = 0 to change the rest).
     """
 
     latch_error: float = 3e-4
@@ -81,6 +93,8 @@ class RestFlank:
     clearance: float = 1e-3
     band: float = 1e-4
     band_torque: float = 5.0
+    lean_torque: float = 0.2
+    lean_time: float = 0.2
 
 
 def rest_flank_step(

@@ -72,8 +72,10 @@ SAMPLED_STATES = [
     "r", "v_r", "a_r", "j_r", "goal", "time_to_go",
     "theta_m_hat", "omega_m_hat", "Ts_hat", "theta_l_hat", "omega_l_hat",
     "Td_hat", "int_e_l", "alpha_hat_dev", "Tm_prev", "flank_side",
-    "flank_evidence",
+    "flank_evidence", "Td_rest",
 ]  # fmt: skip
+#: The motor-encoder estimator's states, or the inertia estimate, follow these.
+_NS = 18
 SAMPLED_INPUTS = ["theta_m", "theta_l", "theta_r"]
 #: The motor-encoder estimator's extra states: the sensitivity of the
 #: prediction to the half-gap and the half-gap variance (less its initial).
@@ -231,6 +233,7 @@ def sampled_servo(
         return pair[0] + w * (pair[1] - pair[0])
 
     plan_step = plan_stepper(c, dt)
+    filtered_share = 0.0 if rest is None else 1.0 - math.exp(-dt / rest.lean_time)
 
     streamed = s.reference == "stream"
     if streamed:
@@ -272,7 +275,7 @@ def sampled_servo(
                 # The load inertia learnt along moves (`inertia`): a share
                 # of the load-torque correction while the plan accelerates.
                 filtered, dJ = inertia.correct(
-                    xhat, x[17], correction, plan[2], contact
+                    xhat, x[_NS], correction, plan[2], contact
                 )
                 ahead = inertia.predict(Ph, Gh, filtered, u_prev, dJ, plan[2])
         else:
@@ -281,7 +284,7 @@ def sampled_servo(
             # The half-gap learns for a few samples after the prediction
             # makes or loses a contact (`MotorEstimator.learning_window`).
             filtered, sens, dP, gap = motor.correct(
-                xhat, x[17:22], x[22], a0 + dah, y[0], x[23] > 0.0
+                xhat, x[_NS : _NS + 5], x[_NS + 5], a0 + dah, y[0], x[_NS + 6] > 0.0
             )
             resting = plan[5] <= hmin * (1.0 + 1e-9) and abs(plan[0] - plan[4]) < 1e-6
             ahead, sens_ahead, dP_ahead = motor.predict(
@@ -326,14 +329,32 @@ def sampled_servo(
         u = min(max(raw, -limit), limit)
 
         # Integral: conditional on saturation, in contact only, held in moves.
+        # The load torque while latched, filtered over `lean_time` from the
+        # latch on (the observer's estimate is 0.1 Nm noisy per sample on
+        # encoders, and at the end of a move it holds the inertia error of
+        # the settling load: 1.8 Nm at Jl x0.8).
+        td_rest = 0.0 if side == 0.0 else x[17] + filtered_share * (at[5] - x[17])
+        leaning = 0.0
+        if side != 0.0:
+            leaning = _smoothstep(side * td_rest / rest.lean_torque - 1.0)
         if (raw > limit and el < 0.0) or (raw < -limit and el > 0.0):
             dxi = 0.0
         elif c.anti_hunting:
-            dxi = contact * el - (1.0 - contact) * leak * xi
+            held = contact
+            if leaning > 0.0:
+                # Latched, a load torque on the latched flank keeps the load
+                # leaning on it, in contact below the contact torque too:
+                # the integral holds it (leaking, the proportional term
+                # alone, faded near the target, left Td = 1 Nm 2.2-2.6e-4
+                # rad off).
+                held = max(contact, leaning)
+            dxi = held * el - (1.0 - held) * leak * xi
         else:
             dxi = el
         dxi *= _smoothstep(1.0 - abs(v) / hold) if hold > 0.0 else 1.0
-        dxi *= band
+        # Latched near the target the integral fades with the proportional
+        # term (a free load is not pushed), unless the load leans.
+        dxi *= max(band, leaning)
         # Gap estimate: the flank at contacts during moves, probing at rest.
         ddah = 0.0
         if c.gap_estimate:
@@ -372,11 +393,11 @@ def sampled_servo(
                 filtered, sens, u, gap, dP, resting
             )
         state = [*next_plan, *predicted, xi + dt * dxi, dah + dt * ddah, u, side]
-        state.append(evidence)
+        state += [evidence, td_rest]
         if inertia is not None:
             state.append(dJ)
         if motor is not None:
-            window = motor.learning_window(filtered, predicted, gap, x[23])
+            window = motor.learning_window(filtered, predicted, gap, x[_NS + 6])
             state[13] = gap - a0
             state += [*sens_ahead, dP_ahead, window]
         return u, np.asarray(state)
