@@ -55,9 +55,13 @@ motor table, and ``tests/test_servo_motor.py``):
   the rest can hunt (seen at Td = 2 and 8 Nm on some seeds and
   ``load_torque_rate`` values). Not fading ``Td_hat`` makes the rest with
   Td = 0 hunt instead (7-35 Nm), and fading it to the held motor torque
-  closes a loop through the law that hunts everywhere (60-200 Nm): the
-  contact at rest wants its own detector (the motor holds a torque without
-  accelerating), not a change of the fade.
+  closes a loop through the law that hunts everywhere (60-200 Nm). A
+  naive detector (at rest, a held torque above 1.5 Nm with the motor
+  still puts the load on the flank) fires when the motor starts to push
+  through the gap with Td = 0, and hunts there (62-205 Nm): the contact
+  at rest wants a detector on the innovation's history (the motor holds a
+  torque without the acceleration the gap predicts), not a change of the
+  fade.
 """
 
 from __future__ import annotations
