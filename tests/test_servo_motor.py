@@ -11,14 +11,14 @@ import control as ct
 import numpy as np
 import pytest
 
-from ctrl_lpv import twomass
+from ctrl_lpv import sampled_response, twomass
 from ctrl_lpv.exceptions import InfeasibleError
+from ctrl_lpv.sensors import Encoder
 from ctrl_lpv.twomass.motor_estimator import (
     MotorEstimator,
     motor_observer,
     observability,
 )
-from ctrl_lpv.twomass.servo_compare import run_sampled_servo_scenario
 
 DT = 1e-3
 P = twomass.Parameters()
@@ -136,7 +136,9 @@ def test_half_gap_is_learnt_from_the_motor_encoder(observers):
         )  # fmt: skip
         x = res.states[:, -1]
         history.append(a)
-    assert abs(history[-1] - alpha) < 0.05 * abs(start - alpha)
+    # Within the issue's 1e-3 rad end error (at rest on a flank the load
+    # angle's error is the half-gap's), from 15e-3 rad off.
+    assert abs(history[-1] - alpha) < 1e-3
     # And the load angle the motor never saw directly.
     assert abs(xf[3] - x[2]) < 2e-3
 
@@ -154,10 +156,28 @@ def test_motor_servo_reads_the_motor_encoder_only():
     assert "motor encoder alone" in str(design)
 
 
+@pytest.fixture(scope="module")
+def motor_design():
+    return twomass.servo_design(dt=DT, delay=1, sensors="motor", certify=False)
+
+
+def _run(design, Td, alpha, theta_r, *, Jl=1.0, T=5.0, seed=1):
+    params = twomass.Parameters()
+    plant = twomass.plant(params.replace(Jl=Jl * params.Jl), alpha=alpha)
+    res = sampled_response(
+        plant, design.controller(), T, inputs={"Td": Td, "theta_r": theta_r},
+        delay=design.delay, sensors={"theta_m": Encoder(2**20, 0.5)}, seed=seed,
+    )  # fmt: skip
+    return _metrics(res.plant, theta_r, T)
+
+
 def _metrics(response, theta_r, T):
+    """Settling (2 %), overshoot (%), |e| at the end, max |e| and the
+    torque's standard deviation over the last second, from the plant's
+    own signals (load angle output, torque input)."""
     t = response.time
-    e = response.outputs[0] - theta_r
-    torque = response.outputs[1]
+    e = response.outputs[2] - theta_r
+    torque = response.inputs[0]
     outside = np.flatnonzero(np.abs(e) > 0.02 * abs(theta_r))
     settling = (
         0.0
@@ -174,33 +194,67 @@ def _metrics(response, theta_r, T):
     )
 
 
-@pytest.fixture(scope="module")
-def motor_design():
-    return twomass.servo_design(dt=DT, delay=1, sensors="motor", certify=False)
+def _pressed_targets_hold(m):
+    """Issue 22, motor encoder alone, with a load torque."""
+    assert m["settling"] <= 0.5, m
+    assert m["overshoot"] <= 2.0, m
+    assert m["error"] <= 1e-3, m
+
+
+@pytest.mark.parametrize(
+    "Td, theta_r, seed", [(8.0, 0.5, 3), (5.0, -1.0, 4)]
+)  # fmt: skip
+def test_pressed_load_settles_on_the_motor_encoder(motor_design, Td, theta_r, seed):
+    """The paper's load torque and a heavy one the other way: the load,
+    pressed on a flank, is observable through the shaft's twist."""
+    _pressed_targets_hold(_run(motor_design, Td, 0.03, theta_r, T=2.0, seed=seed))
+
+
+# Known limits of the motor-encoder estimator (see `motor_estimator`): a
+# load inertia off the model's (the load's free flight across the gap is
+# predicted with the nominal Jl, so the half-gap learnt at a crossing is
+# off), steps small against the gap, which end in a crossing whose
+# half-gap error is a large part of the 2 % band, a heavy load or a long
+# move (Td 30 Nm, 1 rad: the half-gap learnt with a lagging Td_hat, 1.2e-3
+# to 6e-3 rad off at rest), and the gap that steps at rest.
+_LIMIT = pytest.mark.xfail(reason="limit of the motor-encoder estimator", strict=False)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", [1, 2])
-def test_paper_scenario_on_the_motor_encoder(motor_design, seed):
-    """Td = 8 Nm, 0.5 rad, alpha 0.03: settling <= 0.5 s, overshoot <= 2 %,
-    |e| <= 1e-3 rad at the end."""
-    res = run_sampled_servo_scenario(
-        motor_design, alpha=0.03, Td=8.0, theta_r=0.5, T=5.0, seed=seed
-    )
-    m = _metrics(res, 0.5, 5.0)
-    assert m["settling"] <= 0.5
-    assert m["overshoot"] <= 2.0
-    assert m["error"] <= 1e-3
+@pytest.mark.parametrize("seed", [1, 2, 3, 4, 5, 6])
+@pytest.mark.parametrize(
+    "Td, alpha, Jl, theta_r",
+    [
+        (8.0, 0.03, 1.0, 0.5),
+        (8.0, 0.06, 1.0, 0.5),
+        (8.0, 0.03, 1.0, -0.5),
+        # Light loads hunt at rest on some seeds (Td 2 seed 4, Td 5 seed 6:
+        # 1.9e-2 and 4.1e-2 rad, the mode at rest, see `motor_estimator`).
+        pytest.param(2.0, 0.03, 1.0, 0.5, marks=_LIMIT),
+        pytest.param(5.0, 0.03, 1.0, 0.5, marks=_LIMIT),
+        pytest.param(30.0, 0.03, 1.0, 0.5, marks=_LIMIT),
+        pytest.param(8.0, 0.03, 1.0, 1.0, marks=_LIMIT),
+        (8.0, 0.03, 1.0, -1.0),
+        pytest.param(8.0, None, 1.0, 0.5, marks=_LIMIT),
+        pytest.param(8.0, 0.03, 1.0, 0.05, marks=_LIMIT),
+        pytest.param(8.0, 0.03, 1.0, -0.05, marks=_LIMIT),
+        pytest.param(8.0, 0.03, 0.8, 0.5, marks=_LIMIT),
+        pytest.param(8.0, 0.03, 1.2, 0.5, marks=_LIMIT),
+    ],
+)
+def test_pressed_load_grid(motor_design, Td, alpha, Jl, theta_r, seed):
+    """Settling <= 0.5 s, overshoot <= 2 %, |e| <= 1e-3 rad with a load
+    torque (None: the paper's gap step 0.03 -> 0.045)."""
+    alpha = twomass.alpha_step() if alpha is None else alpha
+    _pressed_targets_hold(_run(motor_design, Td, alpha, theta_r, Jl=Jl, seed=seed))
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("alpha", [0.03, 0.06])
-def test_no_load_torque_on_the_motor_encoder(motor_design, alpha):
+@pytest.mark.parametrize("seed", [1, 2, 3])
+@pytest.mark.parametrize("alpha, theta_r", [(0.03, 0.5), (0.06, 0.5), (0.03, -0.5)])
+def test_no_load_torque_on_the_motor_encoder(motor_design, alpha, theta_r, seed):
     """Td = 0: no limit cycle (torque std over the last second <= 3 Nm),
     and the error within the gap (the load is not observable inside it)."""
-    res = run_sampled_servo_scenario(
-        motor_design, alpha=alpha, Td=0.0, theta_r=0.5, T=5.0, seed=1
-    )
-    m = _metrics(res, 0.5, 5.0)
-    assert m["torque_std"] <= 3.0
-    assert m["rest_error"] <= alpha
+    m = _run(motor_design, 0.0, alpha, theta_r, seed=seed)
+    assert m["torque_std"] <= 3.0, m
+    assert m["rest_error"] <= alpha, m
