@@ -264,3 +264,58 @@ def test_an_almost_solved_point_counts_as_converged_only_near_the_optimum(seed):
         assert attempt.converged is converged
         if converged:
             assert sol.g[0, 0] == pytest.approx(norm, rel=1e-6)
+
+
+def test_a_kept_clarabel_solver_gives_a_fresh_solvers_point():
+    # Re-solves update the solver kept with the data (new c, new margin in
+    # b, another time limit) instead of setting it up again: the points and
+    # statuses must be those of a solver constructed for each solve. The
+    # objective weighs trace(P) so that the optimum is unique (min g alone
+    # leaves P free along a face, where rounding-level differences in the
+    # equilibrated b move the point by 1e-4).
+    from ctrl_lpv.lmi import conic
+
+    options = {"chordal_decomposition_enable": False}
+    for seed in (4, 5, 6):
+        A, B, C, D = stable_system(seed)
+        lmi = bounded_real(A, B, C, D)
+        data, _ = lmi._conic_data("default", True)
+        light = lmi._objective_vector(lambda v: v.g[0, 0] + 1e-2 * np.trace(v.P))
+        heavy = lmi._objective_vector(lambda v: v.g[0, 0] + 1e-1 * np.trace(v.P))
+        cases = [
+            (light, 1e-8, {}),
+            (light, 1e-3, {"time_limit": 50.0}),
+            (heavy, 1e-8, {}),
+            (light, 1e-6, {}),
+        ]
+        for c, margin, extra in cases:
+            kept = conic.solve_direct("CLARABEL", c, data, margin, {**options, **extra})
+            assert "CLARABEL" in data.solvers
+            copy = ConicData(data.A, data.b0, data.b_margin, data.sizes, True)
+            fresh = conic.solve_direct("CLARABEL", c, copy, margin, {**options, **extra})
+            assert kept.status == fresh.status == "optimal"
+            np.testing.assert_allclose(kept.x, fresh.x, rtol=0, atol=1e-9)
+        # And the kept solver's optimum of min g is the H-infinity norm.
+        g_only = lmi._objective_vector(lambda v: v.g[0, 0])
+        last = conic.solve_direct("CLARABEL", g_only, data, 1e-8, options)
+        norm = ct.linfnorm(ct.ss(A, B, C, D))[0]
+        assert lmi._values(last.x)["g"][0, 0] == pytest.approx(norm, rel=1e-5)
+
+
+def test_kept_clarabel_solvers_are_bounded():
+    from ctrl_lpv.lmi import conic
+
+    A, B, C, D = stable_system(5)
+    lmi = bounded_real(A, B, C, D)
+    data, _ = lmi._conic_data("default", True)
+    c = lmi._objective_vector(lambda v: v.g[0, 0])
+    copies = [
+        ConicData(data.A, data.b0, data.b_margin, data.sizes, True)
+        for _ in range(conic.KEPT_SOLVERS + 2)
+    ]
+    for copy in copies:
+        conic.solve_direct("CLARABEL", c, copy, 1e-8, {})
+    holding = [copy for copy in copies if "CLARABEL" in copy.solvers]
+    assert holding == copies[-conic.KEPT_SOLVERS :]
+    del copies, holding
+    assert len(conic._kept) <= conic.KEPT_SOLVERS

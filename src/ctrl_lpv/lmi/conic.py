@@ -12,15 +12,20 @@ products are preserved):
 * SCS (cone ``"s"``): the lower triangle, column by column.
 
 The data are assembled once per structure with numpy and scipy.sparse; a
-re-solve with another margin changes ``b`` only. Other solvers take the
-same data through cvxpy (`ctrl_lpv.lmi.cvxpy_backend`).
+re-solve with another margin changes ``b`` only, and another objective
+``c`` only: Clarabel's solver is kept with the data and updated
+(`_kept_clarabel`), so that its setup (the KKT system's structure,
+equilibration, symbolic factorisation) is paid once per structure. Other
+solvers take the same data through cvxpy (`ctrl_lpv.lmi.cvxpy_backend`).
 """
 
 from __future__ import annotations
 
+import collections
 import functools
 import time
-from dataclasses import dataclass
+import weakref
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
@@ -66,6 +71,9 @@ class ConicData:
         Size of each inequality.
     upper : bool
         The triangle stored (Clarabel: upper; SCS: lower).
+    solvers : dict
+        Solvers set up for these data, kept for re-solves (Clarabel's;
+        at most `KEPT_SOLVERS` in the process).
     """
 
     A: sp.csc_array
@@ -73,6 +81,7 @@ class ConicData:
     b_margin: np.ndarray
     sizes: tuple[int, ...]
     upper: bool
+    solvers: dict = field(default_factory=dict, compare=False, repr=False)
 
     def b(self, margin: float) -> np.ndarray:
         return self.b0 - margin * self.b_margin
@@ -207,11 +216,46 @@ def clarabel_settings(options: dict):
     return settings
 
 
-def _clarabel(c, data: ConicData, b, options) -> ConicResult:
+# Clarabel solvers kept in the process (each holds its KKT matrix and
+# factorisation, about the size of the solve's own memory): the stages of a
+# ladder and the problems of a few cached structures.
+KEPT_SOLVERS = 4
+_kept: collections.OrderedDict = collections.OrderedDict()
+
+
+def _forget(key: int, ref) -> None:
+    """Drop the record of data no longer alive (their solver went with them)."""
+    if _kept.get(key) is ref:
+        del _kept[key]
+
+
+def _settings_key(options: dict) -> str:
+    """What a kept solver must share with a re-solve's options: all but the
+    time limit (Clarabel refuses to change the others after setup)."""
+    return repr(sorted((k, v) for k, v in options.items() if k != "time_limit"))
+
+
+def _kept_clarabel(c, data: ConicData, b, options):
+    """Clarabel's solver for `data`, set up once and updated with ``c``,
+    ``b`` and the settings for a re-solve.
+
+    Updating gives the point a new construction gives: the data that set
+    up the solver (``A``, the cones, the equilibration computed from them)
+    are unchanged, and Clarabel starts every solve from its own initial
+    point. Set up anew when the options other than the time limit differ or
+    the solver forbids updates (`is_data_update_allowed`: a presolve that
+    removed rows, a chordal decomposition).
+    """
     import clarabel
 
-    start = time.perf_counter()
     settings = clarabel_settings(options)
+    same = _settings_key(options)
+    kept = data.solvers.get("CLARABEL")
+    if kept is not None and kept[0] == same and kept[1].is_data_update_allowed():
+        solver = kept[1]
+        solver.update(q=c, b=b, settings=settings)
+        _kept.move_to_end(id(data))
+        return solver
     cones = [
         clarabel.NonnegativeConeT(1) if d == 1 else clarabel.PSDTriangleConeT(d)
         for d in data.sizes
@@ -219,6 +263,21 @@ def _clarabel(c, data: ConicData, b, options) -> ConicResult:
     n = data.A.shape[1]
     P = sp.csc_matrix((n, n))
     solver = clarabel.DefaultSolver(P, c, sp.csc_matrix(data.A), b, cones, settings)
+    data.solvers["CLARABEL"] = (same, solver)
+    key = id(data)
+    _kept[key] = weakref.ref(data, lambda ref: _forget(key, ref))
+    _kept.move_to_end(key)
+    while len(_kept) > KEPT_SOLVERS:
+        _, ref = _kept.popitem(last=False)
+        older = ref()
+        if older is not None:
+            older.solvers.pop("CLARABEL", None)
+    return solver
+
+
+def _clarabel(c, data: ConicData, b, options) -> ConicResult:
+    start = time.perf_counter()
+    solver = _kept_clarabel(c, data, b, options)
     solution = solver.solve()
     status = _CLARABEL_STATUS.get(str(solution.status), "solver_error")
     x = np.array(solution.x, float) if status in SOLVED else None
