@@ -292,7 +292,8 @@ def test_a_kept_clarabel_solver_gives_a_fresh_solvers_point():
             kept = conic.solve_direct("CLARABEL", c, data, margin, {**options, **extra})
             assert "CLARABEL" in data.solvers
             copy = ConicData(data.A, data.b0, data.b_margin, data.sizes, True)
-            fresh = conic.solve_direct("CLARABEL", c, copy, margin, {**options, **extra})
+            opts = {**options, **extra}
+            fresh = conic.solve_direct("CLARABEL", c, copy, margin, opts)
             assert kept.status == fresh.status == "optimal"
             np.testing.assert_allclose(kept.x, fresh.x, rtol=0, atol=1e-9)
         # And the kept solver's optimum of min g is the H-infinity norm.
