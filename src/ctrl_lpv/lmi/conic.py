@@ -239,10 +239,10 @@ def _kept_clarabel(c, data: ConicData, b, options):
     """Clarabel's solver for `data`, set up once and updated with ``c``,
     ``b`` and the settings for a re-solve.
 
-    Updating gives the point a new construction gives: the data that set
-    up the solver (``A``, the cones, the equilibration computed from them)
-    are unchanged, and Clarabel starts every solve from its own initial
-    point. Set up anew when the options other than the time limit differ or
+    Updating gives the point a new construction (then updated) gives: the
+    data that set up the solver (``A``, the cones, the equilibration
+    computed from them) are unchanged, and Clarabel starts every solve
+    from its own initial point. Set up anew when the options other than the time limit differ or
     the solver forbids updates (`is_data_update_allowed`: a presolve that
     removed rows, a chordal decomposition).
     """
@@ -263,6 +263,12 @@ def _kept_clarabel(c, data: ConicData, b, options):
     n = data.A.shape[1]
     P = sp.csc_matrix((n, n))
     solver = clarabel.DefaultSolver(P, c, sp.csc_matrix(data.A), b, cones, settings)
+    # Every solve goes through `update`: Clarabel scales updated data with
+    # rounding that differs from its setup's, which a degenerate optimum
+    # (a face of optimal points) amplifies, so that a first solve and an
+    # identical re-solve would differ by ~1e-4. This way a solve does not
+    # depend on what the solver did before.
+    solver.update(q=c, b=b)
     data.solvers["CLARABEL"] = (same, solver)
     key = id(data)
     _kept[key] = weakref.ref(data, lambda ref: _forget(key, ref))
