@@ -242,9 +242,10 @@ def _kept_clarabel(c, data: ConicData, b, options):
     Updating gives the point a new construction (then updated) gives: the
     data that set up the solver (``A``, the cones, the equilibration
     computed from them) are unchanged, and Clarabel starts every solve
-    from its own initial point. Set up anew when the options other than the time limit differ or
-    the solver forbids updates (`is_data_update_allowed`: a presolve that
-    removed rows, a chordal decomposition).
+    from its own initial point. Set up anew when the options other than
+    the time limit differ or the solver forbids updates
+    (`is_data_update_allowed`: a presolve that removed rows, a chordal
+    decomposition).
     """
     import clarabel
 
