@@ -303,20 +303,28 @@ def test_a_kept_clarabel_solver_gives_a_fresh_solvers_point():
         assert lmi._values(last.x)["g"][0, 0] == pytest.approx(norm, rel=1e-5)
 
 
-def test_kept_clarabel_solvers_are_bounded():
+def test_kept_clarabel_solvers_are_bounded(monkeypatch):
+    # Idle solvers are freed, least recently used first, before a new one
+    # is set up, so that at most KEPT_BYTES of them sit beside a solve.
     from ctrl_lpv.lmi import conic
 
     A, B, C, D = stable_system(5)
     lmi = bounded_real(A, B, C, D)
     data, _ = lmi._conic_data("default", True)
     c = lmi._objective_vector(lambda v: v.g[0, 0])
+    monkeypatch.setattr(conic, "KEPT_BYTES", 2 * conic._size(data))
+    conic._make_room(0)
     copies = [
-        ConicData(data.A, data.b0, data.b_margin, data.sizes, True)
-        for _ in range(conic.KEPT_SOLVERS + 2)
+        ConicData(data.A, data.b0, data.b_margin, data.sizes, True) for _ in range(6)
     ]
-    for copy in copies:
+    for copy in copies[:4]:
         conic.solve_direct("CLARABEL", c, copy, 1e-8, {})
-    holding = [copy for copy in copies if "CLARABEL" in copy.solvers]
-    assert holding == copies[-conic.KEPT_SOLVERS :]
-    del copies, holding
-    assert len(conic._kept) <= conic.KEPT_SOLVERS
+    # A re-solve makes copies[1] the most recently used.
+    conic.solve_direct("CLARABEL", c, copies[1], 1e-8, {})
+    for copy in copies[4:]:
+        conic.solve_direct("CLARABEL", c, copy, 1e-8, {})
+    holding = [k for k, copy in enumerate(copies) if "CLARABEL" in copy.solvers]
+    assert holding == [1, 4, 5]
+    # Data no longer alive leave no record behind.
+    del copies, copy
+    assert len(conic._kept) == 0

@@ -73,7 +73,7 @@ class ConicData:
         The triangle stored (Clarabel: upper; SCS: lower).
     solvers : dict
         Solvers set up for these data, kept for re-solves (Clarabel's;
-        at most `KEPT_SOLVERS` in the process).
+        at most `KEPT_BYTES` of idle ones in the process).
     """
 
     A: sp.csc_array
@@ -150,8 +150,9 @@ class ConicResult:
     x : ndarray or None
         The point, when the solver reported one.
     duals : list of ndarray or None
-        One symmetric matrix per inequality: the dual point (a Farkas
-        point after an infeasible solve).
+        After a solve that found no point, one symmetric matrix per
+        inequality: the dual point (a Farkas point after an infeasible
+        solve); None with a point (nothing reads the duals then).
     objective : float or None
     seconds : float
         Wall time.
@@ -216,11 +217,34 @@ def clarabel_settings(options: dict):
     return settings
 
 
-# Clarabel solvers kept in the process (each holds its KKT matrix and
-# factorisation, about the size of the solve's own memory): the stages of a
-# ladder and the problems of a few cached structures.
-KEPT_SOLVERS = 4
+# Clarabel solvers kept in the process, idle between solves: each holds its
+# KKT matrix and factorisation, measured at 500-650 bytes per nonzero of
+# ``A`` (Theorem 2 LMIs, n = 4 and 8, N = 16 and 32: 13-55 MB). The idle
+# ones are bounded in bytes, freed before a new solver is set up, so that a
+# solve never runs beside more than `KEPT_BYTES` of others (a ladder's
+# stages each have their own data, and so their own solver).
+KEPT_BYTES = 32 * 2**20
+_BYTES_PER_NONZERO = 650
 _kept: collections.OrderedDict = collections.OrderedDict()
+
+
+def _size(data: ConicData) -> int:
+    """A Clarabel solver's estimated memory for `data`."""
+    return _BYTES_PER_NONZERO * data.A.nnz
+
+
+def _make_room(bytes_: int) -> None:
+    """Free the least recently used kept solvers until the others hold at
+    most `bytes_`."""
+    alive = [(key, ref()) for key, ref in _kept.items()]
+    total = sum(_size(data) for _, data in alive if data is not None)
+    for key, data in alive:
+        if total <= bytes_:
+            break
+        del _kept[key]
+        if data is not None:
+            data.solvers.pop("CLARABEL", None)
+            total -= _size(data)
 
 
 def _forget(key: int, ref) -> None:
@@ -257,6 +281,9 @@ def _kept_clarabel(c, data: ConicData, b, options):
         solver.update(q=c, b=b, settings=settings)
         _kept.move_to_end(id(data))
         return solver
+    data.solvers.pop("CLARABEL", None)
+    _kept.pop(id(data), None)
+    _make_room(KEPT_BYTES)
     cones = [
         clarabel.NonnegativeConeT(1) if d == 1 else clarabel.PSDTriangleConeT(d)
         for d in data.sizes
@@ -274,11 +301,6 @@ def _kept_clarabel(c, data: ConicData, b, options):
     key = id(data)
     _kept[key] = weakref.ref(data, lambda ref: _forget(key, ref))
     _kept.move_to_end(key)
-    while len(_kept) > KEPT_SOLVERS:
-        _, ref = _kept.popitem(last=False)
-        older = ref()
-        if older is not None:
-            older.solvers.pop("CLARABEL", None)
     return solver
 
 
@@ -288,7 +310,7 @@ def _clarabel(c, data: ConicData, b, options) -> ConicResult:
     solution = solver.solve()
     status = _CLARABEL_STATUS.get(str(solution.status), "solver_error")
     x = np.array(solution.x, float) if status in SOLVED else None
-    duals = data.matrices(np.array(solution.z, float))
+    duals = None if status in SOLVED else data.matrices(np.array(solution.z, float))
     objective = float(solution.obj_val) if status in SOLVED else None
     primal, dual = solution.obj_val, solution.obj_val_dual
     gap = abs(primal - dual) / max(1.0, abs(primal))
@@ -312,7 +334,7 @@ def _scs(c, data: ConicData, b, options) -> ConicResult:
     solution = solver.solve()
     status = _SCS_STATUS.get(int(solution["info"]["status_val"]), "solver_error")
     x = np.array(solution["x"], float) if status in SOLVED else None
-    duals = data.matrices(np.array(solution["y"], float))
+    duals = None if status in SOLVED else data.matrices(np.array(solution["y"], float))
     objective = float(solution["info"]["pobj"]) if status in SOLVED else None
     seconds = time.perf_counter() - start
     return ConicResult(
