@@ -218,19 +218,21 @@ def clarabel_settings(options: dict):
 
 
 # Clarabel solvers kept in the process, idle between solves: each holds its
-# KKT matrix and factorisation, measured at 500-650 bytes per nonzero of
-# ``A`` (Theorem 2 LMIs, n = 4 and 8, N = 16 and 32: 13-55 MB). The idle
-# ones are bounded in bytes, freed before a new solver is set up, so that a
-# solve never runs beside more than `KEPT_BYTES` of others (a ladder's
-# stages each have their own data, and so their own solver).
+# KKT matrix and factorisation, measured at 60-65 bytes per entry of ``A``
+# and of the cones' dense Hessian blocks (``t^2`` for a cone of ``t``
+# triangle entries; Theorem 2 LMIs, n = 4 and 8, N = 16 and 32: 13-55 MB).
+# The idle ones are bounded in bytes, freed before a new solver is set up,
+# so that a solve never runs beside more than `KEPT_BYTES` of others (a
+# ladder's stages each have their own data, and so their own solver).
 KEPT_BYTES = 32 * 2**20
-_BYTES_PER_NONZERO = 650
+_BYTES_PER_ENTRY = 64
 _kept: collections.OrderedDict = collections.OrderedDict()
 
 
 def _size(data: ConicData) -> int:
     """A Clarabel solver's estimated memory for `data`."""
-    return _BYTES_PER_NONZERO * data.A.nnz
+    hessian = sum((d * (d + 1) // 2) ** 2 for d in data.sizes)
+    return _BYTES_PER_ENTRY * (data.A.nnz + hessian)
 
 
 def _make_room(bytes_: int) -> None:
