@@ -303,17 +303,30 @@ def test_a_kept_clarabel_solver_gives_a_fresh_solvers_point():
         assert lmi._values(last.x)["g"][0, 0] == pytest.approx(norm, rel=1e-5)
 
 
-def test_kept_clarabel_solvers_are_bounded(monkeypatch):
+def _clear_kept(monkeypatch, conic):
+    monkeypatch.setattr(conic, "KEPT_BYTES", 0)
+    monkeypatch.setattr(conic, "KEPT_SLOW", 0)
+    conic._make_room()
+
+
+@pytest.mark.parametrize("slow", [False, True])
+def test_kept_clarabel_solvers_are_bounded(monkeypatch, slow):
     # Idle solvers are freed, least recently used first, before a new one
-    # is set up, so that at most KEPT_BYTES of them sit beside a solve.
+    # is set up: down to KEPT_BYTES of quickly set up ones, or KEPT_SLOW
+    # slowly set up ones (here every setup counts as slow when `slow`).
     from ctrl_lpv.lmi import conic
 
     A, B, C, D = stable_system(5)
     lmi = bounded_real(A, B, C, D)
     data, _ = lmi._conic_data("default", True)
     c = lmi._objective_vector(lambda v: v.g[0, 0])
-    monkeypatch.setattr(conic, "KEPT_BYTES", 2 * conic._size(data))
-    conic._make_room(0)
+    _clear_kept(monkeypatch, conic)
+    if slow:
+        monkeypatch.setattr(conic, "SLOW_SETUP", 0.0)
+        monkeypatch.setattr(conic, "KEPT_SLOW", 2)
+    else:
+        monkeypatch.setattr(conic, "SLOW_SETUP", np.inf)
+        monkeypatch.setattr(conic, "KEPT_BYTES", 2 * conic._size(data))
     copies = [
         ConicData(data.A, data.b0, data.b_margin, data.sizes, True) for _ in range(6)
     ]

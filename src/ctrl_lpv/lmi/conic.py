@@ -73,7 +73,7 @@ class ConicData:
         The triangle stored (Clarabel: upper; SCS: lower).
     solvers : dict
         Solvers set up for these data, kept for re-solves (Clarabel's;
-        at most `KEPT_BYTES` of idle ones in the process).
+        bounded in the process by `KEPT_BYTES` and `KEPT_SLOW`).
     """
 
     A: sp.csc_array
@@ -217,14 +217,19 @@ def clarabel_settings(options: dict):
     return settings
 
 
-# Clarabel solvers kept in the process, idle between solves: each holds its
+# Clarabel solvers kept in the process, idle between solves. Each holds its
 # KKT matrix and factorisation, measured at 60-65 bytes per entry of ``A``
 # and of the cones' dense Hessian blocks (``t^2`` for a cone of ``t``
-# triangle entries; Theorem 2 LMIs, n = 4 and 8, N = 16 and 32: 13-55 MB).
-# The idle ones are bounded in bytes, freed before a new solver is set up,
-# so that a solve never runs beside more than `KEPT_BYTES` of others (a
-# ladder's stages each have their own data, and so their own solver).
+# triangle entries; Theorem 2 LMIs, n = 4 and 8, N = 16 and 32: 13-55 MB),
+# and its setup took 2-10 % of its solve there, but 18 % (2-3 s) for the
+# many small cones of an affine-Lyapunov H2 design. Before a new solver is
+# set up, the least recently used idle ones are freed down to `KEPT_BYTES`,
+# except those whose setup took `SLOW_SETUP` CPU seconds or more: up to
+# `KEPT_SLOW` of these stay (a ladder's stages each have their own data,
+# and so their own solver), whatever their size.
 KEPT_BYTES = 32 * 2**20
+SLOW_SETUP = 0.5
+KEPT_SLOW = 3
 _BYTES_PER_ENTRY = 64
 _kept: collections.OrderedDict = collections.OrderedDict()
 
@@ -235,18 +240,28 @@ def _size(data: ConicData) -> int:
     return _BYTES_PER_ENTRY * (data.A.nnz + hessian)
 
 
-def _make_room(bytes_: int) -> None:
-    """Free the least recently used kept solvers until the others hold at
-    most `bytes_`."""
+def _slow(data: ConicData) -> bool:
+    return data.solvers["CLARABEL"][2] >= SLOW_SETUP
+
+
+def _make_room() -> None:
+    """Free the least recently used idle solvers down to `KEPT_BYTES` of
+    quickly set up ones and `KEPT_SLOW` slowly set up ones."""
     alive = [(key, ref()) for key, ref in _kept.items()]
-    total = sum(_size(data) for _, data in alive if data is not None)
+    alive = [(key, data) for key, data in alive if data is not None]
+    quick = sum(_size(data) for _, data in alive if not _slow(data))
+    slow = sum(_slow(data) for _, data in alive)
     for key, data in alive:
-        if total <= bytes_:
-            break
+        if _slow(data):
+            if slow <= KEPT_SLOW:
+                continue
+            slow -= 1
+        else:
+            if quick <= KEPT_BYTES:
+                continue
+            quick -= _size(data)
         del _kept[key]
-        if data is not None:
-            data.solvers.pop("CLARABEL", None)
-            total -= _size(data)
+        data.solvers.pop("CLARABEL", None)
 
 
 def _forget(key: int, ref) -> None:
@@ -285,7 +300,8 @@ def _kept_clarabel(c, data: ConicData, b, options):
         return solver
     data.solvers.pop("CLARABEL", None)
     _kept.pop(id(data), None)
-    _make_room(KEPT_BYTES)
+    _make_room()
+    setup = time.process_time()
     cones = [
         clarabel.NonnegativeConeT(1) if d == 1 else clarabel.PSDTriangleConeT(d)
         for d in data.sizes
@@ -299,7 +315,7 @@ def _kept_clarabel(c, data: ConicData, b, options):
     # identical re-solve would differ by ~1e-4. This way a solve does not
     # depend on what the solver did before.
     solver.update(q=c, b=b)
-    data.solvers["CLARABEL"] = (same, solver)
+    data.solvers["CLARABEL"] = (same, solver, time.process_time() - setup)
     key = id(data)
     _kept[key] = weakref.ref(data, lambda ref: _forget(key, ref))
     _kept.move_to_end(key)
