@@ -305,15 +305,15 @@ def test_a_kept_clarabel_solver_gives_a_fresh_solvers_point():
 
 def _clear_kept(monkeypatch, conic):
     monkeypatch.setattr(conic, "KEPT_BYTES", 0)
-    monkeypatch.setattr(conic, "KEPT_SLOW", 0)
+    monkeypatch.setattr(conic, "KEPT_COSTLY", 0)
     conic._make_room()
 
 
-@pytest.mark.parametrize("slow", [False, True])
-def test_kept_clarabel_solvers_are_bounded(monkeypatch, slow):
+@pytest.mark.parametrize("costly", [False, True])
+def test_kept_clarabel_solvers_are_bounded(monkeypatch, costly):
     # Idle solvers are freed, least recently used first, before a new one
-    # is set up: down to KEPT_BYTES of quickly set up ones, or KEPT_SLOW
-    # slowly set up ones (here every setup counts as slow when `slow`).
+    # is set up: down to KEPT_BYTES of quickly set up ones, or KEPT_COSTLY
+    # costly ones (here every setup counts as costly when `costly`).
     from ctrl_lpv.lmi import conic
 
     A, B, C, D = stable_system(5)
@@ -321,11 +321,11 @@ def test_kept_clarabel_solvers_are_bounded(monkeypatch, slow):
     data, _ = lmi._conic_data("default", True)
     c = lmi._objective_vector(lambda v: v.g[0, 0])
     _clear_kept(monkeypatch, conic)
-    if slow:
-        monkeypatch.setattr(conic, "SLOW_SETUP", 0.0)
-        monkeypatch.setattr(conic, "KEPT_SLOW", 2)
+    if costly:
+        monkeypatch.setattr(conic, "COSTLY_SETUP", 0.0)
+        monkeypatch.setattr(conic, "KEPT_COSTLY", 2)
     else:
-        monkeypatch.setattr(conic, "SLOW_SETUP", np.inf)
+        monkeypatch.setattr(conic, "COSTLY_SETUP", np.inf)
         monkeypatch.setattr(conic, "KEPT_BYTES", 2 * conic._size(data))
     copies = [
         ConicData(data.A, data.b0, data.b_margin, data.sizes, True) for _ in range(6)

@@ -73,7 +73,7 @@ class ConicData:
         The triangle stored (Clarabel: upper; SCS: lower).
     solvers : dict
         Solvers set up for these data, kept for re-solves (Clarabel's;
-        bounded in the process by `KEPT_BYTES` and `KEPT_SLOW`).
+        bounded in the process by `KEPT_BYTES` and `KEPT_COSTLY`).
     """
 
     A: sp.csc_array
@@ -221,15 +221,15 @@ def clarabel_settings(options: dict):
 # KKT matrix and factorisation, measured at 60-65 bytes per entry of ``A``
 # and of the cones' dense Hessian blocks (``t^2`` for a cone of ``t``
 # triangle entries; Theorem 2 LMIs, n = 4 and 8, N = 16 and 32: 13-55 MB),
-# and its setup took 2-10 % of its solve there, but 18 % (2-3 s) for the
-# many small cones of an affine-Lyapunov H2 design. Before a new solver is
-# set up, the least recently used idle ones are freed down to `KEPT_BYTES`,
-# except those whose setup took `SLOW_SETUP` CPU seconds or more: up to
-# `KEPT_SLOW` of these stay (a ladder's stages each have their own data,
-# and so their own solver), whatever their size.
+# and its setup cost 2-7 % of its solve there, but 18 % for the many small
+# cones of an affine-Lyapunov H2 design (n = 4, N = 16). Before a new
+# solver is set up, the least recently used idle ones are freed down to
+# `KEPT_BYTES`, except those whose setup cost `COSTLY_SETUP` of their solve
+# or more: up to `KEPT_COSTLY` of these stay whatever their size (a
+# ladder's stages each have their own data, and so their own solver).
 KEPT_BYTES = 32 * 2**20
-SLOW_SETUP = 0.5
-KEPT_SLOW = 3
+COSTLY_SETUP = 0.12
+KEPT_COSTLY = 3
 _BYTES_PER_ENTRY = 64
 _kept: collections.OrderedDict = collections.OrderedDict()
 
@@ -240,28 +240,41 @@ def _size(data: ConicData) -> int:
     return _BYTES_PER_ENTRY * (data.A.nnz + hessian)
 
 
-def _slow(data: ConicData) -> bool:
-    return data.solvers["CLARABEL"][2] >= SLOW_SETUP
+def _costly(data: ConicData) -> bool:
+    """Whether the setup of the solver kept for `data` cost `COSTLY_SETUP`
+    of its (first) solve or more, in CPU time."""
+    kept = data.solvers["CLARABEL"]
+    return kept.setup >= COSTLY_SETUP * kept.solve
 
 
 def _make_room() -> None:
     """Free the least recently used idle solvers down to `KEPT_BYTES` of
-    quickly set up ones and `KEPT_SLOW` slowly set up ones."""
+    cheaply set up ones and `KEPT_COSTLY` costly ones."""
     alive = [(key, ref()) for key, ref in _kept.items()]
     alive = [(key, data) for key, data in alive if data is not None]
-    quick = sum(_size(data) for _, data in alive if not _slow(data))
-    slow = sum(_slow(data) for _, data in alive)
+    cheap = sum(_size(data) for _, data in alive if not _costly(data))
+    costly = sum(_costly(data) for _, data in alive)
     for key, data in alive:
-        if _slow(data):
-            if slow <= KEPT_SLOW:
+        if _costly(data):
+            if costly <= KEPT_COSTLY:
                 continue
-            slow -= 1
+            costly -= 1
         else:
-            if quick <= KEPT_BYTES:
+            if cheap <= KEPT_BYTES:
                 continue
-            quick -= _size(data)
+            cheap -= _size(data)
         del _kept[key]
         data.solvers.pop("CLARABEL", None)
+
+
+@dataclass
+class _Kept:
+    """A solver kept with its data, and what it cost (CPU seconds)."""
+
+    settings: str
+    solver: object
+    setup: float
+    solve: float = np.inf
 
 
 def _forget(key: int, ref) -> None:
@@ -277,8 +290,8 @@ def _settings_key(options: dict) -> str:
 
 
 def _kept_clarabel(c, data: ConicData, b, options):
-    """Clarabel's solver for `data`, set up once and updated with ``c``,
-    ``b`` and the settings for a re-solve.
+    """Clarabel's solver for `data` (`_Kept`), set up once and updated
+    with ``c``, ``b`` and the settings for a re-solve.
 
     Updating gives the point a new construction (then updated) gives: the
     data that set up the solver (``A``, the cones, the equilibration
@@ -293,11 +306,14 @@ def _kept_clarabel(c, data: ConicData, b, options):
     settings = clarabel_settings(options)
     same = _settings_key(options)
     kept = data.solvers.get("CLARABEL")
-    if kept is not None and kept[0] == same and kept[1].is_data_update_allowed():
-        solver = kept[1]
-        solver.update(q=c, b=b, settings=settings)
+    if (
+        kept is not None
+        and kept.settings == same
+        and kept.solver.is_data_update_allowed()
+    ):
+        kept.solver.update(q=c, b=b, settings=settings)
         _kept.move_to_end(id(data))
-        return solver
+        return kept
     data.solvers.pop("CLARABEL", None)
     _kept.pop(id(data), None)
     _make_room()
@@ -315,17 +331,19 @@ def _kept_clarabel(c, data: ConicData, b, options):
     # identical re-solve would differ by ~1e-4. This way a solve does not
     # depend on what the solver did before.
     solver.update(q=c, b=b)
-    data.solvers["CLARABEL"] = (same, solver, time.process_time() - setup)
+    kept = data.solvers["CLARABEL"] = _Kept(same, solver, time.process_time() - setup)
     key = id(data)
     _kept[key] = weakref.ref(data, lambda ref: _forget(key, ref))
     _kept.move_to_end(key)
-    return solver
+    return kept
 
 
 def _clarabel(c, data: ConicData, b, options) -> ConicResult:
     start = time.perf_counter()
-    solver = _kept_clarabel(c, data, b, options)
-    solution = solver.solve()
+    kept = _kept_clarabel(c, data, b, options)
+    cpu = time.process_time()
+    solution = kept.solver.solve()
+    kept.solve = min(kept.solve, time.process_time() - cpu)
     status = _CLARABEL_STATUS.get(str(solution.status), "solver_error")
     x = np.array(solution.x, float) if status in SOLVED else None
     duals = None if status in SOLVED else data.matrices(np.array(solution.z, float))
