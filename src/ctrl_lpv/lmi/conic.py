@@ -227,7 +227,7 @@ def clarabel_settings(options: dict):
 # `KEPT_BYTES`, except those whose setup cost `COSTLY_SETUP` of their solve
 # or more: up to `KEPT_COSTLY` of these stay whatever their size (a
 # ladder's stages each have their own data, and so their own solver).
-KEPT_BYTES = 32 * 2**20
+KEPT_BYTES = 16 * 2**20
 COSTLY_SETUP = 0.12
 KEPT_COSTLY = 3
 _BYTES_PER_ENTRY = 64
