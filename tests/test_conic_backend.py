@@ -340,4 +340,6 @@ def test_kept_clarabel_solvers_are_bounded(monkeypatch, costly):
     assert holding == [1, 4, 5]
     # Data no longer alive leave no record behind.
     del copies, copy
+    with conic._lock:
+        conic._sweep()
     assert len(conic._kept) == 0

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import collections
 import functools
+import threading
 import time
 import weakref
 from dataclasses import dataclass, field
@@ -231,7 +232,11 @@ KEPT_BYTES = 16 * 2**20
 COSTLY_SETUP = 0.12
 KEPT_COSTLY = 3
 _BYTES_PER_ENTRY = 64
-_kept: collections.OrderedDict = collections.OrderedDict()
+_kept: collections.OrderedDict = collections.OrderedDict()  # id -> weakref
+# The records of data no longer alive, dropped under the lock: a weakref
+# callback may run in any thread, even amid the bookkeeping.
+_dead: list = []
+_lock = threading.Lock()
 
 
 def _size(data: ConicData) -> int:
@@ -278,9 +283,16 @@ class _Kept:
 
 
 def _forget(key: int, ref) -> None:
-    """Drop the record of data no longer alive (their solver went with them)."""
-    if _kept.get(key) is ref:
-        del _kept[key]
+    """Note data no longer alive (their solver went with them)."""
+    _dead.append((key, ref))
+
+
+def _sweep() -> None:
+    """Drop the records of data no longer alive (under the lock)."""
+    while _dead:
+        key, ref = _dead.pop()
+        if _kept.get(key) is ref:
+            del _kept[key]
 
 
 def _settings_key(options: dict) -> str:
@@ -305,18 +317,19 @@ def _kept_clarabel(c, data: ConicData, b, options):
 
     settings = clarabel_settings(options)
     same = _settings_key(options)
-    kept = data.solvers.get("CLARABEL")
-    if (
-        kept is not None
-        and kept.settings == same
-        and kept.solver.is_data_update_allowed()
-    ):
+    with _lock:
+        _sweep()
+        kept = data.solvers.get("CLARABEL")
+        if kept is not None and kept.settings == same:
+            _kept.move_to_end(id(data))
+        else:
+            data.solvers.pop("CLARABEL", None)
+            _kept.pop(id(data), None)
+            _make_room()
+            kept = None
+    if kept is not None and kept.solver.is_data_update_allowed():
         kept.solver.update(q=c, b=b, settings=settings)
-        _kept.move_to_end(id(data))
         return kept
-    data.solvers.pop("CLARABEL", None)
-    _kept.pop(id(data), None)
-    _make_room()
     setup = time.process_time()
     cones = [
         clarabel.NonnegativeConeT(1) if d == 1 else clarabel.PSDTriangleConeT(d)
@@ -331,10 +344,12 @@ def _kept_clarabel(c, data: ConicData, b, options):
     # identical re-solve would differ by ~1e-4. This way a solve does not
     # depend on what the solver did before.
     solver.update(q=c, b=b)
-    kept = data.solvers["CLARABEL"] = _Kept(same, solver, time.process_time() - setup)
+    kept = _Kept(same, solver, time.process_time() - setup)
     key = id(data)
-    _kept[key] = weakref.ref(data, lambda ref: _forget(key, ref))
-    _kept.move_to_end(key)
+    with _lock:
+        data.solvers["CLARABEL"] = kept
+        _kept[key] = weakref.ref(data, lambda ref: _forget(key, ref))
+        _kept.move_to_end(key)
     return kept
 
 
