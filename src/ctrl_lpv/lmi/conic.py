@@ -222,7 +222,7 @@ def clarabel_settings(options: dict):
 # KKT matrix and factorisation, measured at 60-65 bytes per entry of ``A``
 # and of the cones' dense Hessian blocks (``t^2`` for a cone of ``t``
 # triangle entries; Theorem 2 LMIs, n = 4 and 8, N = 16 and 32: 13-55 MB),
-# and its setup cost 2-7 % of its solve there, but 18 % for the many small
+# and its setup cost 2-8 % of its solve there, but 18 % for the many small
 # cones of an affine-Lyapunov H2 design (n = 4, N = 16). Before a new
 # solver is set up, the least recently used idle ones are freed down to
 # `KEPT_BYTES`, except those whose setup cost `COSTLY_SETUP` of their solve
