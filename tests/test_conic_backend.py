@@ -311,9 +311,10 @@ def _clear_kept(monkeypatch, conic):
 
 @pytest.mark.parametrize("costly", [False, True])
 def test_kept_clarabel_solvers_are_bounded(monkeypatch, costly):
-    # Idle solvers are freed, least recently used first, before a new one
-    # is set up: down to KEPT_BYTES of quickly set up ones, or KEPT_COSTLY
-    # costly ones (here every setup counts as costly when `costly`).
+    # Solvers are freed, least recently used first, after a solve and
+    # before a setup: down to KEPT_BYTES of quickly set up ones, or
+    # KEPT_COSTLY costly ones (here every setup counts as costly when
+    # `costly`).
     from ctrl_lpv.lmi import conic
 
     A, B, C, D = stable_system(5)
@@ -323,17 +324,19 @@ def test_kept_clarabel_solvers_are_bounded(monkeypatch, costly):
     _clear_kept(monkeypatch, conic)
     if costly:
         monkeypatch.setattr(conic, "COSTLY_SETUP", 0.0)
-        monkeypatch.setattr(conic, "KEPT_COSTLY", 2)
+        monkeypatch.setattr(conic, "KEPT_COSTLY", 3)
     else:
         monkeypatch.setattr(conic, "COSTLY_SETUP", np.inf)
-        monkeypatch.setattr(conic, "KEPT_BYTES", 2 * conic._size(data))
+        monkeypatch.setattr(conic, "KEPT_BYTES", 3 * conic._size(data))
     copies = [
         ConicData(data.A, data.b0, data.b_margin, data.sizes, True) for _ in range(6)
     ]
     for copy in copies[:4]:
         conic.solve_direct("CLARABEL", c, copy, 1e-8, {})
-    # A re-solve makes copies[1] the most recently used.
+    # A re-solve, on the kept solver, makes copies[1] the most recently used.
+    solver = copies[1].solvers["CLARABEL"].solver
     conic.solve_direct("CLARABEL", c, copies[1], 1e-8, {})
+    assert copies[1].solvers["CLARABEL"].solver is solver
     for copy in copies[4:]:
         conic.solve_direct("CLARABEL", c, copy, 1e-8, {})
     holding = [k for k, copy in enumerate(copies) if "CLARABEL" in copy.solvers]
@@ -342,4 +345,20 @@ def test_kept_clarabel_solvers_are_bounded(monkeypatch, costly):
     del copies, copy
     with conic._lock:
         conic._sweep()
+    assert len(conic._kept) == 0
+
+
+def test_a_cheap_solver_over_the_budget_is_freed_after_its_solve(monkeypatch):
+    # Not left beside the next stage's reading and setup.
+    from ctrl_lpv.lmi import conic
+
+    A, B, C, D = stable_system(6)
+    lmi = bounded_real(A, B, C, D)
+    data, _ = lmi._conic_data("default", True)
+    c = lmi._objective_vector(lambda v: v.g[0, 0])
+    _clear_kept(monkeypatch, conic)
+    monkeypatch.setattr(conic, "COSTLY_SETUP", np.inf)
+    result = conic.solve_direct("CLARABEL", c, data, 1e-8, {})
+    assert result.status == "optimal"
+    assert "CLARABEL" not in data.solvers
     assert len(conic._kept) == 0

@@ -223,8 +223,8 @@ def clarabel_settings(options: dict):
 # and of the cones' dense Hessian blocks (``t^2`` for a cone of ``t``
 # triangle entries; Theorem 2 LMIs, n = 4 and 8, N = 16 and 32: 13-55 MB),
 # and its setup cost 2-8 % of its solve there, but 18 % for the many small
-# cones of an affine-Lyapunov H2 design (n = 4, N = 16). Before a new
-# solver is set up, the least recently used idle ones are freed down to
+# cones of an affine-Lyapunov H2 design (n = 4, N = 16). After each solve
+# and before each setup, the least recently used ones are freed down to
 # `KEPT_BYTES`, except those whose setup cost `COSTLY_SETUP` of their solve
 # or more: up to `KEPT_COSTLY` of these stay whatever their size (a
 # ladder's stages each have their own data, and so their own solver).
@@ -359,6 +359,9 @@ def _clarabel(c, data: ConicData, b, options) -> ConicResult:
     cpu = time.process_time()
     solution = kept.solver.solve()
     kept.solve = min(kept.solve, time.process_time() - cpu)
+    with _lock:  # not beside the next stage's reading either
+        _sweep()
+        _make_room()
     status = _CLARABEL_STATUS.get(str(solution.status), "solver_error")
     x = np.array(solution.x, float) if status in SOLVED else None
     duals = None if status in SOLVED else data.matrices(np.array(solution.z, float))
