@@ -264,3 +264,101 @@ def test_an_almost_solved_point_counts_as_converged_only_near_the_optimum(seed):
         assert attempt.converged is converged
         if converged:
             assert sol.g[0, 0] == pytest.approx(norm, rel=1e-6)
+
+
+def test_a_kept_clarabel_solver_gives_a_fresh_solvers_point():
+    # Re-solves update the solver kept with the data (new c, new margin in
+    # b, another time limit) instead of setting it up again: the points and
+    # statuses must be those of a solver constructed for each solve. The
+    # objective weighs trace(P) so that the optimum is unique (min g alone
+    # leaves P free along a face, where rounding-level differences in the
+    # equilibrated b move the point by 1e-4).
+    from ctrl_lpv.lmi import conic
+
+    options = {"chordal_decomposition_enable": False}
+    for seed in (4, 5, 6):
+        A, B, C, D = stable_system(seed)
+        lmi = bounded_real(A, B, C, D)
+        data, _ = lmi._conic_data("default", True)
+        light = lmi._objective_vector(lambda v: v.g[0, 0] + 1e-2 * np.trace(v.P))
+        heavy = lmi._objective_vector(lambda v: v.g[0, 0] + 1e-1 * np.trace(v.P))
+        cases = [
+            (light, 1e-8, {}),
+            (light, 1e-3, {"time_limit": 50.0}),
+            (heavy, 1e-8, {}),
+            (light, 1e-6, {}),
+        ]
+        for c, margin, extra in cases:
+            kept = conic.solve_direct("CLARABEL", c, data, margin, {**options, **extra})
+            assert "CLARABEL" in data.solvers
+            copy = ConicData(data.A, data.b0, data.b_margin, data.sizes, True)
+            opts = {**options, **extra}
+            fresh = conic.solve_direct("CLARABEL", c, copy, margin, opts)
+            assert kept.status == fresh.status == "optimal"
+            np.testing.assert_allclose(kept.x, fresh.x, rtol=0, atol=1e-9)
+        # And the kept solver's optimum of min g is the H-infinity norm.
+        g_only = lmi._objective_vector(lambda v: v.g[0, 0])
+        last = conic.solve_direct("CLARABEL", g_only, data, 1e-8, options)
+        norm = ct.linfnorm(ct.ss(A, B, C, D))[0]
+        assert lmi._values(last.x)["g"][0, 0] == pytest.approx(norm, rel=1e-5)
+
+
+def _clear_kept(monkeypatch, conic):
+    monkeypatch.setattr(conic, "KEPT_BYTES", 0)
+    monkeypatch.setattr(conic, "KEPT_COSTLY", 0)
+    conic._make_room()
+
+
+@pytest.mark.parametrize("costly", [False, True])
+def test_kept_clarabel_solvers_are_bounded(monkeypatch, costly):
+    # Solvers are freed, least recently used first, after a solve and
+    # before a setup: down to KEPT_BYTES of quickly set up ones, or
+    # KEPT_COSTLY costly ones (here every setup counts as costly when
+    # `costly`).
+    from ctrl_lpv.lmi import conic
+
+    A, B, C, D = stable_system(5)
+    lmi = bounded_real(A, B, C, D)
+    data, _ = lmi._conic_data("default", True)
+    c = lmi._objective_vector(lambda v: v.g[0, 0])
+    _clear_kept(monkeypatch, conic)
+    if costly:
+        monkeypatch.setattr(conic, "COSTLY_SETUP", 0.0)
+        monkeypatch.setattr(conic, "KEPT_COSTLY", 3)
+    else:
+        monkeypatch.setattr(conic, "COSTLY_SETUP", np.inf)
+        monkeypatch.setattr(conic, "KEPT_BYTES", 3 * conic._size(data))
+    copies = [
+        ConicData(data.A, data.b0, data.b_margin, data.sizes, True) for _ in range(6)
+    ]
+    for copy in copies[:4]:
+        conic.solve_direct("CLARABEL", c, copy, 1e-8, {})
+    # A re-solve, on the kept solver, makes copies[1] the most recently used.
+    solver = copies[1].solvers["CLARABEL"].solver
+    conic.solve_direct("CLARABEL", c, copies[1], 1e-8, {})
+    assert copies[1].solvers["CLARABEL"].solver is solver
+    for copy in copies[4:]:
+        conic.solve_direct("CLARABEL", c, copy, 1e-8, {})
+    holding = [k for k, copy in enumerate(copies) if "CLARABEL" in copy.solvers]
+    assert holding == [1, 4, 5]
+    # Data no longer alive leave no record behind.
+    del copies, copy
+    with conic._lock:
+        conic._sweep()
+    assert len(conic._kept) == 0
+
+
+def test_a_cheap_solver_over_the_budget_is_freed_after_its_solve(monkeypatch):
+    # Not left beside the next stage's reading and setup.
+    from ctrl_lpv.lmi import conic
+
+    A, B, C, D = stable_system(6)
+    lmi = bounded_real(A, B, C, D)
+    data, _ = lmi._conic_data("default", True)
+    c = lmi._objective_vector(lambda v: v.g[0, 0])
+    _clear_kept(monkeypatch, conic)
+    monkeypatch.setattr(conic, "COSTLY_SETUP", np.inf)
+    result = conic.solve_direct("CLARABEL", c, data, 1e-8, {})
+    assert result.status == "optimal"
+    assert "CLARABEL" not in data.solvers
+    assert len(conic._kept) == 0

@@ -12,15 +12,21 @@ products are preserved):
 * SCS (cone ``"s"``): the lower triangle, column by column.
 
 The data are assembled once per structure with numpy and scipy.sparse; a
-re-solve with another margin changes ``b`` only. Other solvers take the
-same data through cvxpy (`ctrl_lpv.lmi.cvxpy_backend`).
+re-solve with another margin changes ``b`` only, and another objective
+``c`` only: Clarabel's solver is kept with the data and updated
+(`_kept_clarabel`), so that its setup (the KKT system's structure,
+equilibration, symbolic factorisation) is paid once per structure. Other
+solvers take the same data through cvxpy (`ctrl_lpv.lmi.cvxpy_backend`).
 """
 
 from __future__ import annotations
 
+import collections
 import functools
+import threading
 import time
-from dataclasses import dataclass
+import weakref
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
@@ -66,6 +72,9 @@ class ConicData:
         Size of each inequality.
     upper : bool
         The triangle stored (Clarabel: upper; SCS: lower).
+    solvers : dict
+        Solvers set up for these data, kept for re-solves (Clarabel's;
+        bounded in the process by `KEPT_BYTES` and `KEPT_COSTLY`).
     """
 
     A: sp.csc_array
@@ -73,6 +82,7 @@ class ConicData:
     b_margin: np.ndarray
     sizes: tuple[int, ...]
     upper: bool
+    solvers: dict = field(default_factory=dict, compare=False, repr=False)
 
     def b(self, margin: float) -> np.ndarray:
         return self.b0 - margin * self.b_margin
@@ -141,8 +151,9 @@ class ConicResult:
     x : ndarray or None
         The point, when the solver reported one.
     duals : list of ndarray or None
-        One symmetric matrix per inequality: the dual point (a Farkas
-        point after an infeasible solve).
+        After a solve that found no point, one symmetric matrix per
+        inequality: the dual point (a Farkas point after an infeasible
+        solve); None with a point (nothing reads the duals then).
     objective : float or None
     seconds : float
         Wall time.
@@ -207,11 +218,119 @@ def clarabel_settings(options: dict):
     return settings
 
 
-def _clarabel(c, data: ConicData, b, options) -> ConicResult:
+# Clarabel solvers kept in the process, idle between solves. Each holds its
+# KKT matrix and factorisation, measured at 60-65 bytes per entry of ``A``
+# and of the cones' dense Hessian blocks (``t^2`` for a cone of ``t``
+# triangle entries; Theorem 2 LMIs, n = 4 and 8, N = 16 and 32: 13-55 MB),
+# and its setup cost 2-8 % of its solve there, but 18 % for the many small
+# cones of an affine-Lyapunov H2 design (n = 4, N = 16). After each solve
+# and before each setup, the least recently used ones are freed down to
+# `KEPT_BYTES`, except those whose setup cost `COSTLY_SETUP` of their solve
+# or more: up to `KEPT_COSTLY` of these stay whatever their size (a
+# ladder's stages each have their own data, and so their own solver).
+KEPT_BYTES = 16 * 2**20
+COSTLY_SETUP = 0.12
+KEPT_COSTLY = 3
+_BYTES_PER_ENTRY = 64
+_kept: collections.OrderedDict = collections.OrderedDict()  # id -> weakref
+# The records of data no longer alive, dropped under the lock: a weakref
+# callback may run in any thread, even amid the bookkeeping.
+_dead: list = []
+_lock = threading.Lock()
+
+
+def _size(data: ConicData) -> int:
+    """A Clarabel solver's estimated memory for `data`."""
+    hessian = sum((d * (d + 1) // 2) ** 2 for d in data.sizes)
+    return _BYTES_PER_ENTRY * (data.A.nnz + hessian)
+
+
+def _costly(data: ConicData) -> bool:
+    """Whether the setup of the solver kept for `data` cost `COSTLY_SETUP`
+    of its (first) solve or more, in CPU time."""
+    kept = data.solvers["CLARABEL"]
+    return kept.setup >= COSTLY_SETUP * kept.solve
+
+
+def _make_room() -> None:
+    """Free the least recently used idle solvers down to `KEPT_BYTES` of
+    cheaply set up ones and `KEPT_COSTLY` costly ones."""
+    alive = [(key, ref()) for key, ref in _kept.items()]
+    alive = [(key, data) for key, data in alive if data is not None]
+    cheap = sum(_size(data) for _, data in alive if not _costly(data))
+    costly = sum(_costly(data) for _, data in alive)
+    for key, data in alive:
+        if _costly(data):
+            if costly <= KEPT_COSTLY:
+                continue
+            costly -= 1
+        else:
+            if cheap <= KEPT_BYTES:
+                continue
+            cheap -= _size(data)
+        del _kept[key]
+        data.solvers.pop("CLARABEL", None)
+
+
+@dataclass
+class _Kept:
+    """A solver kept with its data, and what it cost (CPU seconds)."""
+
+    settings: str
+    solver: object
+    setup: float
+    solve: float = np.inf
+
+
+def _forget(key: int, ref) -> None:
+    """Note data no longer alive (their solver went with them)."""
+    _dead.append((key, ref))
+
+
+def _sweep() -> None:
+    """Drop the records of data no longer alive (under the lock)."""
+    while _dead:
+        key, ref = _dead.pop()
+        if _kept.get(key) is ref:
+            del _kept[key]
+
+
+def _settings_key(options: dict) -> str:
+    """What a kept solver must share with a re-solve's options: all but the
+    time limit (Clarabel refuses to change the others after setup)."""
+    return repr(sorted((k, v) for k, v in options.items() if k != "time_limit"))
+
+
+def _kept_clarabel(c, data: ConicData, b, options):
+    """Clarabel's solver for `data` (`_Kept`), set up once and updated
+    with ``c``, ``b`` and the settings for a re-solve.
+
+    Updating gives the point a new construction (then updated) gives: the
+    data that set up the solver (``A``, the cones, the equilibration
+    computed from them) are unchanged, and Clarabel starts every solve
+    from its own initial point. Set up anew when the options other than
+    the time limit differ or the solver forbids updates
+    (`is_data_update_allowed`: a presolve that removed rows, a chordal
+    decomposition).
+    """
     import clarabel
 
-    start = time.perf_counter()
     settings = clarabel_settings(options)
+    same = _settings_key(options)
+    with _lock:
+        _sweep()
+        kept = data.solvers.get("CLARABEL")
+        if kept is not None and kept.settings == same:
+            _kept.move_to_end(id(data))
+        else:
+            data.solvers.pop("CLARABEL", None)
+            _kept.pop(id(data), None)
+            _make_room()
+            kept = None
+    if kept is not None and kept.solver.is_data_update_allowed():
+        kept.solver.update(q=c, b=b, settings=settings)
+        return kept
+    setup = time.process_time()
     cones = [
         clarabel.NonnegativeConeT(1) if d == 1 else clarabel.PSDTriangleConeT(d)
         for d in data.sizes
@@ -219,10 +338,33 @@ def _clarabel(c, data: ConicData, b, options) -> ConicResult:
     n = data.A.shape[1]
     P = sp.csc_matrix((n, n))
     solver = clarabel.DefaultSolver(P, c, sp.csc_matrix(data.A), b, cones, settings)
-    solution = solver.solve()
+    # Every solve goes through `update`: Clarabel scales updated data with
+    # rounding that differs from its setup's, which a degenerate optimum
+    # (a face of optimal points) amplifies, so that a first solve and an
+    # identical re-solve would differ by ~1e-4. This way a solve does not
+    # depend on what the solver did before.
+    solver.update(q=c, b=b)
+    kept = _Kept(same, solver, time.process_time() - setup)
+    key = id(data)
+    with _lock:
+        data.solvers["CLARABEL"] = kept
+        _kept[key] = weakref.ref(data, lambda ref: _forget(key, ref))
+        _kept.move_to_end(key)
+    return kept
+
+
+def _clarabel(c, data: ConicData, b, options) -> ConicResult:
+    start = time.perf_counter()
+    kept = _kept_clarabel(c, data, b, options)
+    cpu = time.process_time()
+    solution = kept.solver.solve()
+    kept.solve = min(kept.solve, time.process_time() - cpu)
+    with _lock:  # not beside the next stage's reading either
+        _sweep()
+        _make_room()
     status = _CLARABEL_STATUS.get(str(solution.status), "solver_error")
     x = np.array(solution.x, float) if status in SOLVED else None
-    duals = data.matrices(np.array(solution.z, float))
+    duals = None if status in SOLVED else data.matrices(np.array(solution.z, float))
     objective = float(solution.obj_val) if status in SOLVED else None
     primal, dual = solution.obj_val, solution.obj_val_dual
     gap = abs(primal - dual) / max(1.0, abs(primal))
@@ -246,7 +388,7 @@ def _scs(c, data: ConicData, b, options) -> ConicResult:
     solution = solver.solve()
     status = _SCS_STATUS.get(int(solution["info"]["status_val"]), "solver_error")
     x = np.array(solution["x"], float) if status in SOLVED else None
-    duals = data.matrices(np.array(solution["y"], float))
+    duals = None if status in SOLVED else data.matrices(np.array(solution["y"], float))
     objective = float(solution["info"]["pobj"]) if status in SOLVED else None
     seconds = time.perf_counter() - start
     return ConicResult(

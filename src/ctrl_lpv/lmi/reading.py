@@ -57,13 +57,15 @@ class ConicReading:
         """
         units = self._units()
         numeric = self._numeric()
+        # The parameters' bytes once per reading, not once per inequality.
+        encoded = {p: value.tobytes() for p, value in numeric.items()}
         base = self._base()
         cache = self._exact if exact else self._columns
         pieces = []
         for name, blocks, _, _ in active:
             kept = cache.setdefault(name, {})
             read = self._reads.get(name)
-            key = None if read is None else _key(read, numeric)
+            key = None if read is None else _key(read, encoded)
             if key in kept:
                 kept[key] = kept.pop(key)  # the most recent last
                 pieces.append(kept[key])
@@ -81,7 +83,7 @@ class ConicReading:
 
             start = time.perf_counter()
             part = _blocks.columns(evaluate, F0, read, units, not exact)
-            kept[_key(read, numeric)] = piece = (F0, part)
+            kept[_key(read, encoded)] = piece = (F0, part)
             self._reading += time.perf_counter() - start
             if len(kept) > _KEPT_MAPS:
                 del kept[next(iter(kept))]
@@ -136,6 +138,7 @@ class ConicReading:
         return values
 
 
-def _key(read, numeric) -> tuple:
-    """The values of the parameters among `read`, as a dictionary key."""
-    return tuple((p, numeric[p].tobytes()) for p in sorted(read) if p in numeric)
+def _key(read, encoded) -> tuple:
+    """The values of the parameters among `read` (`encoded`: each
+    parameter's bytes), as a dictionary key."""
+    return tuple((p, encoded[p]) for p in sorted(read) if p in encoded)
