@@ -13,10 +13,11 @@ products are preserved):
 
 The data are assembled once per structure with numpy and scipy.sparse; a
 re-solve with another margin changes ``b`` only, and another objective
-``c`` only: Clarabel's solver is kept with the data and updated
-(`_kept_clarabel`), so that its setup (the KKT system's structure,
-equilibration, symbolic factorisation) is paid once per structure. Other
-solvers take the same data through cvxpy (`ctrl_lpv.lmi.cvxpy_backend`).
+``c`` only. Clarabel's solver is kept with the data (`_kept_clarabel`), so
+that an identical re-solve (the same ``c`` and ``b``: a repeated design)
+does not pay its setup (the KKT system's structure, equilibration,
+symbolic factorisation) again. Other solvers take the same data through
+cvxpy (`ctrl_lpv.lmi.cvxpy_backend`).
 """
 
 from __future__ import annotations
@@ -274,10 +275,13 @@ def _make_room() -> None:
 
 @dataclass
 class _Kept:
-    """A solver kept with its data, and what it cost (CPU seconds)."""
+    """A solver kept with its data, the ``c`` and ``b`` it was set up with,
+    and what it cost (CPU seconds)."""
 
     settings: str
     solver: object
+    c: bytes
+    b: bytes
     setup: float
     solve: float = np.inf
 
@@ -302,33 +306,39 @@ def _settings_key(options: dict) -> str:
 
 
 def _kept_clarabel(c, data: ConicData, b, options):
-    """Clarabel's solver for `data` (`_Kept`), set up once and updated
-    with ``c``, ``b`` and the settings for a re-solve.
+    """Clarabel's solver for `data` (`_Kept`): the one kept from a solve
+    with the same ``c``, ``b`` and options (the time limit may differ: it
+    is updated), else one set up anew.
 
-    Updating gives the point a new construction (then updated) gives: the
-    data that set up the solver (``A``, the cones, the equilibration
-    computed from them) are unchanged, and Clarabel starts every solve
-    from its own initial point. Set up anew when the options other than
-    the time limit differ or the solver forbids updates
-    (`is_data_update_allowed`: a presolve that removed rows, a chordal
-    decomposition).
+    Only identical data are re-solved on a kept solver: Clarabel scales
+    data given through `update` with rounding that differs from its setup's,
+    which a degenerate optimum amplifies (measured: points 1e-4 apart, and a
+    solver error on the spinning-disk output-feedback design), so a solve
+    with other numbers must not depend on what the solver did before.
+    Clarabel starts every solve from its own initial point: an identical
+    re-solve gives the first solve's point.
     """
     import clarabel
 
     settings = clarabel_settings(options)
     same = _settings_key(options)
+    c_bytes, b_bytes = np.asarray(c, float).tobytes(), np.asarray(b, float).tobytes()
     with _lock:
         _sweep()
         kept = data.solvers.get("CLARABEL")
-        if kept is not None and kept.settings == same:
+        if kept is not None and (kept.settings, kept.c, kept.b) == (
+            same,
+            c_bytes,
+            b_bytes,
+        ):
             _kept.move_to_end(id(data))
         else:
             data.solvers.pop("CLARABEL", None)
             _kept.pop(id(data), None)
             _make_room()
             kept = None
-    if kept is not None and kept.solver.is_data_update_allowed():
-        kept.solver.update(q=c, b=b, settings=settings)
+    if kept is not None:
+        kept.solver.update(settings=settings)  # the time limit left
         return kept
     setup = time.process_time()
     cones = [
@@ -338,13 +348,7 @@ def _kept_clarabel(c, data: ConicData, b, options):
     n = data.A.shape[1]
     P = sp.csc_matrix((n, n))
     solver = clarabel.DefaultSolver(P, c, sp.csc_matrix(data.A), b, cones, settings)
-    # Every solve goes through `update`: Clarabel scales updated data with
-    # rounding that differs from its setup's, which a degenerate optimum
-    # (a face of optimal points) amplifies, so that a first solve and an
-    # identical re-solve would differ by ~1e-4. This way a solve does not
-    # depend on what the solver did before.
-    solver.update(q=c, b=b)
-    kept = _Kept(same, solver, time.process_time() - setup)
+    kept = _Kept(same, solver, c_bytes, b_bytes, time.process_time() - setup)
     key = id(data)
     with _lock:
         data.solvers["CLARABEL"] = kept
