@@ -71,13 +71,16 @@ SCENARIOS = [
 ]
 
 
-def run(design, Td, alpha, Jl, theta_r, *, T=5.0, seed=1):
+ENCODERS = {"theta_m": Encoder(2**20, 0.5), "theta_l": Encoder(2**17, 0.5)}
+MOTOR_ENCODER = {"theta_m": Encoder(2**20, 0.5)}
+
+
+def run(design, Td, alpha, Jl, theta_r, *, T=5.0, seed=1, sensors=ENCODERS):
     params = twomass.Parameters()
     plant = twomass.plant(
         params.replace(Jl=Jl * params.Jl),
         alpha=twomass.alpha_step() if alpha is None else alpha,
     )
-    sensors = {"theta_m": Encoder(2**20, 0.5), "theta_l": Encoder(2**17, 0.5)}
     res = sampled_response(
         plant, design.controller(), T, inputs={"Td": Td, "theta_r": theta_r},
         delay=design.delay, sensors=sensors, seed=seed,
@@ -127,10 +130,9 @@ def sine(t):
 
 def run_stream(design, Td, alpha, *, T=5.0, seed=1):
     plant = twomass.plant(alpha=twomass.alpha_step() if alpha is None else alpha)
-    sensors = {"theta_m": Encoder(2**20, 0.5), "theta_l": Encoder(2**17, 0.5)}
     res = sampled_response(
         plant, design.controller(), T, inputs={"Td": Td, "theta_r": sine},
-        delay=design.delay, sensors=sensors, seed=seed,
+        delay=design.delay, sensors=ENCODERS, seed=seed,
     )  # fmt: skip
     t = res.plant.time
     e = (res.plant.outputs[2] - sine(t))[t >= 1.0]
@@ -176,34 +178,6 @@ MOTOR_SCENARIOS = [
 ]
 
 
-def run_motor(design, Td, alpha, Jl, theta_r, *, T=5.0, seed=1):
-    params = twomass.Parameters()
-    plant = twomass.plant(
-        params.replace(Jl=Jl * params.Jl),
-        alpha=twomass.alpha_step() if alpha is None else alpha,
-    )
-    res = sampled_response(
-        plant, design.controller(), T, inputs={"Td": Td, "theta_r": theta_r},
-        delay=design.delay, sensors={"theta_m": Encoder(2**20, 0.5)}, seed=seed,
-    )  # fmt: skip
-    t, e = res.plant.time, res.plant.outputs[2] - theta_r
-    torque = res.plant.inputs[0]
-    outside = np.flatnonzero(np.abs(e) > 0.02 * abs(theta_r))
-    settling = (
-        0.0
-        if not outside.size
-        else (t[outside[-1] + 1] if outside[-1] + 1 < t.size else np.inf)
-    )
-    last = t >= T - 1.0
-    return {
-        "settling": settling,
-        "overshoot": max(0.0, float(np.max(np.sign(theta_r) * e))) / abs(theta_r) * 100,
-        "error": abs(e[-1]),
-        "rest_error": np.abs(e[last]).max(),
-        "torque_std": np.std(torque[last]),
-    }
-
-
 def motor_table(dt, seed):
     start = time.perf_counter()
     design = twomass.servo_design(dt=dt, delay=1, sensors="motor", certify=False)
@@ -212,7 +186,7 @@ def motor_table(dt, seed):
     print(f"{'scenario':30s} {'settle':>7s} {'over%':>6s} {'|e| end':>8s} "
           f"{'max|e| 1s':>9s} {'T std':>6s}  ok")  # fmt: skip
     for name, Td, alpha, Jl, theta_r in MOTOR_SCENARIOS:
-        m = run_motor(design, Td, alpha, Jl, theta_r, seed=seed)
+        m = run(design, Td, alpha, Jl, theta_r, seed=seed, sensors=MOTOR_ENCODER)
         if Td > 0:
             ok = m["settling"] <= 0.5 and m["overshoot"] <= 2.0 and m["error"] <= 1e-3
         else:

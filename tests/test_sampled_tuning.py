@@ -12,33 +12,27 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ctrl_lpv import sampled_response, twomass
-from ctrl_lpv.sensors import Encoder
+from ctrl_lpv import twomass
 from ctrl_lpv.twomass.sampled_tuning import (
     FAST_SAMPLING,
     FLOOR_TARGET,
     SampledTuning,
     sampled_tuning,
 )
+from ctrl_lpv.twomass.servo_compare import run_sampled_servo_scenario
 from ctrl_lpv.twomass.servo_rest import _rest_loop
-
-ENCODERS = {"theta_m": Encoder(2**20, 0.5), "theta_l": Encoder(2**17, 0.5)}
 
 
 def _run(design, *, Td, alpha, theta_r=0.5, Jl=1.0, T=3.0, seed=1):
     """Settling (2 %), and over the last second: the largest load error, the
     torque's largest deviation from its mean and its standard deviation."""
-    params = twomass.Parameters()
-    plant = twomass.plant(
-        params.replace(Jl=Jl * params.Jl),
-        alpha=twomass.alpha_step() if alpha is None else alpha,
-    )
-    res = sampled_response(
-        plant, design.controller(), T, inputs={"Td": Td, "theta_r": theta_r},
-        delay=design.delay, sensors=ENCODERS, seed=seed,
+    res = run_sampled_servo_scenario(
+        design, alpha=twomass.alpha_step() if alpha is None else alpha, Jl=Jl,
+        Td=Td, theta_r=theta_r, T=T, seed=seed,
     )  # fmt: skip
-    t, e = res.plant.time, res.plant.outputs[2] - theta_r
-    torque = res.plant.inputs[0]
+    t = res.time
+    e = res.outputs[res.output_labels.index("theta_l")] - theta_r
+    torque = res.outputs[res.output_labels.index("Tm")]
     outside = np.flatnonzero(np.abs(e) > 0.02 * abs(theta_r))
     settling = t[outside[-1] + 1] if outside.size else 0.0
     last = t >= T - 1.0

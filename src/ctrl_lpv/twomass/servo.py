@@ -361,8 +361,9 @@ def servo_design(
         The tracker's bandwidth (``reference="stream"``).
     inertia : `ServoInertia`, optional
         The load-inertia estimate learnt along moves
-        (`ctrl_lpv.twomass.inertia`; ``sensors="encoders"``): on by
-        default, ``ServoInertia(enabled=False)`` keeps the nominal inertia.
+        (`ctrl_lpv.twomass.inertia`; ``sensors="encoders"``): by default
+        on up to 1.5 ms of sample time (`sampled_tuning`),
+        ``ServoInertia(enabled=False)`` keeps the nominal inertia.
 
     Returns
     -------
@@ -393,6 +394,8 @@ def servo_design(
     certify = flag(certify, "certify")
     dt, delay = _sampling(dt, delay, sensors)
     stream = _settings(stream, ServoStream, "stream")
+    if inertia is None and dt is not None:
+        inertia = ServoInertia(enabled=sampled_tuning(dt).learn_inertia)
     inertia = _settings(inertia, ServoInertia, "inertia")
     if reference not in ("plan", "stream"):
         raise ValueError(f"reference: expected 'plan' or 'stream', got {reference!r}")
