@@ -23,6 +23,7 @@ from ..certificate import Certificate, Check, negative_definite, rounding_bound
 from ..lmi import LMIProblem
 from ..synthesis.frozen import verification_points
 from .reconstruct import closed_loop
+from .views import declare_specs
 
 __all__ = ["closed_loop_certificate", "closed_loop_analysis"]
 
@@ -69,8 +70,7 @@ def closed_loop_analysis(plant, objective, controllers, margin, chain):
                 for A, B, C, D in loops[objective])  # fmt: skip
     lmi = LMIProblem(margin=margin * max(scale, 1.0))
     lmi.variable("P", (n, n), symmetric=True)
-    for part in objective.parts():
-        part.declare(lmi, plant)
+    declare_specs(lmi, plant, objective.parts())
     lmi.add("P > 0", lambda v: [[-v.P]])
     for part, its in loops.items():
         for j, loop in enumerate(its):

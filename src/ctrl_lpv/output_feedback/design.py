@@ -44,6 +44,7 @@ from .reconstruct import (
     factor,
 )
 from .results import OutputFeedbackDesign
+from .views import VertexTerms, declare_specs
 
 __all__ = ["hinf_output_feedback", "h2_output_feedback"]
 
@@ -421,8 +422,7 @@ def _problem(plant, objective, scheduled, margin, weigh=True):
     lmi = LMIProblem(margin=margin * max(scale, 1.0))
     lmi.variable("X", (n, n), symmetric=True)
     lmi.variable("Y", (n, n), symmetric=True)
-    for part in objective.parts():
-        part.declare(lmi, plant)
+    declare_specs(lmi, plant, objective.parts())
     for k in range(N if scheduled else 1):
         lmi.variable(f"Ah{k}", (n, n))
         lmi.variable(f"Bh{k}", (n, p))
@@ -453,7 +453,8 @@ def _problem(plant, objective, scheduled, margin, weigh=True):
     lmi.margin = margin * max(scale / weight**2, 1.0)
     for j in range(N):
         for part in objective.parts():
-            for name, blocks, perf in part.transformed_lmis(plant, j, hats):
+            t = VertexTerms(plant, j, hats)
+            for name, blocks, perf in part.lmis(t, plant.continuous):
                 lmi.add(name, _weighted(blocks, perf, weight))
     # The back-off stage: the level within the back-off, and eig(X Y) >=
     # mu^2 pushed up (``[[X, mu I], [mu I, Y]] >= 0``, linear in mu): I - X Y

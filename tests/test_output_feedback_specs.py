@@ -1,0 +1,147 @@
+"""The output-feedback forms as specs of the one protocol (issue 20).
+
+The objectives and constraints of `hinf_output_feedback` and
+`h2_output_feedback` are `ctrl_lpv.synthesis.spec.Spec` subclasses; their
+float64 residual at a frozen closed loop (`Spec.residual`) is checked here
+against independent facts: the closed loop built by python-control's
+`interconnect` from the returned controller system (not the library's
+closed-loop formula), the bounded-real inequality written out with numpy,
+the frozen norms from `control.linfnorm` / `control.norm` (a residual below
+zero proves the level above the norm, so a level below the norm must give
+a positive residual), and the eigenvalues from numpy for a pole region.
+"""
+
+import control as ct
+import numpy as np
+import pytest
+
+import ctrl_lpv as lpv
+from ctrl_lpv.output_feedback.mixed import output_feedback_constraints
+from ctrl_lpv.output_feedback.objectives import H2Objective, HinfObjective
+from ctrl_lpv.output_feedback.plant import OutputFeedbackPlant
+from ctrl_lpv.output_feedback.views import FrozenLoop
+from ctrl_lpv.regions import disk, halfplane
+from ctrl_lpv.synthesis.spec import Spec
+from test_output_feedback import W, Z, loop_by_name, random_plant
+
+
+def frozen_points(sys):
+    """``(delta, plant, p)``: the vertices and interior points."""
+    if sys.nvertices == 1:
+        return [(np.ones(1), sys.vertices[0], [1.0])]
+    out = []
+    for p in (0.0, 0.3, 0.5, 0.85, 1.0):
+        out.append((sys.weights({"p": p}), sys.at({"p": p}), {"p": p}))
+    return out
+
+
+def specs_of(sys, kind, constraints):
+    continuous = not sys.isdtime(strict=True)
+    parts, channels = output_feedback_constraints(
+        constraints, sys, "u", "y", continuous
+    )
+    plant = OutputFeedbackPlant.of(sys, W, "u", Z, "y")
+    plant = type(plant)(**{**plant.__dict__, "channels": channels})
+    return plant, kind(parts), continuous
+
+
+CASES = {
+    "Hinf continuous polytope": (HinfObjective, dict(seed=5, vertices=2, stable=True)),
+    "Hinf discrete": (HinfObjective, dict(seed=1, dt=0.1)),
+    "H2 continuous polytope": (H2Objective, dict(seed=7, vertices=2, stable=True)),
+    "H2 discrete": (H2Objective, dict(seed=2, dt=0.1)),
+}
+
+
+def designed(kind, plant_kw, constraints=(), **kw):
+    sys = random_plant(plant_kw.pop("seed"), **plant_kw)
+    call = lpv.hinf_output_feedback if kind is HinfObjective else lpv.h2_output_feedback
+    return sys, call(sys, W, "u", Z, "y", constraints=constraints, **kw)
+
+
+def test_every_output_feedback_form_is_a_spec():
+    sys = random_plant(3, vertices=2, stable=True)
+    limit = lpv.H2(W, "z0", bound=10.0)
+    plant, objective, _ = specs_of(sys, HinfObjective, [halfplane(0.1), limit])
+    assert all(isinstance(part, Spec) for part in objective.parts())
+    assert [type(p).__name__ for p in objective.parts()] == [
+        "HinfObjective", "RegionConstraint", "BoundConstraint"]  # fmt: skip
+    assert isinstance(H2Objective(), Spec)
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_residual_against_the_python_control_loop(case):
+    """At every frozen point (vertices and between them) the spec's
+    residual at the design's P and level is negative, equals (H-infinity)
+    the normalised eigenvalue of the bounded-real inequality of the loop
+    python-control builds, and turns positive at a level below the frozen
+    norm."""
+    kind, plant_kw = CASES[case]
+    sys, d = designed(kind, dict(plant_kw))
+    plant, objective, continuous = specs_of(sys, kind, ())
+    controller = d.controller()
+    for delta, G, p in frozen_points(sys):
+        cl = loop_by_name(G, controller.at(p))
+        loop = FrozenLoop.of(plant, delta, d.controllers, d.P, d.values)
+        residual = objective.residual(loop, continuous)
+        assert residual < 0
+        A, B, C, D = ct.ssdata(cl)  # states: plant first, then controller
+        if kind is HinfObjective:
+            g, P = d.values["level"], d.P
+            assert g == pytest.approx(d.gamma)
+            if continuous:
+                F = np.block([[A.T @ P + P @ A, P @ B, C.T],
+                              [B.T @ P, -g * np.eye(2), D.T],
+                              [C, D, -g * np.eye(2)]])  # fmt: skip
+            else:
+                F = np.block([[A.T @ P @ A - P, A.T @ P @ B, C.T],
+                              [B.T @ P @ A, B.T @ P @ B - g * np.eye(2), D.T],
+                              [C, D, -g * np.eye(2)]])  # fmt: skip
+                # A different (Schur-equivalent) form: the sign agrees.
+                assert np.linalg.eigvalsh(F).max() < 0
+                F = None
+            if F is not None:
+                s = 1.0 / np.sqrt(-np.diag(F))
+                independent = np.linalg.eigvalsh(F * s[:, None] * s[None, :]).max()
+                assert residual == pytest.approx(independent, rel=1e-6, abs=1e-12)
+            norm = float(ct.linfnorm(cl)[0])
+            assert norm < g
+            below = dict(d.values, level=0.999 * norm)
+        else:
+            norm = float(ct.norm(cl, 2))
+            assert norm**2 < d.values["level"]
+            below = dict(d.values, level=0.99 * norm**2)
+        low = FrozenLoop.of(plant, delta, d.controllers, d.P, below)
+        assert objective.residual(low, continuous) > 0
+
+
+def test_region_and_bound_residuals_against_independent_facts():
+    """A pole region and a bound on another channel, posed with the
+    objective: their residuals are negative on every frozen loop, the loop's
+    eigenvalues (numpy) lie in the region and the channel's H2 norm
+    (python-control) is below its bound; a region the loop leaves, or a
+    bound below the channel's norm, gives a positive residual."""
+    sys = random_plant(2, n=3, vertices=2, stable=True)
+    alone = lpv.h2_output_feedback(sys, W, "u", "z0", "y")
+    limit = lpv.H2(W, "z0", bound=1.5 * alone.gamma)
+    region = disk(40.0)
+    d = lpv.hinf_output_feedback(sys, W, "u", Z, "y", constraints=[region, limit])
+    plant, objective, continuous = specs_of(sys, HinfObjective, [region, limit])
+    _, in_region, bounded = objective.parts()
+    controller = d.controller()
+    for delta, G, p in frozen_points(sys):
+        K = controller.at(p)
+        loop = FrozenLoop.of(plant, delta, d.controllers, d.P, d.values)
+        assert in_region.residual(loop, continuous) < 0
+        assert bounded.residual(loop, continuous) < 0
+        poles = np.linalg.eigvals(ct.ssdata(loop_by_name(G, K))[0])
+        assert np.abs(poles).max() < 40.0
+        first = ct.interconnect([G, K], inplist=W, outlist=["z0"], check_unused=False)
+        h2 = float(ct.norm(first, 2))
+        assert h2 <= limit.bound
+        # A disk just inside the fastest pole, and the bound below the norm.
+        tight = specs_of(sys, HinfObjective,
+                         [disk(0.99 * np.abs(poles).max()), lpv.H2(
+                             W, "z0", bound=0.99 * h2)])[1].parts()  # fmt: skip
+        assert tight[1].residual(loop, continuous) > 0
+        assert tight[2].residual(loop, continuous) > 0
