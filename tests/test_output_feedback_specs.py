@@ -145,3 +145,30 @@ def test_region_and_bound_residuals_against_independent_facts():
                              W, "z0", bound=0.99 * h2)])[1].parts()  # fmt: skip
         assert tight[1].residual(loop, continuous) > 0
         assert tight[2].residual(loop, continuous) > 0
+
+
+def test_refusal_has_the_engine_format():
+    """An output-feedback refusal reads as the state-feedback engine's
+    (`ctrl_lpv.synthesis.refusals`): a first line with the best point
+    reached, what failed, what was tried. The best point is the optimum's
+    estimate: within 1e-3 of the closed-loop norm python-control's
+    `hinfsyn` (SLICOT, Riccati) reaches on the same plant."""
+    from test_output_feedback_published import U as DK_U
+    from test_output_feedback_published import W as DK_W
+    from test_output_feedback_published import Y as DK_Y
+    from test_output_feedback_published import Z as DK_Z
+    from test_output_feedback_published import dk_plant
+
+    P = dk_plant()
+    with pytest.raises(lpv.CertificationError) as info:
+        lpv.hinf_output_feedback(lpv.pss([P]), DK_W, DK_U, DK_Z, DK_Y, backoff=None)
+    first, failed, tried = str(info.value).split("\n")
+    head = "H-infinity output feedback: no certified solution found, best point "
+    assert first.startswith(head + "reached: the optimum's estimate, Hinf ")
+    estimate = float(first.split("Hinf ")[1].split(" ")[0])
+    _, CL, _, _ = ct.hinfsyn(ct.ss(*ct.ssdata(P)), 2, 2)
+    assert estimate == pytest.approx(float(ct.linfnorm(CL)[0]), rel=1e-3)
+    assert failed.startswith("what failed: ") and "I - X Y" in failed
+    assert "mode at -1e-06" in failed
+    assert tried.startswith("tried: 2 prescalings (the Riccati-balanced")
+    assert info.value.attempts

@@ -30,6 +30,7 @@ from ..budget import DEFAULT_TIME_LIMIT, time_budget
 from ..exceptions import CertificationError, InfeasibleError
 from ..lmi import LMIProblem, default_solvers, solver_chain
 from ..stabilizability import _vertex_modes, check_stabilizability
+from ..synthesis.refusals import refusal
 from ..systems import PolytopicStateSpace
 from . import lmis
 from .checks import closed_loop_analysis, closed_loop_certificate
@@ -228,34 +229,51 @@ def _output_feedback(kind, sys, w, u, z, y, gains, constraints, backoff, margin,
     if plant.continuous:
         _require_stabilizable_detectable(plant)
     settings = (gains == "scheduled", backoff, margin, chain)
-    # The prescalings in turn (`ctrl_lpv.output_feedback.prescale`); the
-    # refusal reported is the first one's, naming what else was tried.
+    # The prescalings in turn (`ctrl_lpv.output_feedback.prescale`); a
+    # refusal in the engine's format (`ctrl_lpv.synthesis.refusals`).
     kinds = prescalings(plant)
-    first = None
+    notes, estimates, attempts = [], [], []
     for kind in kinds:
-        design, failure = _prescaled(plant, objective, kind, settings)
+        design, failure, bound_opt = _prescaled(plant, objective, kind, settings)
         if design is not None:
             return design
-        first = first or failure
-    if isinstance(first, CertificationError):
-        message = str(first)
-        if len(kinds) > 1:
-            message += (" (with the Riccati-balanced prescaling; without it, in "
-                        "the plant's own coordinates, refused as well)")  # fmt: skip
-        fixed = slow_fixed_modes(plant)
-        if fixed:
-            # The likely cause, named: such a mode keeps the certificate's
-            # slack along it at its own slow rate.
-            message += (f". Slow modes no controller moves: {describe(fixed)}; "
-                        "a quadratic certificate's slack along them is of the "
-                        "order of their rate (remedy: move the slow pole into "
-                        "the controller, or a smaller margin)")  # fmt: skip
-        raise CertificationError(message, first.attempts) from None
-    raise first
+        if not isinstance(failure, CertificationError):
+            raise failure
+        reason = str(failure).removeprefix("output feedback: ")
+        notes.append(f"{_PRESCALED[kind]}: {reason}")
+        attempts.extend(failure.attempts)
+        if bound_opt is not None:
+            estimates.append(bound_opt)
+    best = None
+    if estimates:
+        best = (f"the optimum's estimate, {objective.name} {min(estimates):.6g} "
+                "(not certified)")  # fmt: skip
+    fixed = slow_fixed_modes(plant)
+    # The likely cause, named: such a mode keeps the certificate's slack
+    # along it at its own slow rate.
+    hint = (f". Slow modes no controller moves: {describe(fixed)}; a quadratic "
+            "certificate's slack along them is of the order of their rate "
+            "(remedy: move the slow pole into the controller, or a smaller "
+            "margin)") if fixed else ""  # fmt: skip
+    backoffs = (settings[1], *_RAW_BACKOFFS) if settings[1] else _RAW_BACKOFFS
+    tried = (f"{len(kinds)} prescalings ("
+             + ", then ".join(_PRESCALED[k] for k in kinds)
+             + f"), back-offs {list(backoffs)}, solvers {[n for n, _ in chain]}, "
+             f"margin {margin:g}")  # fmt: skip
+    raise refusal(f"{objective.label} output feedback", best, notes, tried, attempts,
+                  hint)  # fmt: skip
+
+
+#: How the prescalings of `ctrl_lpv.output_feedback.prescale` are named.
+_PRESCALED = {
+    "Riccati": "the Riccati-balanced prescaling",
+    "none": "the plant's own coordinates",
+}
 
 
 def _prescaled(plant, objective, kind, settings):
-    """``(design, None)`` or ``(None, refusal)`` in one prescaling."""
+    """``(design, None, bound_opt)`` or ``(None, refusal, bound_opt)`` in
+    one prescaling (``bound_opt`` the optimum's estimate, or None)."""
     design, failure, bound_opt = _in_units(plant, objective, kind, 1.0, settings)
     if (
         design is None
@@ -268,7 +286,7 @@ def _prescaled(plant, objective, kind, settings):
         # again on the plant itself.
         design, _, _ = _in_units(plant, objective, kind, 1.0 / bound_opt, settings,
                                  bound_opt)  # fmt: skip
-    return design, None if design is not None else failure
+    return design, None if design is not None else failure, bound_opt
 
 
 def _in_units(plant, objective, kind, scale, settings, known=None):
