@@ -172,3 +172,28 @@ def test_refusal_has_the_engine_format():
     assert "mode at -1e-06" in failed
     assert tried.startswith("tried: 2 prescalings (the Riccati-balanced")
     assert info.value.attempts
+
+
+def test_certificate_carries_each_specs_frozen_residual():
+    """The certificate has one frozen-residual row per spec (as the
+    state-feedback engine's frozen checks), negative on a design; with the
+    level below the largest frozen norm (python-control, on a grid that
+    holds the verification points' range) the objective's row fails."""
+    from ctrl_lpv.output_feedback.checks import closed_loop_certificate
+
+    sys = random_plant(5, vertices=2, stable=True)
+    d = lpv.hinf_output_feedback(sys, W, "u", Z, "y", constraints=[halfplane(0.05)])
+    plant, objective, _ = specs_of(sys, HinfObjective, [halfplane(0.05)])
+    rows = {c.what: c for c in d.certificate.checks if "frozen closed loop" in c.what}
+    assert set(rows) == {f"{part} (frozen closed loop)" for part in objective.parts()}
+    assert all(c.passed and c.value < 0 for c in rows.values())
+    controller = d.controller()
+    worst = max(
+        float(ct.linfnorm(loop_by_name(sys.at({"p": p}), controller.at({"p": p})))[0])
+        for p in np.linspace(0.0, 1.0, 41)
+    )
+    low = closed_loop_certificate(plant, objective, d.controllers, d.P,
+                                  dict(d.values, level=0.999 * worst))  # fmt: skip
+    assert not low.verified
+    failed = [c.what for c in low.checks if not c.passed]
+    assert f"{objective} (frozen closed loop)" in failed
