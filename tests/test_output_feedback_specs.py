@@ -197,3 +197,20 @@ def test_certificate_carries_each_specs_frozen_residual():
     assert not low.verified
     failed = [c.what for c in low.checks if not c.passed]
     assert f"{objective} (frozen closed loop)" in failed
+
+
+def test_progress_is_logged_per_rung_as_the_engine_does(caplog):
+    """INFO lines per rung (prescaling), stage and certified point, in the
+    state-feedback engine's words; the certified point's bound is the
+    design's."""
+    import logging
+
+    sys = random_plant(5, vertices=2, stable=True)
+    with caplog.at_level(logging.INFO, logger="ctrl_lpv"):
+        d = lpv.hinf_output_feedback(sys, W, "u", Z, "y")
+    lines = [r.getMessage() for r in caplog.records]
+    assert any("rung CLARABEL, the Riccati-balanced prescaling" in m for m in lines)
+    assert any("stage 'optimal': certified" in m for m in lines)
+    reached = [m for m in lines if "reached a certified point" in m]
+    assert len(reached) == 1
+    assert float(reached[0].rsplit(" ", 1)[1]) == pytest.approx(d.gamma, rel=1e-5)

@@ -29,6 +29,7 @@ import dataclasses
 
 import numpy as np
 
+from .. import budget
 from .._checks import real_number
 from ..budget import DEFAULT_TIME_LIMIT, time_budget
 from ..exceptions import CertificationError, InfeasibleError
@@ -231,8 +232,13 @@ def _output_feedback(kind, sys, w, u, z, y, gains, constraints, backoff, margin,
     kinds = prescalings(plant)
     notes, estimates, attempts = [], [], []
     for kind in kinds:
+        # One rung per prescaling, logged as the engine's rungs are.
+        label = f"{chain[0][0]}, {_PRESCALED[kind]}, margin {margin:g}"
+        budget.progress("rung %s", label, rung=label)
         design, failure, bound_opt = _prescaled(plant, objective, kind, settings)
         if design is not None:
+            budget.reached(f"a certified point ({label}), {objective.name} "
+                           f"{design.gamma:.6g}", design.gamma)  # fmt: skip
             return design
         if not isinstance(failure, CertificationError):
             raise failure
@@ -281,6 +287,7 @@ def _prescaled(plant, objective, kind, settings):
         # Renormalised so that the bound is near 1 (z scaled by s: the
         # controllers are the same, the bound scales by s): then certified
         # again on the plant itself.
+        budget.progress("renormalised: z scaled by 1 / %.6g", bound_opt)
         design, _, _ = _in_units(plant, objective, kind, 1.0 / bound_opt, settings,
                                  bound_opt)  # fmt: skip
     return design, None if design is not None else failure, bound_opt
