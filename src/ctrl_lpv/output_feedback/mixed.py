@@ -95,8 +95,7 @@ class BoundConstraint(Spec):
     @property
     def spec(self):
         """The spec with its bound (a key of the design's ``bounds``)."""
-        kind = Hinf if isinstance(self.objective, HinfObjective) else H2
-        return kind(w=self.names[0], z=self.names[1], bound=self.bound)
+        return self.objective.named(*self.names, bound=self.bound)
 
     def check(self, plant) -> None:
         self.objective.check(self.plant_of(plant))
@@ -159,4 +158,4 @@ class BoundConstraint(Spec):
 
     @property
     def _norm(self) -> str:
-        return "inf" if isinstance(self.objective, HinfObjective) else "2"
+        return self.objective.norm

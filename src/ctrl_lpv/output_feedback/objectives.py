@@ -99,11 +99,19 @@ class HinfObjective(_Objective):
     label = "H-infinity"
     strictly_proper = False
 
-    def spec(self, plant):
+    #: The norm's subscript in statements.
+    norm = "inf"
+
+    def spec(self, plant, bound=None):
         """The `ctrl_lpv.Hinf` spec of this channel (the key of ``bounds``)."""
+        return self.named(plant.names("w"), plant.names("z"), bound)
+
+    @staticmethod
+    def named(w, z, bound=None):
+        """The `ctrl_lpv.Hinf` spec of the channel ``w -> z``."""
         from ..synthesis import Hinf
 
-        return Hinf(w=plant.names("w"), z=plant.names("z"))
+        return Hinf(w=w, z=z, bound=bound)
 
     def check(self, plant) -> None:
         """Nothing to add to the plant's own checks."""
@@ -192,11 +200,18 @@ class H2Objective(_Objective):
     label = "H2"
     strictly_proper = True
 
-    def spec(self, plant):
+    norm = "2"
+
+    def spec(self, plant, bound=None):
         """The `ctrl_lpv.H2` spec of this channel (the key of ``bounds``)."""
+        return self.named(plant.names("w"), plant.names("z"), bound)
+
+    @staticmethod
+    def named(w, z, bound=None):
+        """The `ctrl_lpv.H2` spec of the channel ``w -> z``."""
         from ..synthesis import H2
 
-        return H2(w=plant.names("w"), z=plant.names("z"))
+        return H2(w=w, z=z, bound=bound)
 
     def check(self, plant) -> None:
         if np.any(plant.D11 != 0):
