@@ -214,3 +214,48 @@ def test_progress_is_logged_per_rung_as_the_engine_does(caplog):
     reached = [m for m in lines if "reached a certified point" in m]
     assert len(reached) == 1
     assert float(reached[0].rsplit(" ", 1)[1]) == pytest.approx(d.gamma, rel=1e-5)
+
+
+def test_renormalised_rung_certifies_on_the_plant(monkeypatch, caplog):
+    """Renormalisation on failure only, as the engine's: with z scaled by
+    1e-3 (the optimum scales by 1e-3 exactly) and the plant's own rung made
+    to fail, the design comes from the rung with z renormalised by a power
+    of two, certified on the plant itself: its optimum is 1e-3 that of the
+    unscaled plant, its bound within the back-off and above the frozen
+    norms python-control computes."""
+    import logging
+
+    import ctrl_lpv.output_feedback.design as design_module
+
+    base = random_plant(5, vertices=2, stable=True)
+    s = np.diag([1e-3, 1e-3, 1.0])
+    sys = lpv.PolytopicStateSpace(
+        [ct.ss(G.A, G.B, s @ G.C, s @ G.D, inputs=G.input_labels,
+               outputs=G.output_labels) for G in base.vertices],
+        domain=base.domain,
+    )  # fmt: skip
+    reference = lpv.hinf_output_feedback(base, W, "u", Z, "y")
+    C1 = OutputFeedbackPlant.of(sys, W, "u", Z, "y").C1
+    rebuild = design_module.rebuild
+
+    def failing(plant, *args, **kw):
+        if np.array_equal(plant.C1, C1):  # the plant's own units: refused
+            raise lpv.CertificationError("forced", ())
+        return rebuild(plant, *args, **kw)
+
+    monkeypatch.setattr(design_module, "rebuild", failing)
+    with caplog.at_level(logging.INFO, logger="ctrl_lpv"):
+        d = lpv.hinf_output_feedback(sys, W, "u", Z, "y")
+    (line,) = [
+        m.getMessage() for m in caplog.records if "renormalised" in m.getMessage()
+    ]
+    scale = float(line.rsplit(" ", 1)[1])
+    assert np.log2(scale) == np.round(np.log2(scale))  # exact: a power of two
+    assert 0.7 < scale * d.gamma_opt < 1.42
+    assert d.certificate.verified
+    assert d.gamma_opt == pytest.approx(1e-3 * reference.gamma_opt, rel=1e-3)
+    assert d.gamma <= 1.2 * d.gamma_opt * (1 + 1e-3)
+    controller = d.controller()
+    for p in np.linspace(0.0, 1.0, 5):
+        cl = loop_by_name(sys.at({"p": p}), controller.at({"p": p}))
+        assert float(ct.linfnorm(cl)[0]) <= d.gamma

@@ -36,6 +36,7 @@ from ..exceptions import CertificationError, InfeasibleError
 from ..lmi import default_solvers, solver_chain
 from ..stabilizability import _vertex_modes, check_stabilizability
 from ..synthesis.refusals import refusal
+from ..synthesis.scaling import pow2
 from ..systems import PolytopicStateSpace
 from .fixed_modes import describe, slow_fixed_modes
 from .mixed import output_feedback_constraints
@@ -284,11 +285,13 @@ def _prescaled(plant, objective, kind, settings):
         and not 0.5 <= bound_opt <= 2.0
         and objective.homogeneous
     ):
-        # Renormalised so that the bound is near 1 (z scaled by s: the
-        # controllers are the same, the bound scales by s): then certified
-        # again on the plant itself.
-        budget.progress("renormalised: z scaled by 1 / %.6g", bound_opt)
-        design, _, _ = _in_units(plant, objective, kind, 1.0 / bound_opt, settings,
+        # Renormalised so that the bound is near 1 (z scaled by s, a power
+        # of two as the engine's `Rung._normalise`: exact, the controllers
+        # the same, the bound scaled by s): then certified again on the
+        # plant itself.
+        scale = 1.0 / pow2(bound_opt)
+        budget.progress("renormalised: z scaled by %g", scale)
+        design, _, _ = _in_units(plant, objective, kind, scale, settings,
                                  bound_opt)  # fmt: skip
     return design, None if design is not None else failure, bound_opt
 
