@@ -22,9 +22,11 @@ from scipy.linalg import matrix_balance
 from ..certificate import Certificate, Check, negative_definite, rounding_bound
 from ..lmi import LMIProblem
 from ..synthesis.frozen import verification_points
+from ..synthesis.results import residual_check
 from .reconstruct import closed_loop
+from .views import FrozenLoop, declare_specs
 
-__all__ = ["closed_loop_certificate", "closed_loop_analysis"]
+__all__ = ["closed_loop_certificate", "closed_loop_analysis", "frozen_residuals"]
 
 
 def closed_loop_certificate(plant, objective, controllers, P, values) -> Certificate:
@@ -49,6 +51,7 @@ def closed_loop_certificate(plant, objective, controllers, P, values) -> Certifi
             checks = normalised
     bound = objective.bound(values["level"])
     checks.append(frozen_norms(plant, objective, controllers, bound))
+    checks += frozen_residuals(plant, objective, controllers, P, values)
     checks += [c.frozen_check(plant, controllers) for c in objective.constraints]
     return Certificate(tuple(checks), statement=objective.statement(bound))
 
@@ -69,8 +72,7 @@ def closed_loop_analysis(plant, objective, controllers, margin, chain):
                 for A, B, C, D in loops[objective])  # fmt: skip
     lmi = LMIProblem(margin=margin * max(scale, 1.0))
     lmi.variable("P", (n, n), symmetric=True)
-    for part in objective.parts():
-        part.declare(lmi, plant)
+    declare_specs(lmi, plant, objective.parts())
     lmi.add("P > 0", lambda v: [[-v.P]])
     for part, its in loops.items():
         for j, loop in enumerate(its):
@@ -168,6 +170,24 @@ def _balanced(loop, t):
     """`loop` in the coordinates ``x = diag(t) x~``."""
     A, B, C, D = loop
     return A * (t[None, :] / t[:, None]), B / t[:, None], C * t[None, :], D
+
+
+def frozen_residuals(plant, objective, controllers, P, values) -> list[Check]:
+    """Cross-checks: each spec's residual (`Spec.residual`) at its worst
+    verification point, as the state-feedback engine's frozen checks
+    (`ctrl_lpv.synthesis.frozen`): the vertices and points between them,
+    where the vertex inequalities claim the closed loop too."""
+    worst = {part: (-np.inf, "") for part in objective.parts()}
+    for delta, p in verification_points(plant.system):
+        loop = FrozenLoop.of(plant, delta, controllers, P, values)
+        for part, (value, _) in worst.items():
+            residual = part.residual(loop, plant.continuous)
+            if not residual <= value:
+                point = delta if p is None else p
+                worst[part] = (residual, f"p = {np.round(point, 6).tolist()}")
+    return [residual_check(f"{part} (frozen closed loop)", value, where,
+                           cross_check=True)
+            for part, (value, where) in worst.items()]  # fmt: skip
 
 
 def frozen_norms(plant, objective, controllers, bound, what="") -> Check:

@@ -15,8 +15,12 @@ objective of `ctrl_lpv.output_feedback.objectives`:
     matrices; this stage buys a well-conditioned ``M N' = I - X Y`` with
     the back-off, as LPVTools' ``lpvsyn`` does with its default 1.2.
 
-The controller is then rebuilt (`ctrl_lpv.output_feedback.reconstruct`) and
-certified on the closed loop (`ctrl_lpv.output_feedback.checks`).
+The LMIs, the controller rebuilt from a point and its closed-loop
+certificate are what the problem supplies (`ctrl_lpv.output_feedback.
+problem`, from the specs through the `~ctrl_lpv.synthesis.spec.Spec`
+protocol); this module holds the stages, the renormalisation and the
+prescalings around them, and the refusal in the engine's format
+(`ctrl_lpv.synthesis.refusals`).
 """
 
 from __future__ import annotations
@@ -25,24 +29,21 @@ import dataclasses
 
 import numpy as np
 
+from .. import budget
 from .._checks import real_number
 from ..budget import DEFAULT_TIME_LIMIT, time_budget
 from ..exceptions import CertificationError, InfeasibleError
-from ..lmi import LMIProblem, default_solvers, solver_chain
+from ..lmi import default_solvers, solver_chain
 from ..stabilizability import _vertex_modes, check_stabilizability
+from ..synthesis.refusals import refusal
+from ..synthesis.scaling import pow2
 from ..systems import PolytopicStateSpace
-from . import lmis
-from .checks import closed_loop_analysis, closed_loop_certificate
 from .fixed_modes import describe, slow_fixed_modes
 from .mixed import output_feedback_constraints
 from .objectives import H2Objective, HinfObjective
 from .plant import OutputFeedbackPlant
 from .prescale import Prescaling, prescalings
-from .reconstruct import (
-    closed_loop_lyapunov,
-    controller_matrices,
-    factor,
-)
+from .problem import build, certified, rebuild
 from .results import OutputFeedbackDesign
 
 __all__ = ["hinf_output_feedback", "h2_output_feedback"]
@@ -227,34 +228,56 @@ def _output_feedback(kind, sys, w, u, z, y, gains, constraints, backoff, margin,
     if plant.continuous:
         _require_stabilizable_detectable(plant)
     settings = (gains == "scheduled", backoff, margin, chain)
-    # The prescalings in turn (`ctrl_lpv.output_feedback.prescale`); the
-    # refusal reported is the first one's, naming what else was tried.
+    # The prescalings in turn (`ctrl_lpv.output_feedback.prescale`); a
+    # refusal in the engine's format (`ctrl_lpv.synthesis.refusals`).
     kinds = prescalings(plant)
-    first = None
+    notes, estimates, attempts = [], [], []
     for kind in kinds:
-        design, failure = _prescaled(plant, objective, kind, settings)
+        # One rung per prescaling, logged as the engine's rungs are.
+        label = f"{chain[0][0]}, {_PRESCALED[kind]}, margin {margin:g}"
+        budget.progress("rung %s", label, rung=label)
+        design, failure, bound_opt = _prescaled(plant, objective, kind, settings)
         if design is not None:
+            budget.reached(f"a certified point ({label}), {objective.name} "
+                           f"{design.gamma:.6g}", design.gamma)  # fmt: skip
             return design
-        first = first or failure
-    if isinstance(first, CertificationError):
-        message = str(first)
-        if len(kinds) > 1:
-            message += (" (with the Riccati-balanced prescaling; without it, in "
-                        "the plant's own coordinates, refused as well)")  # fmt: skip
-        fixed = slow_fixed_modes(plant)
-        if fixed:
-            # The likely cause, named: such a mode keeps the certificate's
-            # slack along it at its own slow rate.
-            message += (f". Slow modes no controller moves: {describe(fixed)}; "
-                        "a quadratic certificate's slack along them is of the "
-                        "order of their rate (remedy: move the slow pole into "
-                        "the controller, or a smaller margin)")  # fmt: skip
-        raise CertificationError(message, first.attempts) from None
-    raise first
+        if not isinstance(failure, CertificationError):
+            raise failure
+        reason = str(failure).removeprefix("output feedback: ")
+        notes.append(f"{_PRESCALED[kind]}: {reason}")
+        attempts.extend(failure.attempts)
+        if bound_opt is not None:
+            estimates.append(bound_opt)
+    best = None
+    if estimates:
+        best = (f"the optimum's estimate, {objective.name} {min(estimates):.6g} "
+                "(not certified)")  # fmt: skip
+    fixed = slow_fixed_modes(plant)
+    # The likely cause, named: such a mode keeps the certificate's slack
+    # along it at its own slow rate.
+    hint = (f". Slow modes no controller moves: {describe(fixed)}; a quadratic "
+            "certificate's slack along them is of the order of their rate "
+            "(remedy: move the slow pole into the controller, or a smaller "
+            "margin)") if fixed else ""  # fmt: skip
+    backoffs = (settings[1], *_RAW_BACKOFFS) if settings[1] else _RAW_BACKOFFS
+    tried = (f"{len(kinds)} prescalings ("
+             + ", then ".join(_PRESCALED[k] for k in kinds)
+             + f"), back-offs {list(backoffs)}, solvers {[n for n, _ in chain]}, "
+             f"margin {margin:g}")  # fmt: skip
+    raise refusal(f"{objective.label} output feedback", best, notes, tried, attempts,
+                  hint)  # fmt: skip
+
+
+#: How the prescalings of `ctrl_lpv.output_feedback.prescale` are named.
+_PRESCALED = {
+    "Riccati": "the Riccati-balanced prescaling",
+    "none": "the plant's own coordinates",
+}
 
 
 def _prescaled(plant, objective, kind, settings):
-    """``(design, None)`` or ``(None, refusal)`` in one prescaling."""
+    """``(design, None, bound_opt)`` or ``(None, refusal, bound_opt)`` in
+    one prescaling (``bound_opt`` the optimum's estimate, or None)."""
     design, failure, bound_opt = _in_units(plant, objective, kind, 1.0, settings)
     if (
         design is None
@@ -262,12 +285,15 @@ def _prescaled(plant, objective, kind, settings):
         and not 0.5 <= bound_opt <= 2.0
         and objective.homogeneous
     ):
-        # Renormalised so that the bound is near 1 (z scaled by s: the
-        # controllers are the same, the bound scales by s): then certified
-        # again on the plant itself.
-        design, _, _ = _in_units(plant, objective, kind, 1.0 / bound_opt, settings,
+        # Renormalised so that the bound is near 1 (z scaled by s, a power
+        # of two as the engine's `Rung._normalise`: exact, the controllers
+        # the same, the bound scaled by s): then certified again on the
+        # plant itself.
+        scale = 1.0 / pow2(bound_opt)
+        budget.progress("renormalised: z scaled by %g", scale)
+        design, _, _ = _in_units(plant, objective, kind, scale, settings,
                                  bound_opt)  # fmt: skip
-    return design, None if design is not None else failure
+    return design, None if design is not None else failure, bound_opt
 
 
 def _in_units(plant, objective, kind, scale, settings, known=None):
@@ -288,7 +314,7 @@ def _in_units(plant, objective, kind, scale, settings, known=None):
     P, values = objective.rescaled(scaled.P, scaled.values, scale)
     limit = (1.0 + backoff) * (known or bound_opt) * (1.0 + 1e-3)
     try:
-        design = _certified(plant, objective, scaled.controllers, P, values,
+        design = certified(plant, objective, scaled.controllers, P, values,
                             scaled.gamma_opt / scale, limit,
                             (margin, chain[:1]), scaled.condition)  # fmt: skip
     except CertificationError as exc:
@@ -307,10 +333,10 @@ def _solve(plant, kind, objective, scheduled, backoff, margin, chain):
     scaled = prescaling.apply(plant)
     rate = max(np.linalg.norm(A, 2) for A in scaled.A) if plant.continuous else 1.0
     # The performance LMIs weighed against the state blocks first (see
-    # `_problem`); if the solvers fail on them (the weight assumes a bound
+    # `problem.build`); if the solvers fail on them (the weight assumes a bound
     # near 1: a large bound unbalances them the other way), as posed before.
     for weigh in (True, False):
-        lmi, hats, weight = _problem(scaled, objective, scheduled, margin, weigh)
+        lmi, hats, weight = build(scaled, objective, scheduled, margin, weigh)
         # A trace term far below the solver's tolerance on the level keeps X
         # and Y bounded in the directions the bound does not constrain (there
         # the central path drifts to 1e5 and the solve ends inaccurate).
@@ -355,7 +381,7 @@ def _solve(plant, kind, objective, scheduled, backoff, margin, chain):
                 limit = (1.0 + bmax) * bound_opt * (1.0 + 1e-6)
                 target = max((1.0 + b) * bound_opt,
                              objective.bound(point.level[0, 0]))  # fmt: skip
-                design = _design(plant, prescaling, objective, point, hats,
+                design = rebuild(plant, prescaling, objective, point, hats,
                                  bound_opt, (target, limit),
                                  (margin, chain[:1]))  # fmt: skip
                 if raw and b == 0 and design.gamma > bound_opt * (1.0 + 1e-6):
@@ -395,9 +421,6 @@ def _point(lmi, objective, optimal, b, bound_opt, decay, chain):
 
 
 _TRACE_WEIGHT = 1e-7
-#: Beyond eig(X Y) >= 100, I - X Y is as well conditioned as X and Y.
-_MU_MAX = 10.0
-
 #: Decay margin of the back-off stage per unit back-off, relative to the
 #: data's rate (``max ||A_j||`` in continuous time, 1 in discrete time).
 _DECAY = 0.1
@@ -408,162 +431,6 @@ _INSIDE = 0.9
 #: Back-offs tried in turn for ``backoff=None``: the raw optimum, then the
 #: least relaxation whose controller certifies.
 _RAW_BACKOFFS = (0.0, 1e-5, 1e-4, 5e-4)
-
-
-def _problem(plant, objective, scheduled, margin, weigh=True):
-    n, N = plant.n, plant.nvertices
-    m, p = plant.B2.shape[1], plant.C2.shape[0]
-    scale = max(
-        np.linalg.norm(np.block([[plant.A[j], plant.B1[j]],
-                                 [plant.C1[j], plant.D11[j]]]), 2)
-        for j in range(N)
-    )  # fmt: skip
-    lmi = LMIProblem(margin=margin * max(scale, 1.0))
-    lmi.variable("X", (n, n), symmetric=True)
-    lmi.variable("Y", (n, n), symmetric=True)
-    for part in objective.parts():
-        part.declare(lmi, plant)
-    for k in range(N if scheduled else 1):
-        lmi.variable(f"Ah{k}", (n, n))
-        lmi.variable(f"Bh{k}", (n, p))
-        lmi.variable(f"Ch{k}", (m, n))
-        if objective.proper:
-            lmi.variable(f"Dh{k}", (m, p))
-    zero = np.zeros((m, p))
-
-    def hats(v, j):
-        k = j if scheduled else 0
-        Dh = getattr(v, f"Dh{k}") if objective.proper else zero
-        return (getattr(v, f"Ah{k}"), getattr(v, f"Bh{k}"), getattr(v, f"Ch{k}"), Dh)
-
-    lmi.add("[[X, I], [I, Y]] > 0", lmis.lyapunov_pair)
-    # The back-off stage adds a decay margin relative to P (see
-    # `ctrl_lpv.output_feedback.lmis`), so that the rebuilt loop certifies.
-    lmi.parameter("decay", value=0.0, nonneg=True)
-    # The margin of strict LMIs is absolute. Relative to the data's largest
-    # norm it would tighten the -gamma I blocks of the performance channels
-    # by a large fraction of gamma on a stiff plant (fast weights: scale
-    # 4e4, gamma near 1 on the LPVTools spinning disks, whose optimum came
-    # out 10 % high at vertex (9, 25), and whose polytopic design was
-    # refused). Instead each performance LMI is posed after the congruence
-    # diag(I / w, I) on its state and performance blocks (w a power of two
-    # with w^2 ~ scale: the same inequality, exactly), so that all its
-    # blocks are of order one, with the margin relative to that.
-    weight = 2.0 ** np.round(0.5 * np.log2(max(scale, 1.0))) if weigh else 1.0
-    lmi.margin = margin * max(scale / weight**2, 1.0)
-    for j in range(N):
-        for part in objective.parts():
-            for name, blocks, perf in part.transformed_lmis(plant, j, hats):
-                lmi.add(name, _weighted(blocks, perf, weight))
-    # The back-off stage: the level within the back-off, and eig(X Y) >=
-    # mu^2 pushed up (``[[X, mu I], [mu I, Y]] >= 0``, linear in mu): I - X Y
-    # then has no eigenvalue in (1 - mu^2, 0], whatever the scale of X, Y.
-    lmi.parameter("level_max", value=1.0)
-    lmi.variable("mu", (1, 1), symmetric=True)
-    lmi.add("level <= (1 + backoff) level_opt",
-            lambda v: [[v.level - v.level_max]], strict=False,
-            stages=["center"])  # fmt: skip
-    eye = np.eye(n)
-    lmi.add("[[X, mu I], [mu I, Y]] >= 0",
-            lambda v: [[-v.X], [-v.mu * eye, -v.Y]],
-            strict=False, stages=["center"])  # fmt: skip
-    lmi.add("mu <= mu_max", lambda v: [[v.mu - _MU_MAX]], strict=False,
-            stages=["center"], normalization=True)  # fmt: skip
-    return lmi, hats, weight
-
-
-def _weighted(blocks, perf, w):
-    """`blocks` after the congruence that divides the block rows and columns
-    not in `perf` (the state blocks) by `w` (exact for a power of two)."""
-    if w == 1.0:
-        return blocks
-
-    def weighted(v):
-        out = []
-        rows = blocks(v)
-        d = [1.0 if i in perf else 1.0 / w for i in range(len(rows))]
-        for i, row in enumerate(rows):
-            out.append([
-                b if isinstance(b, (int, float)) and b == 0
-                else b * (d[i] * d[k])
-                for k, b in enumerate(row)
-            ])  # fmt: skip
-        return out
-
-    return weighted
-
-
-def _design(plant, prescaling, objective, point, hats, bound_opt, bounds, analysis):
-    """The controllers rebuilt from `point` (a point of the prescaled
-    problem), mapped back to `plant` and certified on its closed loop."""
-    X, Y = point.X, point.Y
-    target, limit = bounds
-    try:
-        factors = factor(X, Y)
-    except np.linalg.LinAlgError:
-        raise CertificationError(
-            "output feedback: I - X Y is singular at the solver's point; "
-            "no controller can be rebuilt (try a larger backoff)",
-            point.attempts,
-        ) from None
-    v = _Values(point.values)
-    scaled = prescaling.apply(plant)
-    controllers = tuple(
-        prescaling.controller(controller_matrices(scaled, j, X, Y, hats(v, j), factors))
-        for j in range(plant.nvertices)
-    )
-    P = prescaling.lyapunov(closed_loop_lyapunov(X, Y, factors))
-    values = dict(point.values, level=objective.level(target))
-    condition = float(np.linalg.cond(np.eye(plant.n) - X @ Y))
-    return _certified(plant, objective, controllers, P, values, bound_opt, limit,
-                      analysis, condition, point.attempts)  # fmt: skip
-
-
-def _certified(plant, objective, controllers, P, values, bound_opt, limit,
-               analysis, condition, attempts=()):  # fmt: skip
-    """`OutputFeedbackDesign` if the closed loop certifies within `limit`."""
-    certificate = closed_loop_certificate(plant, objective, controllers, P, values)
-    if not certificate.verified:
-        # The rebuilt P is exact but ill-conditioned (its slack scales with
-        # 1 / ||Pi1||^2): the closed loop's own Lyapunov matrix instead.
-        P, values = closed_loop_analysis(plant, objective, controllers, *analysis)
-        certificate = closed_loop_certificate(plant, objective, controllers, P, values)
-    bound = objective.bound(values["level"])
-    if bound > limit:
-        # The point's own bound (certified at a margin above the nominal
-        # one), or what the rebuilt controller keeps of it after rounding
-        # through an ill-conditioned I - X Y, exceeds the back-off.
-        raise CertificationError(
-            f"output feedback: the rebuilt controller certifies an "
-            f"{objective.name} bound of {bound:.6g}, above {limit:.6g} (I - X Y "
-            f"has condition {condition:.3g})",
-            attempts,
-        )
-    if not certificate.verified:
-        worst = certificate.worst
-        raise CertificationError(
-            f"output feedback: the rebuilt controller failed its closed-loop "
-            f"certificate at {objective.name} bound {bound:.6g}: {worst.what} at "
-            f"{worst.where} ({worst.value:.3g} against {worst.bound:.3g})",
-            attempts,
-        )
-    return OutputFeedbackDesign(
-        plant=plant,
-        objective=objective.spec(plant),
-        limits=tuple(c.spec for c in objective.constraints if hasattr(c, "spec")),
-        controllers=controllers,
-        gamma=bound,
-        gamma_opt=bound_opt,
-        P=P,
-        values=values,
-        certificate=certificate,
-        condition=condition,
-    )
-
-
-class _Values:
-    def __init__(self, values):
-        self.__dict__.update(values)
 
 
 def _require_stabilizable_detectable(plant):

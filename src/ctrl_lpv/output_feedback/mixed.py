@@ -16,6 +16,8 @@ conservatism of mixed designs, SGC97 Sec. V).
 
 from __future__ import annotations
 
+import dataclasses
+
 from ..synthesis.spec import Spec
 from ..synthesis.specs import H2, Hinf
 from .objectives import H2Objective, HinfObjective
@@ -64,10 +66,11 @@ def output_feedback_constraints(constraints, sys, u, y, continuous):
     return tuple(parts), tuple(channels)
 
 
-class BoundConstraint:
+class BoundConstraint(Spec):
     """A bound on another channel's norm, posed with the design (module
     docstring)."""
 
+    channel = True
     #: The bound is not kept under a rescaling of P (a renormalised z).
     homogeneous = False
 
@@ -92,20 +95,41 @@ class BoundConstraint:
     @property
     def spec(self):
         """The spec with its bound (a key of the design's ``bounds``)."""
-        kind = Hinf if isinstance(self.objective, HinfObjective) else H2
-        return kind(w=self.names[0], z=self.names[1], bound=self.bound)
+        return self.objective.named(*self.names, bound=self.bound)
 
     def check(self, plant) -> None:
         self.objective.check(self.plant_of(plant))
 
-    def declare(self, lmi, plant) -> None:
-        self.objective.declare(lmi, self.plant_of(plant))
-        name, level = self.objective.level_name, self.level
-        lmi.add(f"{name} <= bound", lambda v: [[getattr(v, name) - level]],
-                strict=False)  # fmt: skip
+    def __str__(self) -> str:
+        return self.statement()
 
-    def transformed_lmis(self, plant, j, hats):
-        return self.objective.transformed_lmis(self.plant_of(plant), j, hats)
+    def variables(self, declare) -> None:
+        self.objective.variables(declare.on(self.plant_of(declare.plant)))
+
+    def prescale(self, frame, dims) -> dict:
+        """No constants (the bound is in the plant's units)."""
+        return {}
+
+    def problem_lmis(self, t) -> list:
+        """The channel objective's, and its level at most the bound."""
+        name, level = self.objective.level_name, self.level
+        return [
+            *self.objective.problem_lmis(t.on(self.plant_of(t.plant))),
+            (f"{name} <= bound", lambda v: [[getattr(v, name) - level]], False),
+        ]
+
+    def lmis(self, t, continuous):
+        return self.objective.lmis(t.on(self.plant_of(t.plant)), continuous)
+
+    def coefficient_lmis(self, t, continuous) -> list:
+        return []
+
+    def residual(self, loop, continuous) -> float:
+        """The channel's residual at the bound itself (see `loop_checks`)."""
+        values = dict(loop.values, **{self.objective.level_name: self.level})
+        loop = dataclasses.replace(loop, plant=self.plant_of(loop.plant),
+                                   values=values)  # fmt: skip
+        return self.objective.residual(loop, continuous)
 
     def loop_checks(self, loop, P, values, j, continuous, margin=0.0, what=""):
         """The channel's inequalities at the bound itself (they hold there
@@ -120,18 +144,18 @@ class BoundConstraint:
     def frozen_check(self, plant, controllers):
         from .checks import frozen_norms
 
-        what = f" {self.channel}_{self._norm}"
+        what = f" {self.channel_norm}_{self._norm}"
         return frozen_norms(self.plant_of(plant), self.objective, controllers,
                             self.bound, what=what)  # fmt: skip
 
     def statement(self) -> str:
-        return f"{self.channel}_{self._norm} < {self.bound:.6g} with the same P"
+        return f"{self.channel_norm}_{self._norm} < {self.bound:.6g} with the same P"
 
     @property
-    def channel(self) -> str:
+    def channel_norm(self) -> str:
         w, z = self.names
         return f"||T({', '.join(w)} -> {', '.join(z)})||"
 
     @property
     def _norm(self) -> str:
-        return "inf" if isinstance(self.objective, HinfObjective) else "2"
+        return self.objective.norm

@@ -1,9 +1,13 @@
-"""The objectives of an output-feedback design: one small class each.
+"""The objectives of an output-feedback design: one small `Spec` each.
 
 The design (`ctrl_lpv.output_feedback.design`) and the certificate
-(`ctrl_lpv.output_feedback.checks`) read an objective only through this
-protocol: the variables it declares, its LMIs after the change of variables
-at a vertex, the same inequalities on a closed loop in float64, and the
+(`ctrl_lpv.output_feedback.checks`) read an objective only through the
+spec protocol (`ctrl_lpv.synthesis.spec.Spec`, with the views of
+`ctrl_lpv.output_feedback.views`): the variables it declares
+(`Spec.variables`), its LMIs after the change of variables at a vertex
+(`Spec.lmis`) and those posed once (`Spec.problem_lmis`), its float64
+residual at a frozen closed loop (`Spec.residual`); beside them the same
+inequalities on a closed loop in float64 for the certificate and the
 frozen norm that cross-checks its bound. Both minimise a "level" that is
 linear in the variables: ``gamma`` for `HinfObjective`, ``gamma^2`` for
 `H2Objective`.
@@ -15,12 +19,14 @@ import control as ct
 import numpy as np
 
 from ..certificate import Check, negative_definite, rounding_bound
+from ..lmi import normalized_max_eig
+from ..synthesis.spec import Spec
 from . import lmis
 
 __all__ = ["HinfObjective", "H2Objective"]
 
 
-class _Objective:
+class _Objective(Spec):
     """What both objectives share: the constraints posed with them, and the
     names of their variables.
 
@@ -32,9 +38,32 @@ class _Objective:
     also be a constraint of another (a mixed design).
     """
 
+    #: A performance channel w -> z (the design's own, or a constraint's).
+    channel = True
+
     def __init__(self, constraints=(), tag=""):
         self.constraints = tuple(constraints)
         self.tag = tag
+
+    def __str__(self) -> str:
+        return f"{type(self).__name__}({self.tag!r})" if self.tag else self.name
+
+    def prescale(self, frame, dims) -> dict:
+        """No constants: the design prescales the plant itself
+        (`ctrl_lpv.output_feedback.prescale`) and renormalises ``z``
+        (`rescaled`)."""
+        return {}
+
+    def coefficient_lmis(self, t, continuous) -> list:
+        """None: the output-feedback LMIs are per vertex (`lmis`)."""
+        return []
+
+    def to_model(self, g, frame, i) -> float:
+        """The level as the bound (the plant's units: see `rescaled`)."""
+        return self.bound(g)
+
+    def to_scaled(self, bound, frame, i) -> float:
+        return self.level(bound)
 
     @property
     def level_name(self) -> str:
@@ -70,11 +99,19 @@ class HinfObjective(_Objective):
     label = "H-infinity"
     strictly_proper = False
 
-    def spec(self, plant):
+    #: The norm's subscript in statements.
+    norm = "inf"
+
+    def spec(self, plant, bound=None):
         """The `ctrl_lpv.Hinf` spec of this channel (the key of ``bounds``)."""
+        return self.named(plant.names("w"), plant.names("z"), bound)
+
+    @staticmethod
+    def named(w, z, bound=None):
+        """The `ctrl_lpv.Hinf` spec of the channel ``w -> z``."""
         from ..synthesis import Hinf
 
-        return Hinf(w=plant.names("w"), z=plant.names("z"))
+        return Hinf(w=w, z=z, bound=bound)
 
     def check(self, plant) -> None:
         """Nothing to add to the plant's own checks."""
@@ -85,8 +122,8 @@ class HinfObjective(_Objective):
     def level(self, bound: float) -> float:
         return float(bound)
 
-    def declare(self, lmi, plant) -> None:
-        lmi.variable(self.level_name, (1, 1), symmetric=True)
+    def variables(self, declare) -> None:
+        declare.variable(self.level_name, (1, 1), symmetric=True)
 
     def rescaled(self, P, values, s):
         """``(P, values)`` for the plant whose z the design scaled by `s`.
@@ -99,17 +136,26 @@ class HinfObjective(_Objective):
     def _level(self, v):
         return getattr(v, self.level_name)[0, 0]
 
-    def transformed_lmis(self, plant, j, hats):
-        """``(name, block function)`` of the LMIs at vertex `j`.
+    def lmis(self, t, continuous):
+        """``(name, block function, performance rows)`` at vertex ``t.j``.
 
-        `hats` ``(v, j)`` gives the controller variables at vertex `j`; the
+        ``t.hats(v)`` gives the controller variables at the vertex; the
         decay margin is the parameter ``v.decay``. The third item lists the
         blocks of the performance channels (``-gamma I``), which the design
         weighs against the state blocks (`ctrl_lpv.output_feedback.design`).
         """
-        perf = (2, 3) if plant.continuous else (2, 5)
+        plant, j = t.plant, t.j
+        perf = (2, 3) if continuous else (2, 5)
         return [(f"bounded real{self.tag} vertex {j}", lambda v: lmis.bounded_real(
-            plant, j, v, hats(v, j), self._level(v), v.decay[()]), perf)]  # fmt: skip
+            plant, j, v, t.hats(v), self._level(v), v.decay[()]), perf)]  # fmt: skip
+
+    def residual(self, loop, continuous) -> float:
+        """Largest normalised eigenvalue of the closed loop's bounded-real
+        inequality at the frozen point, at the level ``values[level]``."""
+        A, B, C, D = loop.matrices(self.plant_of(loop.plant))
+        g = float(loop.values[self.level_name])
+        F = lmis.bounded_real_loop(A, B, C, D, loop.P, g, continuous)
+        return normalized_max_eig(F[None])
 
     def loop_checks(self, loop, P, values, j, continuous, margin=0.0, what=""):
         """Float64 checks of the closed loop at vertex `j` (each inequality
@@ -154,11 +200,18 @@ class H2Objective(_Objective):
     label = "H2"
     strictly_proper = True
 
-    def spec(self, plant):
+    norm = "2"
+
+    def spec(self, plant, bound=None):
         """The `ctrl_lpv.H2` spec of this channel (the key of ``bounds``)."""
+        return self.named(plant.names("w"), plant.names("z"), bound)
+
+    @staticmethod
+    def named(w, z, bound=None):
+        """The `ctrl_lpv.H2` spec of the channel ``w -> z``."""
         from ..synthesis import H2
 
-        return H2(w=plant.names("w"), z=plant.names("z"))
+        return H2(w=w, z=z, bound=bound)
 
     def check(self, plant) -> None:
         if np.any(plant.D11 != 0):
@@ -172,18 +225,23 @@ class H2Objective(_Objective):
     def level(self, bound: float) -> float:
         return float(bound) ** 2
 
-    def declare(self, lmi, plant) -> None:
-        level = self.level_name
-        lmi.variable(level, (1, 1), symmetric=True)
+    def variables(self, declare) -> None:
+        """The level ``gamma^2`` and a bound ``Q_j`` of ``C_j P^-1 C_j'`` per
+        vertex."""
+        plant = declare.plant
+        declare.variable(self.level_name, (1, 1), symmetric=True)
         nz = plant.C1.shape[1]
         for j in range(plant.nvertices):
-            Q = self._q(j)
-            lmi.variable(Q, (nz, nz), symmetric=True)
-            lmi.add(
-                f"trace {Q} <= {level}",
-                lambda v, Q=Q: [[np.trace(getattr(v, Q)) - getattr(v, level)]],
-                strict=False,
-            )
+            declare.variable(self._q(j), (nz, nz), symmetric=True)
+
+    def problem_lmis(self, t) -> list:
+        """``trace Q_j <= gamma^2`` (non-strict), one per vertex."""
+        level = self.level_name
+        return [
+            (f"trace {Q} <= {level}",
+             lambda v, Q=Q: [[np.trace(getattr(v, Q)) - getattr(v, level)]], False)
+            for Q in map(self._q, range(t.plant.nvertices))
+        ]  # fmt: skip
 
     def _q(self, j) -> str:
         return f"Q{self.tag}{j}"
@@ -194,15 +252,33 @@ class H2Objective(_Objective):
         out = {k: x / s**2 for k, x in values.items() if k[0] == "Q"}
         return P, dict(values, **out, level=values["level"] / s**2)
 
-    def transformed_lmis(self, plant, j, hats):
+    def lmis(self, t, continuous):
+        """The Gramian and output LMIs at vertex ``t.j`` (as `HinfObjective`)."""
+        plant, j = t.plant, t.j
         return [
             (f"H2 Gramian{self.tag} vertex {j}",
-             lambda v: lmis.h2_gramian(plant, j, v, hats(v, j), v.decay[()]),
-             (2,) if plant.continuous else (4,)),
+             lambda v: lmis.h2_gramian(plant, j, v, t.hats(v), v.decay[()]),
+             (2,) if continuous else (4,)),
             (f"H2 output{self.tag} vertex {j}",
-             lambda v: lmis.h2_output(plant, j, v, hats(v, j), getattr(v, self._q(j))),
+             lambda v: lmis.h2_output(plant, j, v, t.hats(v), getattr(v, self._q(j))),
              (2,)),
         ]  # fmt: skip
+
+    def residual(self, loop, continuous) -> float:
+        """Largest excess at the frozen point: the normalised eigenvalues of
+        the Gramian and output inequalities, with ``Q`` interpolated from
+        the vertices' (the output inequality is affine in ``(C, Q)``), and
+        ``trace Q - gamma^2`` relative to ``gamma^2``; ``D = 0`` needed."""
+        A, B, C, D = loop.matrices(self.plant_of(loop.plant))
+        if np.any(D != 0):
+            return np.inf
+        Q = loop.at([self._q(j) for j in range(loop.plant.nvertices)])
+        g = float(loop.values[self.level_name])
+        return max(
+            normalized_max_eig(lmis.h2_gramian_loop(A, B, loop.P, continuous)[None]),
+            normalized_max_eig(lmis.h2_output_loop(C, loop.P, Q)[None]),
+            (float(np.trace(Q)) - g) / g,
+        )
 
     def loop_checks(self, loop, P, values, j, continuous, margin=0.0, what=""):
         A, B, C, D = loop

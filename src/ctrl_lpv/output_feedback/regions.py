@@ -23,10 +23,11 @@ from __future__ import annotations
 import numpy as np
 
 from ..certificate import Check, negative_definite
-from ..lmi import assemble
+from ..lmi import assemble, normalized_max_eig
 from ..regions import LMIRegion, region_blocks
 from ..synthesis.constraints import _require_unit_disk, pole_regions
 from ..synthesis.frozen import verification_points
+from ..synthesis.spec import Spec
 from . import lmis
 from .reconstruct import closed_loop
 
@@ -44,14 +45,19 @@ def region_constraints(constraints, continuous) -> tuple:
     return tuple(RegionConstraint(region) for region in regions)
 
 
-class RegionConstraint:
+class RegionConstraint(Spec):
     """Every frozen closed-loop eigenvalue in `region` (module docstring)."""
 
     strictly_proper = False
     homogeneous = True  # in P
 
     def __init__(self, region: LMIRegion):
-        self.region = region
+        self._region = region
+
+    @property
+    def region(self) -> LMIRegion:
+        """The `~ctrl_lpv.regions.LMIRegion` imposed (`Spec.region`)."""
+        return self._region
 
     def __str__(self) -> str:
         return str(self.region)
@@ -65,16 +71,24 @@ class RegionConstraint:
     def check(self, plant) -> None:
         """Nothing to check beyond `region_constraints`."""
 
-    def declare(self, lmi, plant) -> None:
+    def variables(self, declare) -> None:
         """No variables of its own."""
 
-    def transformed_lmis(self, plant, j, hats):
-        """``(name, block function, ())`` of the region's LMI at vertex `j`
-        (no performance blocks: every block row is a state row)."""
+    def prescale(self, frame, dims) -> dict:
+        """No constants (the region is in the plant's time units)."""
+        return {}
+
+    def coefficient_lmis(self, t, continuous) -> list:
+        return []
+
+    def lmis(self, t, continuous):
+        """``(name, block function, ())`` of the region's LMI at vertex
+        ``t.j`` (no performance blocks: every block row is a state row)."""
         L, M = self.region.L, self.region.M
+        plant, j = t.plant, t.j
 
         def blocks(v):
-            AA, _, _, _ = lmis.transformed_loop(plant, j, v.X, v.Y, *hats(v, j))
+            AA, _, _, _ = lmis.transformed_loop(plant, j, v.X, v.Y, *t.hats(v))
             Xb = [[v.X, np.eye(plant.n)], [np.eye(plant.n), v.Y]]
             return _blockwise(L, M, Xb, AA)
 
@@ -96,6 +110,13 @@ class RegionConstraint:
         return [negative_definite(F, margin=margin, absolute=np.abs(F_abs),
                                   what=f"{self.region} (closed loop{what})",
                                   where=f"vertex {j}", group="LMI")]  # fmt: skip
+
+    def residual(self, loop, continuous) -> float:
+        """Largest normalised eigenvalue of the region's inequality on the
+        frozen closed loop."""
+        A = loop.matrices()[0]
+        L, M, P = self.region.L, self.region.M, loop.P
+        return normalized_max_eig(assemble(region_blocks(L, M, P, A.T @ P))[None])
 
     def loop_lmis(self, loop, j, continuous):
         """``(name, block function)`` on the closed loop in a variable ``P``."""

@@ -21,11 +21,12 @@ import time
 import numpy as np
 
 from .. import budget
-from ..exceptions import CertificationError, InfeasibleError
+from ..exceptions import InfeasibleError
 from ..problem_cache import synthesis_cache
 from .channels import Partition
 from .options import guard_size
 from .problem import Problem, Structure, build
+from .refusals import refusal
 from .refutation import Refutations, RungRefuted
 from .results import StateFeedbackDesign
 from .scaling import frames
@@ -238,13 +239,10 @@ def _design(problem, point, gamma_opt, attempts, timing, record):
 def _refusal(problem, best, record, attempts, rungs, solvers, prescalings):
     """The refusal: a short first line, the ladder's detail after it."""
     hint = "".join(f"; weakly controllable: {m}" for m in problem.suspects)
-    reasons = budget.digest("; ".join(note.split(": ", 1)[-1] for note in record))
-    return CertificationError(
-        f"{problem.method}: no certified solution found, best point reached: "
-        f"{'none' if best is None else best[1]}\n"
-        f"what failed: {reasons}{hint}\n"
-        f"tried: {len(rungs)} rungs (solvers {[one[0][0] for one in solvers]}, "
+    tried = (
+        f"{len(rungs)} rungs (solvers {[one[0][0] for one in solvers]}, "
         f"prescalings {[f.name for f in prescalings]}, margins "
-        f"{[problem.margin * f for f in MARGIN_FACTORS]})",
-        attempts,
+        f"{[problem.margin * f for f in MARGIN_FACTORS]})"
     )
+    return refusal(problem.method, None if best is None else best[1], record, tried,
+                   attempts, hint)  # fmt: skip
