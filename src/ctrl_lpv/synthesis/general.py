@@ -12,6 +12,10 @@ solves. A design whose optimum did not certify may sit far above it (its
 back-off starts from an estimate the solver could not meet): the other
 prescalings at the nominal margin are asked for one that certifies; if
 none does, the first design stands.
+
+A problem that supplies its own stages (output feedback, through a
+`~ctrl_lpv.synthesis.hooked.StageHook`) runs on `run_hooked`: the rungs it
+supplies in turn, each run by `~ctrl_lpv.synthesis.hooked.run_rung`.
 """
 
 from __future__ import annotations
