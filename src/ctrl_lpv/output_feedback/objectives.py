@@ -142,7 +142,7 @@ class HinfObjective(_Objective):
         ``t.hats(v)`` gives the controller variables at the vertex; the
         decay margin is the parameter ``v.decay``. The third item lists the
         blocks of the performance channels (``-gamma I``), which the design
-        weighs against the state blocks (`ctrl_lpv.output_feedback.design`).
+        weighs against the state blocks (`ctrl_lpv.output_feedback.problem`).
         """
         plant, j = t.plant, t.j
         perf = (2, 3) if continuous else (2, 5)

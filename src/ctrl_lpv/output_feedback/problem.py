@@ -9,8 +9,9 @@ Lyapunov pair ``[[X, I], [I, Y]] > 0``, the controller variables after the
 change of variables, and the back-off stage's conditioning of ``I - X Y``.
 `rebuild` turns a point into vertex controllers (`ctrl_lpv.output_feedback.
 reconstruct`) and `certified` certifies them on the closed loop
-(`ctrl_lpv.output_feedback.checks`). The stages that call them are in
-`ctrl_lpv.output_feedback.design`.
+(`ctrl_lpv.output_feedback.checks`). The stages that call them are the
+hook output feedback supplies to the engine's ladder
+(`ctrl_lpv.output_feedback.stages`).
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ S^1/2``, ``N = V S^1/2``: both factors have the same condition number,
 inverses are explicit (``S^-1/2 U'``), so no triangular solve can amplify
 the rounding of a nearly singular ``I - X Y`` into one factor. The
 conditioning of ``I - X Y`` itself is the design's business: the back-off
-stage keeps ``[[X, I], [I, Y]]`` away from singular (`ctrl_lpv.output_feedback.design`).
+stage keeps ``[[X, I], [I, Y]]`` away from singular (`ctrl_lpv.output_feedback.stages`).
 """
 
 from __future__ import annotations

@@ -12,6 +12,10 @@ solves. A design whose optimum did not certify may sit far above it (its
 back-off starts from an estimate the solver could not meet): the other
 prescalings at the nominal margin are asked for one that certifies; if
 none does, the first design stands.
+
+A problem that supplies its own stages (output feedback, through a
+`~ctrl_lpv.synthesis.hooked.StageHook`) runs on `run_hooked`: the rungs it
+supplies in turn, each run by `~ctrl_lpv.synthesis.hooked.run_rung`.
 """
 
 from __future__ import annotations
@@ -21,9 +25,10 @@ import time
 import numpy as np
 
 from .. import budget
-from ..exceptions import InfeasibleError
+from ..exceptions import CertificationError, InfeasibleError
 from ..problem_cache import synthesis_cache
 from .channels import Partition
+from .hooked import run_rung
 from .options import guard_size
 from .problem import Problem, Structure, build
 from .refusals import refusal
@@ -246,3 +251,23 @@ def _refusal(problem, best, record, attempts, rungs, solvers, prescalings):
     )
     return refusal(problem.method, None if best is None else best[1], record, tried,
                    attempts, hint)  # fmt: skip
+
+
+def run_hooked(hook):
+    """The ladder over the rungs a problem supplies through its
+    `~ctrl_lpv.synthesis.hooked.StageHook` (output feedback): the first
+    certified design, or the hook's refusal with every rung's notes."""
+    notes, estimates, attempts = [], [], []
+    for rung in hook.rungs():
+        budget.progress("rung %s", rung.label, rung=rung.label)
+        design, failure, estimate = run_rung(hook, rung)
+        if design is not None:
+            budget.reached(hook.reached(design, rung.label), design.gamma)
+            return design
+        if not isinstance(failure, CertificationError):
+            raise failure
+        notes.append(f"{rung.name}: {str(failure).removeprefix(hook.prefix)}")
+        attempts.extend(failure.attempts)
+        if estimate is not None:
+            estimates.append(estimate)
+    raise hook.refusal(notes, estimates, attempts)

@@ -1,10 +1,11 @@
 """The one refusal format of the engine's ladders.
 
-Every refusal of a design (`ctrl_lpv.synthesis.general` for state
-feedback, `ctrl_lpv.output_feedback.design` for output feedback) reads the
-same: a short first line (what was asked, the best point reached), what
-failed (the ladder's notes without repeats, `ctrl_lpv.budget.digest`), a
-hint where the data show a likely cause, and what was tried.
+Every refusal of a design (`ctrl_lpv.synthesis.general.run` for state
+feedback, `~ctrl_lpv.synthesis.general.run_hooked` with the hook of
+`ctrl_lpv.output_feedback.stages` for output feedback) reads the same: a
+short first line (what was asked, the best point reached), what failed
+(the ladder's notes without repeats, `ctrl_lpv.budget.digest`), a hint
+where the data show a likely cause, and what was tried.
 """
 
 from __future__ import annotations

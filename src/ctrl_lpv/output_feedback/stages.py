@@ -1,0 +1,226 @@
+"""What output feedback supplies to the engine's ladder: its stage hook.
+
+The ladder and its rung (`ctrl_lpv.synthesis.general.run_hooked`,
+`ctrl_lpv.synthesis.hooked`) fix the order of the stages; this hook
+supplies output feedback's own numerics on one `ctrl_lpv.lmi.LMIProblem`
+(`ctrl_lpv.output_feedback.problem.build`; every point is checked in
+float64 before it is used):
+
+rungs
+    the prescalings of `ctrl_lpv.output_feedback.prescale` in turn, at the
+    margin asked for (no margin rungs: a larger margin only shifts the
+    optimum of the change of variables);
+``optimal``
+    minimise the objective's level subject to its LMIs at every vertex and
+    ``[[X, I], [I, Y]] > 0``, the performance LMIs weighed against the
+    state blocks first, then as posed;
+back-off (``center``)
+    with the level at most ``(1 + 0.9 b)`` times the optimum's, maximise
+    ``mu`` with ``[[X, mu I], [mu I, Y]] >= 0`` and the Lyapunov part
+    tightened by a decay margin (then without it). At the optimum ``I - X
+    Y`` is nearly singular and the rebuilt controller has huge,
+    ill-conditioned matrices; this stage buys a well-conditioned ``M N' =
+    I - X Y`` with the back-off, as LPVTools' ``lpvsyn`` does with its
+    default 1.2;
+check
+    the controller rebuilt from the point and certified on the closed loop
+    (`ctrl_lpv.output_feedback.problem.rebuild`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..exceptions import CertificationError, InfeasibleError
+from ..synthesis.hooked import Posed, StageHook
+from ..synthesis.refusals import refusal
+from .fixed_modes import describe, slow_fixed_modes
+from .prescale import Prescaling
+from .problem import build, certified
+
+__all__ = ["OutputFeedbackStages"]
+
+#: A trace term far below the solver's tolerance on the level keeps X and Y
+#: bounded in the directions the bound does not constrain (there the central
+#: path drifts to 1e5 and the solve ends inaccurate).
+_TRACE_WEIGHT = 1e-7
+
+#: Decay margin of the back-off stage per unit back-off, relative to the
+#: data's rate (``max ||A_j||`` in continuous time, 1 in discrete time).
+_DECAY = 0.1
+
+#: The back-off stage solves at ``(1 + _INSIDE backoff)`` times the optimum.
+_INSIDE = 0.9
+
+#: Back-offs tried in turn for ``backoff=None``: the raw optimum, then the
+#: least relaxation whose controller certifies.
+_RAW_BACKOFFS = (0.0, 1e-5, 1e-4, 5e-4)
+
+#: How the prescalings of `ctrl_lpv.output_feedback.prescale` are named.
+_PRESCALED = {
+    "Riccati": "the Riccati-balanced prescaling",
+    "none": "the plant's own coordinates",
+}
+
+
+@dataclass(frozen=True)
+class _Rung:
+    kind: str
+    label: str
+    name: str
+
+
+class OutputFeedbackStages(StageHook):
+    """The hook of one output-feedback problem.
+
+    `kinds` are the prescalings tried (`ctrl_lpv.output_feedback.prescale.
+    prescalings`), `rebuild` the point's check
+    (`ctrl_lpv.output_feedback.problem.rebuild`).
+    """
+
+    prefix = "output feedback: "
+
+    def __init__(self, plant, objective, scheduled, backoff, margin, chain,
+                 kinds, rebuild):  # fmt: skip
+        self.plant = plant
+        self.objective = objective
+        self.scheduled = scheduled
+        self.backoff = backoff
+        self.margin = margin
+        self.chain = chain
+        self.kinds = tuple(kinds)
+        self.rebuild = rebuild
+        self.homogeneous = objective.homogeneous
+
+    def rungs(self):
+        return [
+            _Rung(
+                k,
+                f"{self.chain[0][0]}, {_PRESCALED[k]}, margin {self.margin:g}",
+                _PRESCALED[k],
+            )  # fmt: skip
+            for k in self.kinds
+        ]
+
+    def backoffs(self):
+        b = self.backoff
+        return (b, *_RAW_BACKOFFS) if b else _RAW_BACKOFFS
+
+    def pose(self, rung, scale):
+        plant = self.plant if scale == 1.0 else self.plant.scaled(scale)
+        return _Posed(self, plant, rung.kind)
+
+    def in_units(self, design, scale, limit):
+        P, values = self.objective.rescaled(design.P, design.values, scale)
+        return certified(self.plant, self.objective, design.controllers, P, values,
+                         design.gamma_opt / scale, limit,
+                         (self.margin, self.chain[:1]), design.condition)  # fmt: skip
+
+    def reached(self, design, label):
+        return f"a certified point ({label}), {self.objective.name} {design.gamma:.6g}"
+
+    def refusal(self, notes, estimates, attempts):
+        objective = self.objective
+        best = None
+        if estimates:
+            best = (f"the optimum's estimate, {objective.name} {min(estimates):.6g} "
+                    "(not certified)")  # fmt: skip
+        fixed = slow_fixed_modes(self.plant)
+        # The likely cause, named: such a mode keeps the certificate's slack
+        # along it at its own slow rate.
+        hint = (f". Slow modes no controller moves: {describe(fixed)}; a "
+                "quadratic certificate's slack along them is of the order of "
+                "their rate (remedy: move the slow pole into the controller, or "
+                "a smaller margin)") if fixed else ""  # fmt: skip
+        tried = (f"{len(self.kinds)} prescalings ("
+                 + ", then ".join(_PRESCALED[k] for k in self.kinds)
+                 + f"), back-offs {list(self.backoffs())}, solvers "
+                 f"{[n for n, _ in self.chain]}, margin {self.margin:g}")  # fmt: skip
+        return refusal(f"{objective.label} output feedback", best, notes, tried,
+                       attempts, hint)  # fmt: skip
+
+
+class _Posed(Posed):
+    """One rung's LMIs on `plant` prescaled (`kind`, computed on `plant`,
+    whose ``z`` may have been scaled: that moves the balance of ``X`` and
+    ``Y``); its points are certified on `plant` itself."""
+
+    def __init__(self, hook, plant, kind):
+        self.hook = hook
+        self.plant = plant
+        self.prescaling = Prescaling.of(kind, plant)
+        self.scaled = self.prescaling.apply(plant)
+        norms = [np.linalg.norm(A, 2) for A in self.scaled.A]
+        self.rate = max(norms) if plant.continuous else 1.0
+        self.lmi = self.hats = None
+
+    def optimal(self):
+        hook = self.hook
+        # The performance LMIs weighed against the state blocks first (see
+        # `problem.build`); if the solvers fail on them (the weight assumes a
+        # bound near 1: a large bound unbalances them the other way), as
+        # posed before.
+        for weigh in (True, False):
+            self.lmi, self.hats, weight = build(
+                self.scaled, hook.objective, hook.scheduled, hook.margin, weigh
+            )
+            try:
+                return self.lmi.solve(
+                    lambda v: (
+                        v.level[0, 0] + _TRACE_WEIGHT * (np.trace(v.X) + np.trace(v.Y))
+                    ),
+                    stage="optimal",
+                    solvers=hook.chain,
+                )
+            except CertificationError:
+                if not weigh or weight == 1.0:
+                    raise
+
+    def estimate(self, point):
+        # The solver's point at the nominal margin, when only a larger margin
+        # certified, is the better estimate of the optimum.
+        return self.hook.objective.bound((point.nominal or point).level[0, 0])
+
+    def backoff_stages(self, optimal, b, estimate):
+        if b == 0:
+            return [lambda: optimal]
+        # The decay margin is relative to the data's fastest rate: too much
+        # for a stiff plant, then the back-off stage is tried without it.
+        return [
+            lambda d=decay: self._center(b, estimate, d)
+            for decay in (_DECAY * b * self.rate, 0.0)
+        ]
+
+    def _center(self, b, estimate, decay):
+        """The back-off stage's point.
+
+        It only chooses a better point: a proof that its LMIs are infeasible
+        (they add a decay margin and a bound on the level) says nothing of
+        the design problem, so it is not a refusal of the design.
+        """
+        objective = self.hook.objective
+        # Solved a little inside the bound it is certified at: the gap is the
+        # closed loop's slack after the reconstruction.
+        level_max = objective.level((1.0 + _INSIDE * b) * estimate)
+        self.lmi.set_parameter("level_max", level_max)
+        self.lmi.set_parameter("decay", decay)
+        try:
+            # The first solver only: this stage chooses a better point, and
+            # the fallbacks (SCS to 1e-9) cost minutes at n = 8 for a point
+            # that the next back-off or the optimal point may give as well.
+            return self.lmi.solve(lambda v: -v.mu[0, 0], stage="center",
+                                  solvers=self.hook.chain[:1])  # fmt: skip
+        except InfeasibleError as exc:
+            raise CertificationError(
+                f"output feedback: the back-off stage at {b:g} is infeasible ({exc})",
+                exc.attempts,
+            ) from None
+
+    def check(self, point, b, estimate, limit):
+        hook = self.hook
+        target = max((1.0 + b) * estimate, hook.objective.bound(point.level[0, 0]))
+        return hook.rebuild(self.plant, self.prescaling, hook.objective, point,
+                            self.hats, estimate, (target, limit),
+                            (hook.margin, hook.chain[:1]))  # fmt: skip

@@ -1,0 +1,188 @@
+"""The engine's ladder for a problem that supplies its stages
+(`ctrl_lpv.synthesis.hooked`, `ctrl_lpv.synthesis.general.run_hooked`),
+driven by a scripted hook: the order of the stages, the held raw optimum,
+the renormalisation and the refusal, against the rules stated in the
+module's docstring (the output-feedback numerics themselves are gated by
+the output-feedback tests and `benchmarks/compare_output_feedback.py`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import pytest
+
+from ctrl_lpv import CertificationError
+from ctrl_lpv.synthesis.general import run_hooked
+from ctrl_lpv.synthesis.hooked import Posed, StageHook, run_rung
+
+RAW = (0.0, 1e-5, 1e-4, 5e-4)
+
+
+@dataclass
+class Design:
+    gamma: float
+    scale: float = 1.0
+    backoff: float | None = None
+
+
+@dataclass(frozen=True)
+class Rung:
+    label: str
+    name: str
+
+
+class ScriptedPosed(Posed):
+    """A rung whose optimum is ``estimate * scale`` and whose points certify
+    at ``gamma(b)`` (None: refused)."""
+
+    def __init__(self, hook, rung, scale):
+        self.hook, self.rung, self.scale = hook, rung, scale
+
+    def optimal(self):
+        self.hook.log.append(("optimal", self.rung.name, self.scale))
+        if self.hook.no_optimum:
+            raise CertificationError("scripted: no optimum", ())
+        return "optimal"
+
+    def estimate(self, point):
+        return self.hook.estimate * self.scale
+
+    def backoff_stages(self, optimal, b, estimate):
+        if b == 0:
+            return [lambda: optimal]
+
+        def stage():
+            self.hook.log.append(("center", self.rung.name, b))
+            return f"center {b:g}"
+
+        return [stage]
+
+    def check(self, point, b, estimate, limit):
+        self.hook.limits.append(limit)
+        gamma = self.hook.certifies(self.rung, self.scale, b)
+        if gamma is None:
+            raise CertificationError(f"scripted: {self.rung.name} refused at {b:g}", ())
+        gamma *= self.scale
+        if gamma > limit:
+            raise CertificationError(f"scripted: {gamma:g} above {limit:g}", ())
+        return Design(gamma, self.scale, b)
+
+
+class ScriptedHook(StageHook):
+    prefix = "scripted: "
+
+    def __init__(self, certifies, estimate=1.0, backoffs=RAW, homogeneous=True,
+                 names=("first",)):  # fmt: skip
+        self.certifies = certifies
+        self.estimate = estimate
+        self._backoffs = backoffs
+        self.homogeneous = homogeneous
+        self.names = names
+        self.no_optimum = False
+        self.log, self.limits, self.refused = [], [], None
+
+    def rungs(self):
+        return [Rung(f"rung {n}", n) for n in self.names]
+
+    def pose(self, rung, scale):
+        return ScriptedPosed(self, rung, scale)
+
+    def backoffs(self):
+        return self._backoffs
+
+    def in_units(self, design, scale, limit):
+        self.limits.append(limit)
+        return Design(design.gamma / scale, 1.0, design.backoff)
+
+    def reached(self, design, label):
+        return f"certified on {label}"
+
+    def refusal(self, notes, estimates, attempts):
+        self.refused = (list(notes), list(estimates))
+        return CertificationError("scripted refusal", attempts)
+
+
+def test_raw_optimum_above_its_estimate_is_held_until_a_backoff_fits_it():
+    """The raw optimum certifies at 3e-5 above its estimate: it is not the
+    answer of back-off 0 nor of 1e-5 (whose stage is solved and refused),
+    and is returned as the answer of 1e-4 without solving that stage."""
+    hook = ScriptedHook(lambda rung, scale, b: 1.0 + 3e-5 if b == 0 else None)
+    design, failure, estimate = run_rung(hook, hook.rungs()[0])
+    assert failure is None and estimate == 1.0
+    assert design.backoff == 0 and design.gamma == 1.0 + 3e-5
+    centers = [entry[2] for entry in hook.log if entry[0] == "center"]
+    assert centers == [1e-5]
+    # The raw optimum is checked within the largest raw back-off.
+    assert hook.limits[0] == pytest.approx((1 + 5e-4) * (1 + 1e-6))
+
+
+def test_backoff_asked_for_comes_first_then_the_raw_sequence():
+    """backoff 0.2: the back-off stage first, certified within 1.2 times
+    the estimate; when it is refused, the raw optimum, checked within the
+    back-off asked for."""
+    hook = ScriptedHook(lambda rung, scale, b: 1.1 if b == 0.2 else None,
+                        estimate=1.0, backoffs=(0.2, *RAW))  # fmt: skip
+    design, _, _ = run_rung(hook, hook.rungs()[0])
+    assert design.backoff == 0.2 and design.gamma == 1.1
+    assert hook.limits == [pytest.approx(1.2 * (1 + 1e-6))]
+
+    hook = ScriptedHook(lambda rung, scale, b: 1.0 if b == 0 else None,
+                        backoffs=(0.2, *RAW))  # fmt: skip
+    design, _, _ = run_rung(hook, hook.rungs()[0])
+    assert design.backoff == 0
+    assert hook.limits[1] == pytest.approx(1.2 * (1 + 1e-6))
+
+
+@pytest.mark.parametrize("estimate", [1e3, 3e-4])
+def test_renormalised_once_on_failure_by_a_power_of_two(estimate):
+    """A refused rung whose estimate is far from one is posed again with z
+    scaled by a power of two s (s * estimate within [1/sqrt 2, sqrt 2]),
+    and the design certified in the plant's units within the back-off of
+    the first estimate."""
+    hook = ScriptedHook(lambda rung, scale, b: None if scale == 1.0 else estimate,
+                        estimate=estimate, backoffs=(0.2, *RAW))  # fmt: skip
+    design, failure, found = run_rung(hook, hook.rungs()[0])
+    scales = [s for kind, _, s in hook.log if kind == "optimal"]
+    assert scales[0] == 1.0 and len(scales) == 2
+    s = scales[1]
+    assert float(s).hex().startswith("0x1.0000000000000p")  # a power of two
+    assert 2**-0.5 <= s * estimate <= 2**0.5
+    assert failure is None and found == estimate
+    assert design.gamma == pytest.approx(estimate)
+    assert hook.limits[-1] == pytest.approx(1.2 * estimate * (1 + 1e-3))
+
+
+def test_no_renormalisation_of_a_non_homogeneous_problem_or_near_one():
+    for estimate, homogeneous in ((1e3, False), (1.5, True)):
+        hook = ScriptedHook(lambda rung, scale, b: None, estimate=estimate,
+                            homogeneous=homogeneous)  # fmt: skip
+        design, failure, _ = run_rung(hook, hook.rungs()[0])
+        assert design is None and isinstance(failure, CertificationError)
+        assert [s for kind, _, s in hook.log if kind == "optimal"] == [1.0]
+
+
+def test_ladder_takes_the_first_rung_that_certifies_and_refuses_with_every_note():
+    hook = ScriptedHook(lambda rung, scale, b: 1.0 if rung.name == "second" else None,
+                        names=("first", "second", "third"))  # fmt: skip
+    design = run_hooked(hook)
+    assert design.gamma == 1.0
+    assert {name for _, name, _ in hook.log} == {"first", "second"}
+
+    hook = ScriptedHook(lambda rung, scale, b: None, estimate=1.5,
+                        names=("first", "second"))  # fmt: skip
+    with pytest.raises(CertificationError, match="scripted refusal"):
+        run_hooked(hook)
+    notes, estimates = hook.refused
+    # The last refusal of each rung, named by the rung, without the prefix.
+    assert notes == ["first: first refused at 0.0005",
+                     "second: second refused at 0.0005"]  # fmt: skip
+    assert estimates == [1.5, 1.5]
+
+
+def test_a_rung_without_an_optimum_gives_no_estimate():
+    hook = ScriptedHook(lambda rung, scale, b: 1.0, estimate=1e3)
+    hook.no_optimum = True
+    with pytest.raises(CertificationError):
+        run_hooked(hook)
+    notes, estimates = hook.refused
+    assert notes == ["first: no optimum"] and estimates == []
