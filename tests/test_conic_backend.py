@@ -89,7 +89,8 @@ def test_cvxpy_poses_the_same_problem():
 
 
 def _map(evaluate, F0, read, units, check):
-    rows, cols, data = columns(evaluate, F0, read, units, check)
+    F0_read, (rows, cols, data) = columns(evaluate, F0, read, units, check)
+    assert F0_read is F0
     nfree = sum(len(u) for u in units.values())
     M = np.zeros((F0.size, nfree))
     np.add.at(M, (rows, cols), data)
@@ -122,6 +123,14 @@ def test_batched_columns_are_the_unit_point_columns(blocks):
     fast = _map(evaluate, F0, set(shapes), units, True)
     exact = _map(evaluate, F0, set(shapes), units, False)
     np.testing.assert_allclose(fast, exact, atol=1e-14)
+    # F0 read as the zero point of the batch (the names read known): the
+    # same F0 and map (a block function that does not broadcast: read
+    # point by point, F0 directly).
+    F0_batch, (rows, cols, data) = columns(evaluate, None, set(shapes), units)
+    np.testing.assert_allclose(F0_batch, F0, atol=1e-15)
+    with_F0 = np.zeros_like(exact)
+    np.add.at(with_F0, (rows, cols), data)
+    np.testing.assert_allclose(with_F0, exact, atol=1e-14)
     # and both reproduce the block function at a random point
     x = rng.normal(size=fast.shape[1])
     values, offset = {}, 0

@@ -49,3 +49,33 @@ def test_a_cvxpy_solver_without_cvxpy_names_the_extra(monkeypatch):
         monkeypatch.undo()
         for cached in (cvxpy_backend.installed, solvers._installed_solvers):
             cached.cache_clear()
+
+
+def test_the_default_chain_is_the_installed_solvers_in_order():
+    # The cheap probe of the default chain lists what cvxpy's own probe does.
+    listed = [name for name, _ in solvers.default_solvers()]
+    expected = ["CLARABEL", "SCS", "CVXOPT", "MOSEK"]
+    assert listed == [n for n in expected if n in solvers._installed_solvers()]
+
+
+def test_a_design_with_the_direct_solvers_does_not_import_cvxpy():
+    import importlib.util
+
+    if any(importlib.util.find_spec(m) for m in ("cvxopt", "mosek")):
+        pytest.skip("a default-chain solver is called through cvxpy here")
+    script = (
+        "import sys\n"
+        "import numpy as np\n"
+        "import ctrl_lpv as lpv\n"
+        "sys_ = lpv.PolytopicStateSpace([\n"
+        "    (np.array([[0.0, 1.0], [a, -0.5]]), np.array([[0.0], [1.0]]),\n"
+        "     np.eye(2), np.zeros((2, 1))) for a in (-1.0, 2.0)])\n"
+        "design = lpv.quadratic_stabilization(sys_, u=sys_.input_labels[0])\n"
+        "assert design.certificate.verified\n"
+        "print('cvxpy' in sys.modules)\n"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True
+    )
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.splitlines()[-1] == "False"

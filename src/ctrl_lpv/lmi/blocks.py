@@ -272,8 +272,10 @@ def columns(evaluate, F0, read, units, batched=True) -> tuple:
     evaluate : callable
         ``evaluate(values)`` is the float64 matrix ``F`` with the variables
         of `values` set and every other variable zero.
-    F0 : ndarray
-        ``evaluate({})``.
+    F0 : ndarray or None
+        ``evaluate({})``; None: read it too, as one more (zero) point of
+        the batched evaluation (one evaluation less per inequality; the
+        random-point check covers it).
     read : set of str
         The variables the block function reads; the others get no columns.
     units : dict of str to ndarray
@@ -285,6 +287,7 @@ def columns(evaluate, F0, read, units, batched=True) -> tuple:
 
     Returns
     -------
+    F0 : ndarray
     tuple
         ``(rows, cols, data)`` of the nonzero entries of ``M`` (rows: the
         entries of ``vec F`` in C order), column indices counted over all
@@ -292,6 +295,7 @@ def columns(evaluate, F0, read, units, batched=True) -> tuple:
     """
     pieces = _batched(evaluate, F0, read, units) if batched else None
     if pieces is not None:
+        F0, pieces = pieces
         rng = np.random.default_rng(20261202)
         x = np.zeros(sum(len(p) for p in units.values()))
         for name, (start, stop) in _spans(units).items():
@@ -305,11 +309,14 @@ def columns(evaluate, F0, read, units, batched=True) -> tuple:
         # absolute allowance.
         scale = np.abs(F0).sum() + np.abs(data * x[cols]).sum()
         if np.abs(actual - expected).max() <= _BATCH_TOLERANCE * scale:
-            return pieces
+            return F0, pieces
         logger.debug("batched map of an LMI rejected at a random point")
+        F0 = None  # perhaps read wrongly with the rest
     elif batched:
         logger.debug("an LMI does not evaluate batched: read point by point")
-    return _one_by_one(evaluate, F0, read, units)
+    if F0 is None:
+        F0 = evaluate({})
+    return F0, _one_by_one(evaluate, F0, read, units)
 
 
 def _spans(units):
@@ -333,32 +340,38 @@ def _collect(blocks_of):
 
 
 def _batched(evaluate, F0, read, units):
-    """All columns in one evaluation: the stack holds every unit point of
-    every variable read, each variable zero outside its own slots."""
+    """``(F0, columns)`` in one evaluation: the stack holds every unit point
+    of every variable read, each variable zero outside its own slots (and,
+    when `F0` is None, first the zero point, which gives ``F0``)."""
     spans = [(name, span) for name, span in _spans(units).items()
              if name in read and span[1] > span[0]]  # fmt: skip
     total = sum(stop - start for _, (start, stop) in spans)
     if not total:
-        return _collect([])
-    values, slot = {}, 0
+        return (evaluate({}) if F0 is None else F0), _collect([])
+    first = int(F0 is None)
+    values, slot = {}, first
     for name, _ in spans:
         points = units[name]
-        stack = np.zeros((total,) + points.shape[1:])
+        stack = np.zeros((first + total,) + points.shape[1:])
         stack[slot : slot + len(points)] = points
         values[name] = stack.view(Batch)
         slot += len(points)
     try:
-        stack = evaluate(values)
+        stack = np.asarray(evaluate(values))
     except (ValueError, TypeError, IndexError):
         return None
-    if np.shape(stack) != (total,) + F0.shape:
+    if stack.ndim != 3 or stack.shape[0] != first + total:
         return None
-    dense = (np.asarray(stack) - F0).reshape(total, -1).T
+    if F0 is None:
+        F0 = stack[0].copy()
+    elif stack.shape[1:] != F0.shape:
+        return None
+    dense = (stack[first:] - F0).reshape(total, -1).T
     found, slot = [], 0
     for _, (start, stop) in spans:
         found.append((start, dense[:, slot : slot + stop - start]))
         slot += stop - start
-    return _collect(found)
+    return F0, _collect(found)
 
 
 def _one_by_one(evaluate, F0, read, units):

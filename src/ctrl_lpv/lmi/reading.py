@@ -71,18 +71,20 @@ class ConicReading:
                 pieces.append(kept[key])
                 continue
             budget.check(f"reading the LMI {name}")
-            read = set()
-            F0 = _blocks.assemble(blocks(_blocks.Recording(base, read)))
-            if "__dict__" in read:  # the namespace was read as a whole
-                read = set(base)
-            self._reads[name] = read = frozenset(read & set(base))
+            F0 = None  # read with the columns, once the names read are known
+            if read is None:
+                read = set()
+                F0 = _blocks.assemble(blocks(_blocks.Recording(base, read)))
+                if "__dict__" in read:  # the namespace was read as a whole
+                    read = set(base)
+                self._reads[name] = read = frozenset(read & set(base))
 
             def evaluate(values, blocks=blocks):
                 namespace = SimpleNamespace(**{**base, **values})
                 return _blocks.assemble(blocks(namespace))
 
             start = time.perf_counter()
-            part = _blocks.columns(evaluate, F0, read, units, not exact)
+            F0, part = _blocks.columns(evaluate, F0, read, units, not exact)
             kept[_key(read, encoded)] = piece = (F0, part)
             self._reading += time.perf_counter() - start
             if len(kept) > _KEPT_MAPS:
