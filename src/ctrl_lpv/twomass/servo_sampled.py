@@ -57,7 +57,7 @@ from .drive_observer import DRIVE_STATES
 from .rest_flank import rest_flank_step
 from .servo_kernel import ServoTuning, _smoothstep
 from .stream import jerk_model
-from .trajectory import PEAK_ACCEL, planner_functions
+from .trajectory import planner_functions, replan_duration
 
 __all__ = [
     "SampledServo",
@@ -154,8 +154,7 @@ def plan_stepper(c: ServoTuning, dt: float):
         """The planner one sample on: a new target re-plans the move."""
         r, v, a, j, g, h = plan
         if target != g:
-            distance = math.sqrt(PEAK_ACCEL * abs(target - r) / c.accel_limit)
-            g, h = target, max(c.min_duration, distance, 3.0 * abs(v) / c.accel_limit)
+            g, h = target, replan_duration(target - r, v, c.accel_limit, c.min_duration)
         step = dt / _PLAN_SUBSTEPS
 
         def rate(x):

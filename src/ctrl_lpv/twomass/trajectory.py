@@ -39,6 +39,7 @@ __all__ = [
     "PLAN_GAINS",
     "PEAK_ACCEL",
     "move_duration",
+    "replan_duration",
     "rest_to_rest",
     "planner_functions",
     "reference_generator",
@@ -87,6 +88,38 @@ def move_duration(distance, accel_limit: float, min_duration: float = 0.0):
     d = np.sqrt(PEAK_ACCEL * np.abs(np.asarray(distance, float)) / accel_limit)
     d = np.maximum(d, min_duration)
     return float(d) if d.ndim == 0 else d
+
+
+def replan_duration(
+    distance: float, speed: float, accel_limit: float, min_duration: float
+) -> float:
+    """Duration of a move planned from a moving state, within the limit.
+
+    The longest of `min_duration`, the torque-feasible duration of the
+    distance to go from rest (`move_duration`), and ``3 |speed| /
+    accel_limit`` (a mean deceleration of a third of the limit). The
+    online planner and the sampled servo's planner both re-plan with it.
+    The speed term is a heuristic, not a bound: the minimum-snap move
+    that stops a speed ``v`` where it starts peaks at ``5.03 |v| / h``, so
+    a reversal that re-plans at full speed brakes at up to 1.7 times
+    `accel_limit` for a moment (the servo's torque limit clips it).
+
+    Parameters
+    ----------
+    distance : float
+        Distance to go, rad (its sign does not matter).
+    speed : float
+        Present planned speed, rad/s.
+    accel_limit, min_duration : float
+        As in `move_duration` (not checked here: called every sample).
+
+    Returns
+    -------
+    float
+        The duration, s.
+    """
+    ramp = math.sqrt(PEAK_ACCEL * abs(distance) / accel_limit)
+    return max(min_duration, ramp, 3.0 * abs(speed) / accel_limit)
 
 
 def rest_to_rest(t, distance: float, duration: float) -> np.ndarray:
@@ -156,10 +189,9 @@ def planner_functions(
         dh/dt)``.
     """
     p0, p1, p2, p3 = PLAN_GAINS
-    hmin, ca = horizon_floor, PEAK_ACCEL
+    hmin = horizon_floor
     kg, kh, geps = goal_rate, replan_rate, goal_tolerance
     alim, dmin = accel_limit, min_duration
-    sqrt = math.sqrt
 
     def snap(r, v, a, j, g, h):
         he = h if h > hmin else hmin
@@ -170,8 +202,7 @@ def planner_functions(
         ind = q * q / (1.0 + q * q)
         # Torque-feasible duration: the distance to go, and braking from the
         # present speed when the target changes mid-move.
-        dreq = sqrt(ca * abs(target - r) / alim)
-        dreq = max(dmin, dreq, 3.0 * abs(v) / alim)
+        dreq = replan_duration(target - r, v, alim, dmin)
         s = (h - hmin) / (0.25 * hmin)
         s = 0.0 if s < 0.0 else (1.0 if s > 1.0 else s)
         return kg * (target - g), -s + kh * ind * (dreq - h)
