@@ -65,6 +65,7 @@ SCENARIOS = [
     ("Td=0, alpha 0.06", 0.0, 0.06, 1.0, 0.5),
     ("Td=1, alpha 0.03", 1.0, 0.03, 1.0, 0.5),
     ("Td=1, alpha 0.06", 1.0, 0.06, 1.0, 0.5),
+    ("Td=0.5, alpha 0.03", 0.5, 0.03, 1.0, 0.5),
     ("Td=0, alpha 0.03, Jl x0.8, 0.05 rad", 0.0, 0.03, 0.8, 0.05),
     ("Td=0, alpha 0.03, Jl x1.2, 1 rad", 0.0, 0.03, 1.2, 1.0),
     ("Td=30, alpha 0.03 (certified rest)", 30.0, 0.03, 1.0, 0.5),
@@ -94,6 +95,14 @@ def run(design, Td, alpha, Jl, theta_r, *, T=5.0, seed=1, sensors=ENCODERS):
         else (t[outside[-1] + 1] if outside[-1] + 1 < t.size else np.inf)
     )
     last = t >= T - 1.0
+    # The rest flank's changes over the last second (latch, flip, release):
+    # each one swings the motor across the gap, the torque chatter at Td = 0.
+    c = res.controller
+    if "flank_side" in c.state_labels:
+        side = c.states[c.state_labels.index("flank_side")][c.time >= T - 1.0]
+        flank_changes = int(np.count_nonzero(np.diff(side)))
+    else:
+        flank_changes = 0
     return {
         "settling": settling,
         "overshoot": max(0.0, float(np.max(np.sign(theta_r) * e))) / abs(theta_r) * 100,
@@ -102,6 +111,7 @@ def run(design, Td, alpha, Jl, theta_r, *, T=5.0, seed=1, sensors=ENCODERS):
         "torque_std": np.std(torque[last]),
         "rest_error": np.abs(e[last]).max(),
         "ripple": np.abs(torque[last] - torque[last].mean()).max(),
+        "flank_changes": flank_changes,
     }
 
 
@@ -224,7 +234,7 @@ def main():
     if len(seeds) > 1:
         print(f"worst over seeds {','.join(map(str, seeds))} (and the seed of it)")
     print(f"{'scenario':36s} {'settle':>7s} {'over%':>6s} {'|e| end':>8s} "
-          f"{'e ptp':>8s} {'T std':>6s}  bounds  ok")  # fmt: skip
+          f"{'e ptp':>8s} {'T std':>6s} {'flank':>5s}  bounds  ok")  # fmt: skip
     for name, Td, alpha, Jl, theta_r in SCENARIOS:
         m, worst = worst_over_seeds(design, Td, alpha, Jl, theta_r, seeds)
         paper = name == "paper" or (Td == 0.0 and Jl == 1.0 and theta_r == 0.5)
@@ -243,8 +253,8 @@ def main():
         covered = Td >= cert.rest.min_load_torque
         held = ("hold" if held else "EXCEED") if covered else "n/a"
         print(f"{name:36s} {m['settling']:7.3f} {m['overshoot']:6.2f} "
-              f"{m['error']:8.1e} {m['ptp']:8.1e} {m['torque_std']:6.2f}  "
-              f"{held:6s}  {'ok' if ok else '--'}"
+              f"{m['error']:8.1e} {m['ptp']:8.1e} {m['torque_std']:6.2f} "
+              f"{m['flank_changes']:5d}  {held:6s}  {'ok' if ok else '--'}"
               + (f"  (seed {worst})" if len(seeds) > 1 else ""))  # fmt: skip
     if "stream" in tables:
         stream_table(args.dt, args.seed, design)
