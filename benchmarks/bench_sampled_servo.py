@@ -188,14 +188,33 @@ MOTOR_SCENARIOS = [
 ]
 
 
+#: Rows run on a servo designed on the drive's own load inertia (the
+#: inertia a commissioning run identifies): the Jl rows above hunt from the
+#: estimator's model inertia alone (`motor_estimator`).
+MOTOR_IDENTIFIED = [
+    ("Td=8, Jl x0.8, design Jl x0.8", 8.0, 0.03, 0.8, 0.5),
+    ("Td=8, Jl x1.2, design Jl x1.2", 8.0, 0.03, 1.2, 0.5),
+]
+
+
+def motor_design(dt, Jl=1.0):
+    params = twomass.Parameters()
+    return twomass.servo_design(
+        params.replace(Jl=Jl * params.Jl), dt=dt, delay=1, sensors="motor",
+        certify=False,
+    )  # fmt: skip
+
+
 def motor_table(dt, seed):
     start = time.perf_counter()
-    design = twomass.servo_design(dt=dt, delay=1, sensors="motor", certify=False)
+    design = motor_design(dt)
     print(f"\nmotor encoder alone at dt = {dt:g} s (design "
           f"{time.perf_counter() - start:.2f} s; no rest certificate)")  # fmt: skip
     print(f"{'scenario':30s} {'settle':>7s} {'over%':>6s} {'|e| end':>8s} "
           f"{'max|e| 1s':>9s} {'T std':>6s}  ok")  # fmt: skip
-    for name, Td, alpha, Jl, theta_r in MOTOR_SCENARIOS:
+    rows = [(row, design) for row in MOTOR_SCENARIOS]
+    rows += [(row, motor_design(dt, row[3])) for row in MOTOR_IDENTIFIED]
+    for (name, Td, alpha, Jl, theta_r), design in rows:
         m = run(design, Td, alpha, Jl, theta_r, seed=seed, sensors=MOTOR_ENCODER)
         if Td > 0:
             ok = m["settling"] <= 0.5 and m["overshoot"] <= 2.0 and m["error"] <= 1e-3
