@@ -333,11 +333,19 @@ def columns(
     return F0, _one_by_one(evaluate, F0, read, units)
 
 
+# The spans of the last `units` seen: a reading passes the same dict for
+# every inequality (`ctrl_lpv.lmi.reading`), so they are counted once.
+_last_spans: list = [None, None]
+
+
 def _spans(units):
+    if _last_spans[0] is units:
+        return _last_spans[1]
     spans, offset = {}, 0
     for name, points in units.items():
         spans[name] = (offset, offset + len(points))
         offset += len(points)
+    _last_spans[:] = [units, spans]
     return spans
 
 
@@ -381,11 +389,10 @@ def _batched(evaluate, F0, read, units):
     elif stack.shape[1:] != F0.shape:
         return None
     dense = (stack[first:] - F0).reshape(total, -1).T
-    found, slot = [], 0
-    for _, (start, stop) in spans:
-        found.append((start, dense[:, slot : slot + stop - start]))
-        slot += stop - start
-    return F0, _collect(found)
+    # Slot of the stack -> column of the map, for one nonzero() of it all.
+    where = np.concatenate([np.arange(start, stop) for _, (start, stop) in spans])
+    rows, slots = np.nonzero(dense)
+    return F0, (rows, where[slots], dense[rows, slots])
 
 
 def _one_by_one(evaluate, F0, read, units):
