@@ -371,10 +371,11 @@ def test_a_cheap_solver_over_the_budget_is_freed_after_its_solve(monkeypatch):
 
 
 def test_reread_maps_with_new_numbers_are_the_exact_maps():
-    # A re-read after new parameter values and new constants (`invalidate`)
-    # skips the random-point check of inequalities that passed it: its maps
-    # are still the unit-point maps, and a block function that does not
-    # broadcast is still read point by point.
+    # A re-read after new parameter values and new numbers in constants
+    # (`invalidate` with same_code) skips the random-point check of the
+    # inequalities that passed it: its maps are still the unit-point maps,
+    # and a block function that does not broadcast is still read point by
+    # point.
     A0, B, C, D = stable_system(4)
     lmi = LMIProblem(margin=1e-8)
     lmi.variable("P", (4, 4), symmetric=True)
@@ -399,7 +400,8 @@ def test_reread_maps_with_new_numbers_are_the_exact_maps():
     A1, *_ = stable_system(5)
     lmi.set_parameter("A", A1)
     gains["c"] = 2.0
-    lmi.invalidate("default")
+    lmi.invalidate("default", same_code=True)
+    assert lmi._trusted == {"P > 0", "bounded real"}
     active = lmi._active("default")
     nfree = lmi._nfree()
     fast, exact = lmi._pieces(active), lmi._pieces(active, exact=True)
@@ -412,3 +414,29 @@ def test_reread_maps_with_new_numbers_are_the_exact_maps():
     assert sol.certified
     norm = ct.linfnorm(ct.ss(A1, B, C, D))[0]
     assert 2.0 * sol.g[0, 0] == pytest.approx(norm, rel=1e-4)
+
+
+def test_invalidate_finds_a_new_code_path_again():
+    # A constant that changes a block function's branch (here to one whose
+    # batched reading is silently wrong: ``.sum()`` of a stack sums it all):
+    # after a plain
+    # `invalidate` the batched map is checked again and read point by point.
+    rng = np.random.default_rng(11)
+    A = rng.normal(size=(3, 3)) - 3 * np.eye(3)
+    weight = {"w": 0.0}
+    lmi = LMIProblem()
+    lmi.variable("P", (3, 3), symmetric=True)
+
+    def blocks(v):
+        extra = weight["w"] * v.P.sum() * np.eye(3) if weight["w"] else 0.0
+        return [[A.T @ v.P + v.P @ A + extra]]
+
+    lmi.add("lyapunov", blocks)
+    lmi.compile()
+    assert lmi._trusted == {"lyapunov"}
+    weight["w"] = 0.5
+    lmi.invalidate("default")
+    active = lmi._active("default")
+    fast = _dense(lmi._pieces(active), lmi._nfree())
+    exact = _dense(lmi._pieces(active, exact=True), lmi._nfree())
+    np.testing.assert_allclose(fast[0], exact[0], rtol=1e-12, atol=1e-14)

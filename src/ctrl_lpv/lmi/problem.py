@@ -251,9 +251,9 @@ class LMIProblem(ConicReading, DualCertificates):
         self._forget()
 
     def _forget(self, declarations: bool = True) -> None:
-        if declarations:  # a new variable or inequality
+        if declarations:  # a new variable or inequality, or new code paths
             # What a block function reads and whether it batches are of its
-            # code, kept over new constants (`invalidate`).
+            # code, kept over new numbers (`invalidate` with ``same_code``).
             self._reads.clear()
             self._trusted.clear()
             self._unit_points = None
@@ -261,14 +261,23 @@ class LMIProblem(ConicReading, DualCertificates):
         self._conic.clear()
         self._exact.clear()
 
-    def invalidate(self, stage: str) -> None:
+    def invalidate(self, stage: str, same_code: bool = False) -> None:
         """Read a stage's inequalities again at its next solve.
 
         Needed when something its block functions read as a constant (not
-        a parameter) has changed. The names each function reads and whether
-        it reads batched are kept: a constant changes numbers, not code.
+        a parameter) has changed.
+
+        Parameters
+        ----------
+        stage : str
+            Stage name.
+        same_code : bool, optional
+            The changed constants enter the block functions only as numbers
+            (no branch, no shape depends on them): the names each function
+            reads and whether it reads batched (its batched map checked at
+            a random point once) are kept. Default: found again.
         """
-        self._forget(declarations=False)
+        self._forget(declarations=not same_code)
 
     def _active(self, stage: str):
         return [lmi for lmi in self._lmis if lmi[3] is None or stage in lmi[3]]
