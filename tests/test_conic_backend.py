@@ -368,3 +368,75 @@ def test_a_cheap_solver_over_the_budget_is_freed_after_its_solve(monkeypatch):
     assert result.status == "optimal"
     assert "CLARABEL" not in data.solvers
     assert len(conic._kept) == 0
+
+
+def test_reread_maps_with_new_numbers_are_the_exact_maps():
+    # A re-read after new parameter values and new numbers in constants
+    # (`invalidate` with same_code) skips the random-point check of the
+    # inequalities that passed it: its maps are still the unit-point maps,
+    # and a block function that does not broadcast is still read point by
+    # point.
+    A0, B, C, D = stable_system(4)
+    lmi = LMIProblem(margin=1e-8)
+    lmi.variable("P", (4, 4), symmetric=True)
+    lmi.variable("g", (1, 1))
+    lmi.parameter("A", (4, 4), A0)
+    gains = {"c": 1.0}  # a constant the functions read (not a parameter)
+    lmi.add("P > 0", lambda v: [[-v.P]])
+    lmi.add("bounded real", lambda v: [
+        [v.A.T @ v.P + v.P @ v.A],
+        [B.T @ v.P, -gains["c"] * v.g * np.eye(2)],
+        [C, D, -gains["c"] * v.g * np.eye(3)],
+    ])  # fmt: skip
+
+    def odd(v):  # an entry set into a fixed array: read point by point
+        Q = np.zeros((4, 4))
+        Q[0, 0] = v.P[0, 0]
+        return [[Q - 1e6 * np.eye(4)]]
+
+    lmi.add("odd", odd, strict=False)
+    lmi.compile()
+    assert lmi._trusted == {"P > 0", "bounded real"}
+    A1, *_ = stable_system(5)
+    lmi.set_parameter("A", A1)
+    gains["c"] = 2.0
+    lmi.invalidate("default", same_code=True)
+    assert lmi._trusted == {"P > 0", "bounded real"}
+    active = lmi._active("default")
+    nfree = lmi._nfree()
+    fast, exact = lmi._pieces(active), lmi._pieces(active, exact=True)
+    for (F0, _), (F0_exact, _) in zip(fast, exact):
+        np.testing.assert_allclose(F0, F0_exact, atol=1e-14)
+    for M, M_exact in zip(_dense(fast, nfree), _dense(exact, nfree)):
+        np.testing.assert_allclose(M, M_exact, atol=1e-14)
+    # and the solve with the new numbers: the new system's norm is c g
+    sol = lmi.solve(lambda v: v.g[0, 0])
+    assert sol.certified
+    norm = ct.linfnorm(ct.ss(A1, B, C, D))[0]
+    assert 2.0 * sol.g[0, 0] == pytest.approx(norm, rel=1e-4)
+
+
+def test_invalidate_finds_a_new_code_path_again():
+    # A constant that changes a block function's branch (here to one whose
+    # batched reading is silently wrong: ``.sum()`` of a stack sums it all):
+    # after a plain
+    # `invalidate` the batched map is checked again and read point by point.
+    rng = np.random.default_rng(11)
+    A = rng.normal(size=(3, 3)) - 3 * np.eye(3)
+    weight = {"w": 0.0}
+    lmi = LMIProblem()
+    lmi.variable("P", (3, 3), symmetric=True)
+
+    def blocks(v):
+        extra = weight["w"] * v.P.sum() * np.eye(3) if weight["w"] else 0.0
+        return [[A.T @ v.P + v.P @ A + extra]]
+
+    lmi.add("lyapunov", blocks)
+    lmi.compile()
+    assert lmi._trusted == {"lyapunov"}
+    weight["w"] = 0.5
+    lmi.invalidate("default")
+    active = lmi._active("default")
+    fast = _dense(lmi._pieces(active), lmi._nfree())
+    exact = _dense(lmi._pieces(active, exact=True), lmi._nfree())
+    np.testing.assert_allclose(fast[0], exact[0], rtol=1e-12, atol=1e-14)

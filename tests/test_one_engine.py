@@ -201,3 +201,28 @@ def test_second_identical_call_reuses_the_compiled_problem(monkeypatch):
     for a, b in zip(first.gains, again.gains):
         np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-6 * np.abs(b).max())
     synthesis_cache.clear()
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_frozen_eigenvalue_check_is_the_worst_point_recomputed(seed):
+    # The frozen-loop checks are computed for all points stacked; recomputed
+    # here one point at a time from the design's gains and the model's data:
+    # the same worst eigenvalue, at the same point.
+    from ctrl_lpv.synthesis.frozen import _where, verification_points
+    from ctrl_lpv.synthesis.results import EIGENVALUES
+
+    sys = polytope(seed, 3, 4)
+    design = lpv.gain_scheduled_hinf(sys, w=["w"], u=["u0"], z=["e", "v0"])
+    A = [v.A for v in sys.vertices]
+    B2 = [v.B[:, 1:] for v in sys.vertices]
+    worst, at = -np.inf, None
+    for delta, p in verification_points(sys):
+        K = sum(d * Kj for d, Kj in zip(delta, design.gains))
+        Acl = sum(d * (Aj - Bj @ K) for d, Aj, Bj in zip(delta, A, B2))
+        value = np.linalg.eigvals(Acl).real.max()
+        if value > worst:
+            worst, at = value, _where(sys, delta, p)
+    (check,) = [c for c in design.certificate.checks if c.what == EIGENVALUES]
+    assert worst < 0
+    assert check.value == pytest.approx(worst, rel=1e-9, abs=1e-12)
+    assert check.where == at

@@ -264,7 +264,9 @@ def _direct(evaluate, read, units, x):
     return evaluate(values)
 
 
-def columns(evaluate, F0, read, units, batched=True) -> tuple:
+def columns(
+    evaluate, F0, read, units, batched=True, trusted=False, on_checked=None
+) -> tuple:
     """The columns of one inequality ``F(x) = F0 + sum_k x_k M_k``.
 
     Parameters
@@ -284,6 +286,14 @@ def columns(evaluate, F0, read, units, batched=True) -> tuple:
     batched : bool, optional
         Read in one batched evaluation, checked at a random point (True),
         or one unit point at a time.
+    trusted : bool, optional
+        Skip the random-point check of a batched reading: for a block
+        function whose batched reading passed it before (the check is of
+        the function's code path, which does not depend on the numbers;
+        the point the solver returns is checked in float64 anyway).
+    on_checked : callable, optional
+        Called without arguments when a batched reading passed its
+        random-point check.
 
     Returns
     -------
@@ -294,6 +304,8 @@ def columns(evaluate, F0, read, units, batched=True) -> tuple:
         variables of `units` in their order.
     """
     pieces = _batched(evaluate, F0, read, units) if batched else None
+    if pieces is not None and trusted:
+        return pieces
     if pieces is not None:
         F0, pieces = pieces
         rng = np.random.default_rng(20261202)
@@ -309,6 +321,8 @@ def columns(evaluate, F0, read, units, batched=True) -> tuple:
         # absolute allowance.
         scale = np.abs(F0).sum() + np.abs(data * x[cols]).sum()
         if np.abs(actual - expected).max() <= _BATCH_TOLERANCE * scale:
+            if on_checked is not None:
+                on_checked()
             return F0, pieces
         logger.debug("batched map of an LMI rejected at a random point")
         F0 = None  # perhaps read wrongly with the rest
@@ -319,11 +333,19 @@ def columns(evaluate, F0, read, units, batched=True) -> tuple:
     return F0, _one_by_one(evaluate, F0, read, units)
 
 
+# The spans of the last `units` seen: a reading passes the same dict for
+# every inequality (`ctrl_lpv.lmi.reading`), so they are counted once.
+_last_spans: list = [None, None]
+
+
 def _spans(units):
+    if _last_spans[0] is units:
+        return _last_spans[1]
     spans, offset = {}, 0
     for name, points in units.items():
         spans[name] = (offset, offset + len(points))
         offset += len(points)
+    _last_spans[:] = [units, spans]
     return spans
 
 
@@ -367,11 +389,10 @@ def _batched(evaluate, F0, read, units):
     elif stack.shape[1:] != F0.shape:
         return None
     dense = (stack[first:] - F0).reshape(total, -1).T
-    found, slot = [], 0
-    for _, (start, stop) in spans:
-        found.append((start, dense[:, slot : slot + stop - start]))
-        slot += stop - start
-    return F0, _collect(found)
+    # Slot of the stack -> column of the map, for one nonzero() of it all.
+    where = np.concatenate([np.arange(start, stop) for _, (start, stop) in spans])
+    rows, slots = np.nonzero(dense)
+    return F0, (rows, where[slots], dense[rows, slots])
 
 
 def _one_by_one(evaluate, F0, read, units):

@@ -131,6 +131,10 @@ class LMIProblem(ConicReading, DualCertificates):
         self._exact: dict = {}
         # The variables and parameters each block function reads.
         self._reads: dict[str, frozenset] = {}
+        # The inequalities whose batched reading passed its random-point
+        # check (re-read without it), and the variables' unit points.
+        self._trusted: set[str] = set()
+        self._unit_points: dict | None = None
         # Seconds spent reading maps and assembling conic data (the part of
         # a solve that a re-solve with the same data skips).
         self._reading = 0.0
@@ -246,19 +250,34 @@ class LMIProblem(ConicReading, DualCertificates):
             self._normalizations.add(name)
         self._forget()
 
-    def _forget(self) -> None:
-        self._reads.clear()
+    def _forget(self, declarations: bool = True) -> None:
+        if declarations:  # a new variable or inequality, or new code paths
+            # What a block function reads and whether it batches are of its
+            # code, kept over new numbers (`invalidate` with ``same_code``).
+            self._reads.clear()
+            self._trusted.clear()
+            self._unit_points = None
         self._columns.clear()
         self._conic.clear()
         self._exact.clear()
 
-    def invalidate(self, stage: str) -> None:
+    def invalidate(self, stage: str, same_code: bool = False) -> None:
         """Read a stage's inequalities again at its next solve.
 
         Needed when something its block functions read as a constant (not
         a parameter) has changed.
+
+        Parameters
+        ----------
+        stage : str
+            Stage name.
+        same_code : bool, optional
+            The changed constants enter the block functions only as numbers
+            (no branch, no shape depends on them): the names each function
+            reads and whether it reads batched (its batched map checked at
+            a random point once) are kept. Default: found again.
         """
-        self._forget()
+        self._forget(declarations=not same_code)
 
     def _active(self, stage: str):
         return [lmi for lmi in self._lmis if lmi[3] is None or stage in lmi[3]]

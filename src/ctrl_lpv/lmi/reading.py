@@ -31,10 +31,14 @@ class ConicReading:
     """The reading methods of `ctrl_lpv.lmi.LMIProblem`."""
 
     def _units(self) -> dict[str, np.ndarray]:
-        return {
-            name: _blocks.unit_points(var.shape, var.symmetric)
-            for name, var in self._vars.items()
-        }
+        # Kept until a variable is declared (`_forget`): a re-read with new
+        # numbers needs the same unit points.
+        if self._unit_points is None:
+            self._unit_points = {
+                name: _blocks.unit_points(var.shape, var.symmetric)
+                for name, var in self._vars.items()
+            }
+        return self._unit_points
 
     def _nfree(self) -> int:
         return sum(var.free for var in self._vars.values())
@@ -53,13 +57,18 @@ class ConicReading:
         that change needs `invalidate`. `exact` reads the maps one unit
         point at a time (for dual certificates, whose rounding bounds
         assume exact columns); otherwise in one batched evaluation per
-        variable, checked at a random point.
+        variable, checked at a random point the first time an inequality
+        is read that way (`ctrl_lpv.lmi.blocks.columns`, ``trusted``).
         """
         units = self._units()
         numeric = self._numeric()
         # The parameters' bytes once per reading, not once per inequality.
         encoded = {p: value.tobytes() for p, value in numeric.items()}
         base = self._base()
+        # One namespace for every evaluation of this reading: only the
+        # variables an evaluation sets are put back to zero after it (a new
+        # namespace of every name per evaluation costs more than the map).
+        namespace = SimpleNamespace(**base)
         cache = self._exact if exact else self._columns
         pieces = []
         for name, blocks, _, _ in active:
@@ -80,11 +89,20 @@ class ConicReading:
                 self._reads[name] = read = frozenset(read & set(base))
 
             def evaluate(values, blocks=blocks):
-                namespace = SimpleNamespace(**{**base, **values})
-                return _blocks.assemble(blocks(namespace))
+                for key, value in values.items():
+                    setattr(namespace, key, value)
+                try:
+                    return _blocks.assemble(blocks(namespace))
+                finally:
+                    for key in values:
+                        setattr(namespace, key, base[key])
 
             start = time.perf_counter()
-            F0, part = _blocks.columns(evaluate, F0, read, units, not exact)
+            F0, part = _blocks.columns(
+                evaluate, F0, read, units, not exact,
+                trusted=name in self._trusted,
+                on_checked=lambda name=name: self._trusted.add(name),
+            )  # fmt: skip
             kept[_key(read, encoded)] = piece = (F0, part)
             self._reading += time.perf_counter() - start
             if len(kept) > _KEPT_MAPS:

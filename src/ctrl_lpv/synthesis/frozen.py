@@ -196,31 +196,47 @@ def verify_frozen(problem, shape, frame, values, gains, bounds, margin, checks,
     Zs = [values[f"Z{k}"] for k in range(problem.nZ)]
     reported = {}
     npoints = 0
-    for delta, p in verification_points(plant.system):
-        where = _where(plant.system, delta, p)
+    # The loops of every point at once (one product per datum, stacked
+    # eigenvalues and norms); the specs' residuals point by point below.
+    points = verification_points(plant.system)
+    deltas = np.array([delta for delta, _ in points])
 
-        def mix(items, delta=delta):
-            return np.tensordot(delta, items, axes=1)
+    def mix_all(items):
+        return np.tensordot(deltas, np.asarray(items), axes=1)
 
-        A, B2 = mix(plant.A), mix(plant.B2)
-        W_here = mix(np.stack([Ws[lyap.index[j]] for j in range(len(delta))]))
-        if problem.fixed is not None:
-            K = mix(np.stack(gains)) if problem.scheduled else gains[0]
-        elif not Zs:
-            K = np.zeros((0, A.shape[0]))
-        elif problem.scheduled and not lyap.constant:
-            K = sc.unscale_K(-mix(np.stack(Zs)) @ np.linalg.inv(W_here))
-        elif problem.scheduled:
-            K = mix(np.stack(gains))
-        else:
-            K = gains[0]
-        Acl = A - B2 @ K
-        eig = np.linalg.eigvals(Acl)
-        # ROUNDING n eps ||Acl|| marks the level below which the sign of a
-        # (non-normal) matrix's eigenvalue means nothing.
-        record(EIGENVALUES, eig.real.max() if problem.continuous
-               else np.abs(eig).max() - 1, where,
-               rounding_bound(len(Acl), np.linalg.norm(Acl, 2)))  # fmt: skip
+    A_all, B2_all = mix_all(plant.A), mix_all(plant.B2)
+    W_all = mix_all([Ws[lyap.index[j]] for j in range(deltas.shape[1])])
+    n = A_all.shape[1]
+    if problem.fixed is not None:
+        K_all = mix_all(gains) if problem.scheduled else np.broadcast_to(
+            gains[0], (len(points), *gains[0].shape))  # fmt: skip
+    elif not Zs:
+        K_all = np.zeros((len(points), 0, n))
+    elif problem.scheduled and not lyap.constant:
+        Y_all = -mix_all(Zs) @ np.linalg.inv(W_all)
+        K_all = np.array([sc.unscale_K(Y) for Y in Y_all])
+    elif problem.scheduled:
+        K_all = mix_all(gains)
+    else:
+        K_all = np.broadcast_to(gains[0], (len(points), *gains[0].shape))
+    Acl_all = A_all - B2_all @ K_all
+    eig_all = np.linalg.eigvals(Acl_all)
+    # ROUNDING n eps ||Acl|| marks the level below which the sign of a
+    # (non-normal) matrix's eigenvalue means nothing.
+    eig_value = (eig_all.real.max(axis=1) if problem.continuous
+                 else np.abs(eig_all).max(axis=1) - 1)  # fmt: skip
+    eig_rounding = rounding_bound(n, 1.0) * np.linalg.norm(Acl_all, 2, axis=(1, 2))
+    labels = [str(spec) for spec in problem.specs]
+    # Each channel's (Bw, Cz - Dzu K, Dzw) at every point.
+    channels = {i: (mix_all(c.Bw), mix_all(c.Cz) - mix_all(c.Dzu) @ K_all,
+                    mix_all(c.Dzw))
+                for i, c in enumerate(plant.channels)}  # fmt: skip
+    for index, (delta, p) in enumerate(points):
+        where = _Where(plant.system, delta, p)
+
+        A, B2, W_here, K = A_all[index], B2_all[index], W_all[index], K_all[index]
+        Acl, eig = Acl_all[index], eig_all[index]
+        record(EIGENVALUES, eig_value[index], where, eig_rounding[index])
         fields = {}
         for q, spec in enumerate(problem.specs):
             here = Here(problem, frame, values, delta, W_here, q)
@@ -238,17 +254,14 @@ def verify_frozen(problem, shape, frame, values, gains, bounds, margin, checks,
                 P_moved = _sym_inv(W_moved) if not lyap.constant else P
             npoints += 1
             loop = FrozenLoop(A, B2, K, Acl, eig, P, P_moved, W, W_moved, **fields)
-            for spec, i in zip(problem.specs, problem.channels):
+            for q, (spec, i) in enumerate(zip(problem.specs, problem.channels)):
                 if spec.gain_limit is not None and not final:
                     continue
                 channel = loop
                 if i is not None:
-                    c = plant.channels[i]
-                    channel = replace(
-                        loop, Bw=mix(c.Bw), Cz=mix(c.Cz) - mix(c.Dzu) @ K,
-                        Dzw=mix(c.Dzw), bound=bounds[i],
-                    )  # fmt: skip
-                record(str(spec), spec.residual(channel, problem.continuous), where)
+                    Bw, Cz, Dzw = (data[index] for data in channels[i])
+                    channel = replace(loop, Bw=Bw, Cz=Cz, Dzw=Dzw, bound=bounds[i])
+                record(labels[q], spec.residual(channel, problem.continuous), where)
             record(LYAPUNOV, _dual_lyapunov(Acl_scaled, W_here, W_moved_scaled,
                                             problem.continuous), where)  # fmt: skip
         for q, spec in enumerate(problem.specs):
@@ -260,19 +273,30 @@ def verify_frozen(problem, shape, frame, values, gains, bounds, margin, checks,
     checks = (
         *(Check.from_lmi_check(c) for c in checks),
         Check(EIGENVALUES, eig_value, 0.0, True, eig_rounding, True, units,
-              eig_where, CLOSED_LOOP),
-        *(residual_check(what, value, where, cross_check=True)
+              str(eig_where), CLOSED_LOOP),
+        *(residual_check(what, value, str(where), cross_check=True)
           for what, (value, where, _) in worst.items()),
     )  # fmt: skip
     return DesignCertificate(checks, DESIGN_STATEMENT, margin, npoints), reported
 
 
-def _where(sys, delta, p) -> str:
+class _Where:
     """The label of a verification point: its parameter values (box) or
-    convex coordinates."""
-    if p is not None:
-        return ", ".join(f"{n} = {v:.6g}" for n, v in zip(sys.domain.names, p))
-    return "delta = [" + ", ".join(f"{d:.4g}" for d in delta) + "]"
+    convex coordinates; written only for the points a check reports."""
+
+    def __init__(self, sys, delta, p):
+        self._sys, self._delta, self._p = sys, delta, p
+
+    def __str__(self) -> str:
+        if self._p is not None:
+            names = self._sys.domain.names
+            return ", ".join(f"{n} = {v:.6g}" for n, v in zip(names, self._p))
+        return "delta = [" + ", ".join(f"{d:.4g}" for d in self._delta) + "]"
+
+
+def _where(sys, delta, p) -> str:
+    """The label of a verification point (`_Where`, written)."""
+    return str(_Where(sys, delta, p))
 
 
 def _sym_inv(W):

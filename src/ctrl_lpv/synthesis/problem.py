@@ -468,7 +468,8 @@ def load(compiled: Compiled, problem: Problem, s: Structure, frame, margin) -> d
     scales = {"T": frame.scaling.matrix, "Su": np.diag(frame.scaling.Su)}
     if any(not np.array_equal(compiled.scales[k], v) for k, v in scales.items()):
         compiled.scales.update(scales)
-        lmi.invalidate("bounded")
+        # The scalings enter `gain_tangent_blocks` as matrix factors only.
+        lmi.invalidate("bounded", same_code=True)
     data = frame.scaled(problem.plant)
     if problem.fixed is not None:
         # u = -K x with u = Su u~, x = T x~: K~ = Su^-1 K T.
