@@ -187,8 +187,10 @@ class InertiaAdaptation:
         weight = contact * (xhat[_TS] * accel > 0.0)
         weight *= accel * accel / (accel * accel + self.accel_floor**2)
         if weight > 0.0:
-            spread = READING_VARIANCE / weight * np.eye(len(rows)) + psi @ P @ psi.T
-            K = np.linalg.solve(spread, psi @ P).T
+            # The gain of readings weighted by `weight` (1/weight times
+            # as noisy), written without dividing by a vanishing weight.
+            spread = READING_VARIANCE * np.eye(len(rows)) + weight * psi @ P @ psi.T
+            K = weight * np.linalg.solve(spread, psi @ P).T
             step = K @ innovation
             filtered[_TD] += step[0]
             delta = min(max(delta + step[1], self.bounds[0]), self.bounds[1])
