@@ -14,29 +14,36 @@ with both on the true inertia by 0.1-0.8 % (``docs/servo.rst``).
 `InertiaAdaptation` learns ``delta`` within a move, as a drive's inertia
 identification does, from what the observer already sees: the observer's
 load-torque model becomes ``Td + delta_hat Jl a_r`` (``a_r`` the planned
-load acceleration), and the correction the load encoder asks of it is a
-measurement of that sum. The two parameters ``(Td, delta)`` are fitted to
-it by recursive least squares on the regressor ``(1, Jl a_r)``: each
-correction is shared between them along the fit's covariance, so that the
-sum moves by the observer's own correction (its loop is unchanged) and the
-share follows what the move has shown so far. Early in a move the
-covariance is the prior's and the share is by how much the plan
-accelerates (below ``accel_floor`` the load torque learns, above it the
-inertia). Over a rest-to-rest move the planned acceleration integrates to
-zero, so a load torque keeps asking the same way while the plan brakes and
-the fit moves it to ``Td``, where a per-sample share kept it in
-``delta_hat`` (measured at 2 ms, Td = 30 Nm from a cold start: the load
-torque estimate stayed at 2-4 Nm through the move and ``delta_hat`` ended
-at -0.10, settling in 0.40 s).
+load acceleration), and ``(Td, delta)`` are fitted together to the encoder
+readings' innovation by recursive least squares, whose regressors are the
+sensitivities of the observer's predicted readings to a load-torque offset
+and to ``delta``: the regressor ``(1, Jl a_r)`` passed through the
+observer's model and its own correction (its load torque absorbs a share
+of either, at its own pace). While the plan accelerates the two look
+alike and the prior shares them (load torque 10 Nm, ``delta`` 0.1 standard
+deviation); over a rest-to-rest move the planned acceleration integrates
+to zero, so a load torque keeps asking the same way while the plan brakes,
+and the fit tells it from an inertia error. The observer keeps its own
+correction (its loop is unchanged); the fit's load-torque step is added
+to its load torque.
+
+A share of each sample's correction by the acceleration alone was the
+first version: with the slow observer of `sampled_tuning` above 1.5 ms it
+read a load torque not yet estimated when a move starts as inertia
+(measured at 2 ms, Td = 30 Nm from a cold start: the load torque estimate
+stayed at 2-4 Nm through the move, ``delta_hat`` ended at -0.10, settling
+in 0.40 s; 0.22 s with the fit). A fit on the correction itself, without
+the observer's sensitivities, still settled in 0.36 s: the observer's
+correction lags the torque it corrects, so the regressor must lag alike.
 
 The fit runs in contact and while the shaft pushes the way the plan
-accelerates (a gap crossing's impact is not inertia); elsewhere, and at
-rest (``a_r = 0``; the planner's ``a_r`` is 1e-26 rad/s^2 there), all of
-the correction goes to ``Td`` and ``delta_hat`` is held: the rest loop is
-the certified six-state observer's (`servo_rest`). The covariance relaxes
-to its prior over ``memory`` seconds. ``delta_hat`` is projected on the
-design's inertia range and kept between moves, so the next move starts
-with it. The feedforward uses ``(1 + delta_hat) Jl``
+accelerates (a gap crossing's impact is not inertia), each sample weighted
+by ``a_r^2 / (a_r^2 + accel_floor^2)``; at rest (``a_r = 0``; the
+planner's ``a_r`` is 1e-26 rad/s^2 there), in the gap or pushed back,
+``delta_hat`` is held, the observer is the certified six-state one
+(`servo_rest`), and the fit's covariance returns to the prior over
+``memory`` seconds. ``delta_hat`` is projected on the design's inertia
+range and kept between moves. The feedforward uses ``(1 + delta_hat) Jl``
 (`flat_feedforward`'s ``scale``).
 
 A certified polytopic observer with ``delta`` as a state, scheduled on the
