@@ -85,7 +85,20 @@ class SampledTuning:
         inertia, so the load-torque estimate stays at 2-4 Nm through the
         move (of 30), ``delta_hat`` swings to +0.09 and ends at -0.10
         (true 0), and the 30 Nm is learnt only after the move, at the
-        slow observer's pace (4 -> 28 Nm in 0.14 s).
+        slow observer's pace (4 -> 28 Nm in 0.14 s). The Td 1, alpha 0.03
+        rest that chattered with it on (0.54 -> 72 Nm, seed 1) is not the
+        estimate's: at rest ``a_r`` is 1e-27 and ``delta_hat`` stays at
+        -0.005; the 2 ms rests at Td 0-1 chatter by seed with the estimate
+        off as well (seeds 1-3, off: Td 1 alpha 0.03 68 Nm on seed 2, Td
+        0.5 94 Nm on seed 1, Td 1 alpha 0.06 87 Nm on seed 2), a matter of
+        how the move ends and of the rest flank. A joint fit of load
+        torque and inertia on the observer's sensitivities (branch
+        i22-learn, commit d0c6367) tells them apart at 2 ms (seeds 1-3,
+        off -> on: Td 30 0.292 -> 0.218 s; Td 5, Jl x1.2, -1 rad 0.386 s,
+        3.27 % -> 0.290 s, 0.47 %; Jl x0.8 0.302 s, 1.28 % -> 0.212 s,
+        0.05 %) and keeps the 1 ms moves grid (144 of 144) and the paper
+        row (0.209 s), but passes 42 of the 1 ms small-move grid's 108
+        (61 today): not merged.
     """
 
     torque_weight: float
