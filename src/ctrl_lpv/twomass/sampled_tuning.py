@@ -92,8 +92,8 @@ class SampledTuning:
         off as well (seeds 1-3, off: Td 1 alpha 0.03 68 Nm on seed 2, Td
         0.5 94 Nm on seed 1, Td 1 alpha 0.06 87 Nm on seed 2), a matter of
         how the move ends and of the rest flank. A joint fit of load
-        torque and inertia on the observer's sensitivities (branch
-        i22-learn, commit d0c6367) tells them apart at 2 ms (seeds 1-3,
+        torque and inertia on the observer's sensitivities (kept on the
+        branch study-joint-inertia-fit) tells them apart at 2 ms (seeds 1-3,
         off -> on: Td 30 0.292 -> 0.218 s; Td 5, Jl x1.2, -1 rad 0.386 s,
         3.27 % -> 0.290 s, 0.47 %; Jl x0.8 0.302 s, 1.28 % -> 0.212 s,
         0.05 %) and keeps the 1 ms moves grid (144 of 144) and the paper
