@@ -41,6 +41,11 @@ class _Objective(Spec):
     #: A performance channel w -> z (the design's own, or a constraint's).
     channel = True
 
+    def spec(self, plant, bound=None):
+        """The public spec of this channel, `ctrl_lpv.Hinf` or `ctrl_lpv.H2`
+        (the key of ``bounds``)."""
+        return self.named(plant.names("w"), plant.names("z"), bound)
+
     def __init__(self, constraints=(), tag=""):
         self.constraints = tuple(constraints)
         self.tag = tag
@@ -101,10 +106,6 @@ class HinfObjective(_Objective):
 
     #: The norm's subscript in statements.
     norm = "inf"
-
-    def spec(self, plant, bound=None):
-        """The `ctrl_lpv.Hinf` spec of this channel (the key of ``bounds``)."""
-        return self.named(plant.names("w"), plant.names("z"), bound)
 
     @staticmethod
     def named(w, z, bound=None):
@@ -201,10 +202,6 @@ class H2Objective(_Objective):
     strictly_proper = True
 
     norm = "2"
-
-    def spec(self, plant, bound=None):
-        """The `ctrl_lpv.H2` spec of this channel (the key of ``bounds``)."""
-        return self.named(plant.names("w"), plant.names("z"), bound)
 
     @staticmethod
     def named(w, z, bound=None):
