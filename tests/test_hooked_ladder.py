@@ -23,6 +23,8 @@ class Design:
     gamma: float
     scale: float = 1.0
     backoff: float | None = None
+    timing: dict | None = None
+    ladder: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -167,6 +169,9 @@ def test_ladder_takes_the_first_rung_that_certifies_and_refuses_with_every_note(
     design = run_hooked(hook)
     assert design.gamma == 1.0
     assert {name for _, name, _ in hook.log} == {"first", "second"}
+    # The rung passed over is the design's ladder, by name and reason.
+    assert design.ladder == ("first: first refused at 0.0005",)
+    assert sorted(design.timing) == ["build", "compile", "solve", "verify"]
 
     hook = ScriptedHook(lambda rung, scale, b: None, estimate=1.5,
                         names=("first", "second"))  # fmt: skip

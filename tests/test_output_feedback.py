@@ -127,6 +127,9 @@ def test_default_backoff_is_certified_and_well_conditioned(seed):
     assert backed.condition < raw.condition
     cl = loop_by_name(sys.vertices[0], backed.controller().at([1.0]))
     assert float(ct.linfnorm(cl)[0]) <= backed.gamma
+    # The time spent, told as a state-feedback design tells it.
+    assert sorted(backed.timing) == ["build", "compile", "solve", "verify"]
+    assert min(backed.timing.values()) >= 0.0 and backed.timing["verify"] > 0.0
 
 
 @pytest.mark.parametrize("seed", range(3))

@@ -13,6 +13,7 @@ refusal is in the engine's format (`ctrl_lpv.synthesis.refusals`).
 from __future__ import annotations
 
 import dataclasses
+import time
 
 import numpy as np
 
@@ -192,6 +193,7 @@ Certified H2 dynamic output feedback of a polytopic plant.
 
 def _output_feedback(kind, sys, w, u, z, y, gains, constraints, backoff, margin,
                      solvers):  # fmt: skip
+    started = time.perf_counter()
     if gains not in ("scheduled", "common"):
         raise ValueError(f"gains: expected 'scheduled' or 'common', got {gains!r}")
     plant = OutputFeedbackPlant.of(sys, w, u, z, y)
@@ -217,7 +219,7 @@ def _output_feedback(kind, sys, w, u, z, y, gains, constraints, backoff, margin,
     # read here, at the call.
     hook = OutputFeedbackStages(plant, objective, gains == "scheduled", backoff,
                                 margin, chain, prescalings(plant), rebuild)  # fmt: skip
-    return run_hooked(hook)
+    return run_hooked(hook, started)
 
 
 def _require_stabilizable_detectable(plant):

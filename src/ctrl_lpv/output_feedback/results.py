@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import control as ct
 import numpy as np
@@ -54,6 +54,16 @@ class OutputFeedbackDesign:
         Condition number of ``I - X Y`` (the controller's reconstruction),
         in the prescaled coordinates the LMIs were posed in
         (`ctrl_lpv.output_feedback.prescale`).
+    timing : dict
+        Seconds spent, with the keys of `ctrl_lpv.StateFeedbackDesign.timing`:
+        "build" (argument checks, partition, stabilizability and
+        detectability), "compile" (reading the LMIs into conic data),
+        "solve" (solver calls and the rest of the ladder) and "verify"
+        (rebuilding controllers and their float64 closed-loop
+        certificates).
+    ladder : tuple of str
+        The rungs passed over before this design certified and why (empty
+        when the first rung's point did).
     """
 
     plant: OutputFeedbackPlant
@@ -66,6 +76,8 @@ class OutputFeedbackDesign:
     values: dict
     certificate: Certificate
     condition: float
+    timing: dict = field(default_factory=dict)
+    ladder: tuple = ()
 
     @property
     def bounds(self) -> dict:

@@ -29,6 +29,8 @@ check
 
 from __future__ import annotations
 
+import contextlib
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -114,9 +116,12 @@ class OutputFeedbackStages(StageHook):
 
     def in_units(self, design, scale, limit):
         P, values = self.objective.rescaled(design.P, design.values, scale)
-        return certified(self.plant, self.objective, design.controllers, P, values,
-                         design.gamma_opt / scale, limit,
-                         (self.margin, self.chain[:1]), design.condition)  # fmt: skip
+        with _timed(self):
+            return certified(
+                self.plant, self.objective, design.controllers, P, values,
+                design.gamma_opt / scale, limit, (self.margin, self.chain[:1]),
+                design.condition,
+            )  # fmt: skip
 
     def reached(self, design, label):
         return f"a certified point ({label}), {self.objective.name} {design.gamma:.6g}"
@@ -167,12 +172,12 @@ class _Posed(Posed):
                 self.scaled, hook.objective, hook.scheduled, hook.margin, weigh
             )
             try:
-                return self.lmi.solve(
+                return self._solve(
+                    "optimal",
                     lambda v: (
                         v.level[0, 0] + _TRACE_WEIGHT * (np.trace(v.X) + np.trace(v.Y))
                     ),
-                    stage="optimal",
-                    solvers=hook.chain,
+                    hook.chain,
                 )
             except CertificationError:
                 if not weigh or weight == 1.0:
@@ -210,17 +215,32 @@ class _Posed(Posed):
             # The first solver only: this stage chooses a better point, and
             # the fallbacks (SCS to 1e-9) cost minutes at n = 8 for a point
             # that the next back-off or the optimal point may give as well.
-            return self.lmi.solve(lambda v: -v.mu[0, 0], stage="center",
-                                  solvers=self.hook.chain[:1])  # fmt: skip
+            return self._solve("center", lambda v: -v.mu[0, 0], self.hook.chain[:1])
         except InfeasibleError as exc:
             raise CertificationError(
                 f"output feedback: the back-off stage at {b:g} is infeasible ({exc})",
                 exc.attempts,
             ) from None
 
+    def _solve(self, stage, objective, solvers):
+        """Read the stage's LMIs (timed as "compile"), then solve."""
+        self.hook.compiling += self.lmi.compile(stage, objective, solvers[0][0])
+        return self.lmi.solve(objective, stage=stage, solvers=solvers)
+
     def check(self, point, b, estimate, limit):
         hook = self.hook
         target = max((1.0 + b) * estimate, hook.objective.bound(point.level[0, 0]))
-        return hook.rebuild(self.plant, self.prescaling, hook.objective, point,
-                            self.hats, estimate, (target, limit),
-                            (hook.margin, hook.chain[:1]))  # fmt: skip
+        with _timed(hook):
+            return hook.rebuild(self.plant, self.prescaling, hook.objective, point,
+                                self.hats, estimate, (target, limit),
+                                (hook.margin, hook.chain[:1]))  # fmt: skip
+
+
+@contextlib.contextmanager
+def _timed(hook):
+    """Count the time inside as the hook's "verify" (float64 certificates)."""
+    started = time.perf_counter()
+    try:
+        yield
+    finally:
+        hook.verifying += time.perf_counter() - started

@@ -20,6 +20,7 @@ supplies in turn, each run by `~ctrl_lpv.synthesis.hooked.run_rung`.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import numpy as np
@@ -253,17 +254,28 @@ def _refusal(problem, best, record, attempts, rungs, solvers, prescalings):
                    attempts, hint)  # fmt: skip
 
 
-def run_hooked(hook):
+def run_hooked(hook, started=None):
     """The ladder over the rungs a problem supplies through its
     `~ctrl_lpv.synthesis.hooked.StageHook` (output feedback): the first
-    certified design, or the hook's refusal with every rung's notes."""
+    certified design, with the `timing` of a state-feedback design and the
+    notes of the rungs passed over as its `ladder`, or the hook's refusal
+    with every rung's notes. `started`: when the call began (its checks
+    count as "build")."""
+    begun = time.perf_counter()
     notes, estimates, attempts = [], [], []
     for rung in hook.rungs():
         budget.progress("rung %s", rung.label, rung=rung.label)
         design, failure, estimate = run_rung(hook, rung)
         if design is not None:
             budget.reached(hook.reached(design, rung.label), design.gamma)
-            return design
+            spent = time.perf_counter() - begun
+            timing = {
+                "build": begun - (begun if started is None else started),
+                "compile": hook.compiling,
+                "solve": spent - hook.compiling - hook.verifying,
+                "verify": hook.verifying,
+            }
+            return dataclasses.replace(design, timing=timing, ladder=tuple(notes))
         if not isinstance(failure, CertificationError):
             raise failure
         notes.append(f"{rung.name}: {str(failure).removeprefix(hook.prefix)}")

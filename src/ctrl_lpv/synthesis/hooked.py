@@ -67,6 +67,10 @@ class StageHook(abc.ABC):
     homogeneous: bool = False
     #: The prefix of the hook's refusals, dropped in the ladder's notes.
     prefix: str = ""
+    #: Seconds the problem spent reading its LMIs into conic data, and
+    #: certifying points in float64 (the design's ``timing``).
+    compiling: float = 0.0
+    verifying: float = 0.0
 
     @abc.abstractmethod
     def reached(self, design, label: str) -> str:
