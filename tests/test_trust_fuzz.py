@@ -125,6 +125,19 @@ def test_badly_scaled_stabilizable_plant_gets_a_design(A, B):
     assert result.ok, str(result)
 
 
+@pytest.mark.parametrize("seed, index", [(4242, 47), (6161, 12)])
+def test_modes_nine_decades_apart_get_a_design(seed, index):
+    # A = diag(1e8..1e9, -1e-9..1e-6), B = [1; tiny], H-infinity: every
+    # prescaling hides the slow mode (time-scaled) or leaves LMI entries
+    # 1e18 apart (none), where Clarabel stopped in a numerical error; a
+    # design exists (the independent probe finds one in raw coordinates).
+    case = generate_case(seed, index)
+    assert any("A=diag(" in tag for tag in case.tags)
+    record = run_case(case, lpv, probe_budget=PROBE_BUDGET)
+    assert record["outcome"] == "design", record["message"][:300]
+    assert record["check_ok"], record["hard"]
+
+
 def test_uncontrollable_unstable_mode_is_refused_as_such():
     # x2' = 0.5 x2 is not reached by u (exactly): not stabilizable, vertex 1.
     v0 = (np.array([[-1.0, 1.0], [0.0, -2.0]]), np.array([[1.0], [1.0]]))

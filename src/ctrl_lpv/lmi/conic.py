@@ -366,9 +366,13 @@ def _clarabel(c, data: ConicData, b, options) -> ConicResult:
     with _lock:  # not beside the next stage's reading either
         _sweep()
         _make_room()
+    n, k = data.A.shape[1], 0
+    if _CLARABEL_STATUS.get(str(solution.status), "solver_error") == "solver_error":
+        solution, k = _clarabel_lifted(c, data, b, options), data.A.shape[0]
     status = _CLARABEL_STATUS.get(str(solution.status), "solver_error")
-    x = np.array(solution.x, float) if status in SOLVED else None
-    duals = None if status in SOLVED else data.matrices(np.array(solution.z, float))
+    x = np.array(solution.x, float)[:n] if status in SOLVED else None
+    z = np.array(solution.z, float)[k:]
+    duals = None if status in SOLVED else data.matrices(z)
     objective = float(solution.obj_val) if status in SOLVED else None
     primal, dual = solution.obj_val, solution.obj_val_dual
     gap = abs(primal - dual) / max(1.0, abs(primal))
@@ -378,6 +382,36 @@ def _clarabel(c, data: ConicData, b, options) -> ConicResult:
     )
     seconds = time.perf_counter() - start
     return ConicResult(status, x, duals, objective, seconds, converged=converged)
+
+
+def _clarabel_lifted(c, data: ConicData, b, options):
+    """Clarabel's solution of the same problem with the slack a variable.
+
+    ``b - A x = s`` become equality rows and ``s`` in the cones a cone of
+    its own variable: Clarabel equilibrates a PSD cone's rows by one
+    common factor, equality rows each by its own. An LMI whose entries
+    span many orders of magnitude (a mode at 1e9 beside one at 1e-9, in
+    coordinates where neither is hidden by a time scaling) stops the
+    direct form in a numerical error; lifted, it solves (fuzz cases
+    4242:47 and 6161:12). Only after such an error: the lifted problem is
+    larger. The solution's ``x`` comes first, the cones' duals last.
+    """
+    import clarabel
+
+    m, n = data.A.shape
+    A = sp.vstack([
+        sp.hstack([data.A, sp.identity(m)]),
+        sp.hstack([sp.csc_matrix((m, n)), -sp.identity(m)]),
+    ]).tocsc()  # fmt: skip
+    cones = [clarabel.ZeroConeT(m)] + [
+        clarabel.NonnegativeConeT(1) if d == 1 else clarabel.PSDTriangleConeT(d)
+        for d in data.sizes
+    ]
+    solver = clarabel.DefaultSolver(
+        sp.csc_matrix((n + m, n + m)), np.concatenate([c, np.zeros(m)]), A,
+        np.concatenate([b, np.zeros(m)]), cones, clarabel_settings(options),
+    )  # fmt: skip
+    return solver.solve()
 
 
 def _scs(c, data: ConicData, b, options) -> ConicResult:
