@@ -225,6 +225,31 @@ def test_solvers_get_the_time_left(plant, monkeypatch):
     assert limits == sorted(limits, reverse=True)  # the time left shrinks
 
 
+def test_a_slower_solver_gets_its_share_of_the_time(plant, clock, monkeypatch):
+    """After the first solver failed at every prescaling, a slower one runs
+    for its share of the ladder's time (at least `SLOW_FLOOR`), not for the
+    whole budget: SCS stalled at 1e3 s per solve is called once, with a
+    limit of the share, and the refusal says it was stopped."""
+    from ctrl_lpv.synthesis.general import SLOW_FLOOR
+
+    seen = []
+
+    def run(solver, c, data_of, margin, options):
+        seen.append((solver, options.get("time_limit_secs", options.get("time_limit"))))
+        if solver == "SCS":
+            clock[0] += 1e3
+            return ConicResult("user_limit", None, None, None, 1e3)
+        return ConicResult("solver_error", None, None, None, 0.0)
+
+    monkeypatch.setattr(lmi_problem, "run", run)
+    with pytest.raises(lpv.CertificationError) as info:
+        lpv.synthesize(plant, "u", **HINF, time_limit=None)
+    scs = [limit for solver, limit in seen if solver == "SCS"]
+    assert len(scs) == 1 and SLOW_FLOOR - 1.0 <= scs[0] <= SLOW_FLOOR + 1.0, seen
+    assert "its share of the ladder's time" in str(info.value)
+    assert not isinstance(info.value, lpv.TimeLimitReached)
+
+
 def test_margin_retries_get_the_time_left_then(plant, clock, monkeypatch):
     """Every attempt (margin retries too) gets the time left when it starts:
     each solve takes 10 s on the patched clock, every point misses its

@@ -366,12 +366,16 @@ def _clarabel(c, data: ConicData, b, options) -> ConicResult:
     with _lock:  # not beside the next stage's reading either
         _sweep()
         _make_room()
-    n, k = data.A.shape[1], 0
-    if _CLARABEL_STATUS.get(str(solution.status), "solver_error") == "solver_error":
-        solution, k = _clarabel_lifted(c, data, b, options), data.A.shape[0]
+    return _result(solution, data, start)
+
+
+def _result(solution, data: ConicData, start: float, lifted: int = 0) -> ConicResult:
+    """A Clarabel solution as a `ConicResult`; `lifted` slack variables
+    after ``x`` and equality rows before the cones' (`_clarabel_lifted`)."""
+    n = data.A.shape[1]
     status = _CLARABEL_STATUS.get(str(solution.status), "solver_error")
     x = np.array(solution.x, float)[:n] if status in SOLVED else None
-    z = np.array(solution.z, float)[k:]
+    z = np.array(solution.z, float)[lifted:]
     duals = None if status in SOLVED else data.matrices(z)
     objective = float(solution.obj_val) if status in SOLVED else None
     primal, dual = solution.obj_val, solution.obj_val_dual
@@ -384,20 +388,20 @@ def _clarabel(c, data: ConicData, b, options) -> ConicResult:
     return ConicResult(status, x, duals, objective, seconds, converged=converged)
 
 
-def _clarabel_lifted(c, data: ConicData, b, options):
-    """Clarabel's solution of the same problem with the slack a variable.
+def _clarabel_lifted(c, data: ConicData, b, options) -> ConicResult:
+    """Clarabel on the same problem with the slack a variable of its own.
 
-    ``b - A x = s`` become equality rows and ``s`` in the cones a cone of
-    its own variable: Clarabel equilibrates a PSD cone's rows by one
-    common factor, equality rows each by its own. An LMI whose entries
-    span many orders of magnitude (a mode at 1e9 beside one at 1e-9, in
-    coordinates where neither is hidden by a time scaling) stops the
-    direct form in a numerical error; lifted, it solves (fuzz cases
-    4242:47 and 6161:12). Only after such an error: the lifted problem is
-    larger. The solution's ``x`` comes first, the cones' duals last.
+    ``b - A x = s`` become equality rows and the cones hold ``s``: Clarabel
+    equilibrates a PSD cone's rows by one common factor, equality rows each
+    by its own. An LMI whose entries span many orders of magnitude (a mode
+    at 1e9 beside one at 1e-9, in coordinates where neither is hidden by a
+    time scaling) stops the direct form in a numerical error; lifted, it
+    solves (fuzz cases 4242:47 and 6161:12). The problem is larger, so it
+    is the last attempt of a solve (`LIFTED`), after a Clarabel error.
     """
     import clarabel
 
+    start = time.perf_counter()
     m, n = data.A.shape
     A = sp.vstack([
         sp.hstack([data.A, sp.identity(m)]),
@@ -411,7 +415,11 @@ def _clarabel_lifted(c, data: ConicData, b, options):
         sp.csc_matrix((n + m, n + m)), np.concatenate([c, np.zeros(m)]), A,
         np.concatenate([b, np.zeros(m)]), cones, clarabel_settings(options),
     )  # fmt: skip
-    return solver.solve()
+    return _result(solver.solve(), data, start, lifted=m)
+
+
+#: The name of Clarabel's lifted form in a solve's attempts.
+LIFTED = "CLARABEL (lifted)"
 
 
 def _scs(c, data: ConicData, b, options) -> ConicResult:
@@ -436,13 +444,15 @@ def _scs(c, data: ConicData, b, options) -> ConicResult:
 
 #: The solvers this module calls directly, and their layout (upper triangle).
 DIRECT = {"CLARABEL": (_clarabel, True), "SCS": (_scs, False)}
+_FORMS = {**DIRECT, LIFTED: (_clarabel_lifted, True)}
 
 
 def solve_direct(
     solver: str, c, data: ConicData, margin: float, options
 ) -> ConicResult:
-    """Solve with `solver` (a key of `DIRECT`); `data` in its layout."""
-    call, upper = DIRECT[solver]
+    """Solve with `solver` (a key of `DIRECT`, or `LIFTED`); `data` in its
+    layout."""
+    call, upper = _FORMS[solver]
     if data.upper != upper:
         raise ValueError(f"data: not in {solver}'s layout")
     return call(np.asarray(c, float), data, data.b(margin), options)

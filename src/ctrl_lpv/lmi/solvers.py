@@ -12,7 +12,7 @@ import numpy as np
 
 from .. import budget
 from . import cvxpy_backend
-from .conic import DIRECT, ConicResult, conic_data, solve_direct
+from .conic import DIRECT, LIFTED, ConicResult, conic_data, solve_direct
 
 __all__ = ["SolveAttempt", "default_solvers", "solver_chain", "run"]
 
@@ -124,6 +124,8 @@ def with_time_limit(solver, options, deadline):
 
 def run(solver: str, c, data_of, margin: float, options) -> ConicResult:
     """Solve with `solver`; ``data_of(upper)`` gives the conic data."""
+    if solver == LIFTED:
+        return solve_direct(solver, c, data_of(True), margin, options)
     solver = solver.upper()
     if solver in DIRECT:
         return solve_direct(solver, c, data_of(DIRECT[solver][1]), margin, options)
