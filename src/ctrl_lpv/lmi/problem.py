@@ -28,7 +28,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from .. import budget
-from ..certificate import Check, negative_definite
+from ..certificate import Check, negative_definite_each
 from ..exceptions import CertificationError, InfeasibleError
 from . import blocks as _blocks
 from .certificates import (
@@ -369,23 +369,35 @@ class LMIProblem(ConicReading, DualCertificates):
         tuple of `ctrl_lpv.certificate.Check`
         """
         v = SimpleNamespace(**{**self._numeric(), **values})
-        checks = []
-        for name, blocks, strict, _ in self._active(stage):
-            F = _blocks.assemble(blocks(v))
+        active = self._active(stage)
+        matrices = [_blocks.assemble(blocks(v)) for _, blocks, _, _ in active]
+        # The same checks matrix by matrix, with one eigenvalue computation
+        # per kind and size (stacked), in the inequalities' order.
+        groups: dict[tuple, list[int]] = {}
+        for i, ((_, _, strict, _), F) in enumerate(zip(active, matrices)):
+            groups.setdefault((strict, F.shape), []).append(i)
+        checks: list = [None] * len(active)
+        # The margin of the certificate, less the rounding of the eigenvalue
+        # (`ctrl_lpv.certificate.negative_definite_each`).
+        margin = _CERTIFIED_FRACTION * self.margin
+        for (strict, _), members in groups.items():
+            stack = np.stack([matrices[i] for i in members])
+            names = [active[i][0] for i in members]
             if strict:
-                # The margin of the certificate, less the rounding of the
-                # eigenvalue (`ctrl_lpv.certificate.negative_definite`).
-                margin = _CERTIFIED_FRACTION * self.margin
-                checks.append(negative_definite(
-                    F, margin=margin, what=name, units="scaled", group="LMI"
-                ))  # fmt: skip
+                found = negative_definite_each(
+                    stack, margin=margin, what=names, where=[""] * len(members),
+                    units="scaled", group="LMI",
+                )  # fmt: skip
             else:
                 # Non-strict side constraints (bounds, normalisations) are kept
                 # to the solver's accuracy; they do not enter the certificate.
-                required = _SIDE_TOLERANCE * max(1.0, float(np.abs(F).max()))
-                value = float(np.linalg.eigvalsh(F)[-1])
-                checks.append(Check(name, value, required, False,
-                                    units="scaled", group="LMI"))  # fmt: skip
+                top = np.linalg.eigvalsh(stack)[:, -1]
+                size = np.abs(stack).max(axis=(1, 2))
+                found = [Check(name, float(value), _SIDE_TOLERANCE * max(1.0, float(s)),
+                               False, units="scaled", group="LMI")
+                         for name, value, s in zip(names, top, size)]  # fmt: skip
+            for i, check in zip(members, found):
+                checks[i] = check
         return tuple(checks)
 
     def solve(
