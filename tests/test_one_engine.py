@@ -226,3 +226,53 @@ def test_frozen_eigenvalue_check_is_the_worst_point_recomputed(seed):
     assert worst < 0
     assert check.value == pytest.approx(worst, rel=1e-9, abs=1e-12)
     assert check.where == at
+
+
+@pytest.mark.parametrize(
+    "kw",
+    [
+        {"objective": lpv.Hinf(w="w", z=["e", "v0"]), "gains": "scheduled"},
+        {"objective": lpv.H2(w="w", z=["e", "v0"]), "gains": "scheduled",
+         "lyapunov": "affine", "rate_bounds": {"p": 1.0}},
+        {"objective": lpv.Hinf(w="w", z=["e", "v0"]), "gains": "common",
+         "constraints": [lpv.GainBound(1e3)]},
+    ],
+)  # fmt: skip
+def test_engine_tells_each_lmi_what_it_reads_and_its_size(monkeypatch, kw):
+    # The engine learns what its LMIs read, and their sizes, from the one
+    # evaluation that names them: recorded again here, LMI by LMI at the
+    # problem's numbers, every name read is among the given ones, and every
+    # strict LMI's matrix has the size the structure counted.
+    from ctrl_lpv.lmi.blocks import Recording, assemble
+    from ctrl_lpv.synthesis import compose
+    from ctrl_lpv.synthesis.problem import Structure, build
+
+    problems, real = [], compose.run
+
+    def run(problem, *args, **kwargs):
+        problems.append(problem)
+        return real(problem, *args, **kwargs)
+
+    monkeypatch.setattr(compose, "run", run)
+    sys = polytope(1, 3, 2)
+    sys = lpv.PolytopicStateSpace.from_affine(
+        (sys.vertex_data()[0]), {"p": tuple(
+            0.1 * np.asarray(x) for x in sys.vertex_data()[1])},
+        {"p": (-1.0, 1.0)}, inputs=["w", "u0"], outputs=["e", "v0"],
+    ) if "rate_bounds" in kw else sys  # fmt: skip
+    lpv.synthesize(sys, "u0", **kw)
+    (problem,) = problems
+    s = Structure.of(problem, 1.0)
+    lmi = build(problem, s).lmi
+    base = lmi._base()
+    sizes = []
+    for name, blocks, strict, _ in lmi._lmis:
+        read: set = set()
+        F = assemble(blocks(Recording(base, read)))
+        given = lmi._given_reads.get(name)
+        if given is not None:
+            assert read & set(base) <= given, name
+        if strict:
+            sizes.append(F.shape[0])
+    assert len(lmi._given_reads) > 0
+    assert (s.nlmis, s.entries) == (len(sizes), sum(k * k for k in sizes))

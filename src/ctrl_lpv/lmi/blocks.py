@@ -34,6 +34,7 @@ __all__ = [
     "diagonal",
     "normalized_max_eig",
     "quadratic_rows",
+    "size",
     "total",
     "unit_points",
 ]
@@ -51,6 +52,12 @@ def _sizes(blocks):
             raise ValueError(f"block ({i}, {i}) must be a square matrix, got {shape}")
         sizes.append(shape[-1])
     return sizes
+
+
+def size(blocks) -> int:
+    """The size of the matrix `assemble` makes of `blocks` (without making
+    it)."""
+    return sum(_sizes(blocks))
 
 
 def assemble(blocks):

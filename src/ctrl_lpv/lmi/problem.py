@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass
 from types import SimpleNamespace
 
@@ -131,6 +131,8 @@ class LMIProblem(ConicReading, DualCertificates):
         self._exact: dict = {}
         # The variables and parameters each block function reads.
         self._reads: dict[str, frozenset] = {}
+        # The names given to `add` as read (kept over new declarations).
+        self._given_reads: dict[str, frozenset] = {}
         # The inequalities whose batched reading passed its random-point
         # check (re-read without it), and the variables' unit points.
         self._trusted: set[str] = set()
@@ -218,6 +220,7 @@ class LMIProblem(ConicReading, DualCertificates):
         strict: bool = True,
         stages: Sequence[str] | None = None,
         normalization: bool = False,
+        reads: Collection[str] | None = None,
     ) -> None:
         """Add the inequality ``F(v) < 0`` (or ``<= 0`` if not strict).
 
@@ -238,6 +241,10 @@ class LMIProblem(ConicReading, DualCertificates):
             the point (e.g. ``W <= I`` for homogeneous LMIs): an
             infeasibility proof that does not use it refutes the other
             inequalities alone (`FarkasCertificate.normalized`).
+        reads : collection of str, optional
+            The names `blocks` reads (more will do), when known: its first
+            reading then does not evaluate it once more to learn them.
+            Default: learnt at the first reading.
         """
         if normalization and strict:
             raise ValueError("normalization: only a non-strict inequality can be one")
@@ -249,6 +256,8 @@ class LMIProblem(ConicReading, DualCertificates):
         if normalization:
             self._normalizations.add(name)
         self._forget()
+        if reads is not None:
+            self._given_reads[name] = frozenset(reads)
 
     def _forget(self, declarations: bool = True) -> None:
         if declarations:  # a new variable or inequality, or new code paths
@@ -277,6 +286,8 @@ class LMIProblem(ConicReading, DualCertificates):
             reads and whether it reads batched (its batched map checked at
             a random point once) are kept. Default: found again.
         """
+        if not same_code:  # new code paths: what a function reads too
+            self._given_reads.clear()
         self._forget(declarations=not same_code)
 
     def _active(self, stage: str):

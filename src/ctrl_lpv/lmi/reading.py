@@ -81,6 +81,8 @@ class ConicReading:
                 continue
             budget.check(f"reading the LMI {name}")
             F0 = None  # read with the columns, once the names read are known
+            if read is None and name in self._given_reads:
+                self._reads[name] = read = self._given_reads[name] & set(base)
             if read is None:
                 read = set()
                 F0 = _blocks.assemble(blocks(_blocks.Recording(base, read)))
