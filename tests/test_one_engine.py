@@ -276,3 +276,57 @@ def test_engine_tells_each_lmi_what_it_reads_and_its_size(monkeypatch, kw):
             sizes.append(F.shape[0])
     assert len(lmi._given_reads) > 0
     assert (s.nlmis, s.entries) == (len(sizes), sum(k * k for k in sizes))
+
+
+def test_frozen_lyapunov_check_is_the_worst_point_recomputed(monkeypatch):
+    # The dual Lyapunov cross-check is computed for all points and rates
+    # stacked; recomputed here one point and rate at a time from the
+    # point's variables (prescaled, as the check states it): the same
+    # worst value at the same point.
+    from ctrl_lpv.synthesis import points
+    from ctrl_lpv.synthesis.frozen import _where, verification_points
+    from ctrl_lpv.synthesis.parametric import step_terms
+    from ctrl_lpv.synthesis.results import LYAPUNOV
+
+    seen, real = [], points.verify_frozen
+
+    def spy(*args, **kwargs):
+        out = real(*args, **kwargs)
+        seen.append((args, out))
+        return out
+
+    monkeypatch.setattr(points, "verify_frozen", spy)
+    base = polytope(2, 3, 2)
+    A, B = (base.vertices[0].A, base.vertices[0].B)
+    dA, dB = base.vertices[1].A - A, base.vertices[1].B - B
+    C, D = base.vertices[0].C, base.vertices[0].D
+    sys = lpv.PolytopicStateSpace.from_affine(
+        (A, B, C, D), {"p": (0.2 * dA, 0.2 * dB, 0, 0)}, {"p": (-1.0, 1.0)},
+        inputs=["w", "u0"], outputs=["e", "v0"],
+    )  # fmt: skip
+    objective = lpv.H2(w="w", z=["e", "v0"])
+    lpv.synthesize(sys, "u0", objective=objective, gains="scheduled",
+                   lyapunov="affine", rate_bounds={"p": 1.0})  # fmt: skip
+    (problem, shape, frame, values, *_), (certificate, _) = seen[-1]
+    sc, lyap, plant = frame.scaling, problem.lyap, problem.plant
+    assert problem.continuous and not lyap.constant and len(shape.lyap.rates) == 2
+    Ws = [values[f"W{e}"] for e in range(lyap.count)]
+    Zs = [values[f"Z{k}"] for k in range(problem.nZ)]
+    T = sc.matrix
+    worst, at = -np.inf, None
+    for delta, p in verification_points(plant.system):
+        W = sum(d * Ws[lyap.index[j]] for j, d in enumerate(delta))
+        K = sc.unscale_K(-sum(d * Z for d, Z in zip(delta, Zs)) @ np.linalg.inv(W))
+        Acl = sum(d * (Aj - Bj @ K) for d, Aj, Bj in zip(delta, plant.A, plant.B2))
+        Acl = np.linalg.solve(T, Acl @ T) / sc.a
+        for rate in shape.lyap.rates:
+            moved = sum(d * f * Ws[w] for j, d in enumerate(delta)
+                        for w, f in step_terms(shape.lyap, j, rate, True))  # fmt: skip
+            M = Acl @ W + W @ Acl.T - moved
+            value = np.linalg.eigvalsh(0.5 * (M + M.T))[-1] / np.linalg.norm(W, 2)
+            if value > worst:
+                worst, at = value, _where(plant.system, delta, p)
+    (check,) = [c for c in certificate.checks if c.what == LYAPUNOV]
+    assert worst < 0
+    assert check.value == pytest.approx(worst, rel=1e-8)
+    assert check.where == at
