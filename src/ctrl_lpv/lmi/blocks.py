@@ -81,24 +81,31 @@ def assemble(blocks):
     sizes = _sizes(blocks)
     stacks = [np.shape(b)[0] for row in blocks for b in row if np.ndim(b) > 2]
     lead = (max(stacks),) if stacks else ()
-
-    def block(i, j):
-        item = blocks[i][j] if j <= i else blocks[j][i]
-        if isinstance(item, (int, float)) and item == 0:
-            return np.zeros(lead + (sizes[i], sizes[j]))
-        item = np.asarray(item, float)
-        if j > i:
-            item = np.swapaxes(item, -1, -2)
-        if lead and item.ndim == 2:
-            item = np.broadcast_to(item, lead + item.shape)
-        return item
-
-    if len(blocks) == 1:
-        full = block(0, 0)
-    else:
-        rows = [np.concatenate([block(i, j) for j in range(len(blocks))], axis=-1)
-                for i in range(len(blocks))]  # fmt: skip
-        full = np.concatenate(rows, axis=-2)
+    ends = np.cumsum(sizes).tolist()
+    starts = [0] + ends[:-1]
+    # Each block written into its place (the zero blocks left as they are):
+    # one array, no concatenation.
+    full = np.zeros(lead + (ends[-1], ends[-1]))
+    for i, row in enumerate(blocks):
+        for j in range(i + 1):
+            item = row[j]
+            if isinstance(item, (int, float)) and item == 0:
+                continue
+            item = np.asarray(item, float)
+            shape = (sizes[i], sizes[j])
+            if (
+                item.shape[-2:] != shape
+                or item.ndim not in (2, 2 + len(lead))
+                or (item.ndim == 3 and item.shape[0] != lead[0])
+            ):
+                raise ValueError(
+                    f"block ({i}, {j}) must have shape {shape}, got {item.shape}"
+                )
+            full[..., starts[i] : ends[i], starts[j] : ends[j]] = item
+            if j < i:
+                full[..., starts[j] : ends[j], starts[i] : ends[i]] = np.swapaxes(
+                    item, -1, -2
+                )
     return 0.5 * (full + np.swapaxes(full, -1, -2))
 
 
