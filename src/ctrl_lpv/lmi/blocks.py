@@ -20,6 +20,7 @@ other data may take another branch.
 
 from __future__ import annotations
 
+import functools
 import logging
 from types import SimpleNamespace
 
@@ -44,10 +45,16 @@ __all__ = [
 _BATCH_TOLERANCE = 1e-10
 
 
+def _shape(b):
+    # An array's own shape (a `Batch`'s with its stack axis) without numpy's
+    # dispatch: read for every block of every evaluation.
+    return b.shape if isinstance(b, np.ndarray) else np.shape(b)
+
+
 def _sizes(blocks):
     sizes = []
     for i, row in enumerate(blocks):
-        shape = np.shape(row[i])
+        shape = _shape(row[i])
         if len(shape) < 2 or shape[-1] != shape[-2]:
             raise ValueError(f"block ({i}, {i}) must be a square matrix, got {shape}")
         sizes.append(shape[-1])
@@ -79,7 +86,8 @@ def assemble(blocks):
     ndarray
     """
     sizes = _sizes(blocks)
-    stacks = [np.shape(b)[0] for row in blocks for b in row if np.ndim(b) > 2]
+    stacks = [shape[0] for row in blocks for shape in map(_shape, row)
+              if len(shape) > 2]  # fmt: skip
     lead = (max(stacks),) if stacks else ()
     ends = np.cumsum(sizes).tolist()
     starts = [0] + ends[:-1]
@@ -404,9 +412,18 @@ def _batched(evaluate, F0, read, units):
         return None
     dense = (stack[first:] - F0).reshape(total, -1).T
     # Slot of the stack -> column of the map, for one nonzero() of it all.
-    where = np.concatenate([np.arange(start, stop) for _, (start, stop) in spans])
+    where = _columns_of(tuple(span for _, span in spans))
     rows, slots = np.nonzero(dense)
     return F0, (rows, where[slots], dense[rows, slots])
+
+
+@functools.lru_cache(maxsize=256)
+def _columns_of(spans):
+    """The columns of the map of the stack's slots (`_batched`), kept: the
+    same few sets of spans recur for every inequality of a problem."""
+    where = np.concatenate([np.arange(start, stop) for start, stop in spans])
+    where.flags.writeable = False
+    return where
 
 
 def _one_by_one(evaluate, F0, read, units):

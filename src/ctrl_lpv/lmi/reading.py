@@ -9,6 +9,7 @@ way; a solver's point is turned back into the variables' values.
 
 from __future__ import annotations
 
+import functools
 import time
 from types import SimpleNamespace
 
@@ -163,4 +164,10 @@ class ConicReading:
 def _key(read, encoded) -> tuple:
     """The values of the parameters among `read` (`encoded`: each
     parameter's bytes), as a dictionary key."""
-    return tuple((p, encoded[p]) for p in sorted(read) if p in encoded)
+    return tuple((p, encoded[p]) for p in _sorted(read) if p in encoded)
+
+
+@functools.lru_cache(maxsize=4096)
+def _sorted(read: frozenset) -> tuple:
+    # Kept: every reading asks again for each inequality's key.
+    return tuple(sorted(read))
