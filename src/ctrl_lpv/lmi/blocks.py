@@ -21,6 +21,7 @@ other data may take another branch.
 from __future__ import annotations
 
 import functools
+import itertools
 import logging
 from types import SimpleNamespace
 
@@ -89,7 +90,7 @@ def assemble(blocks):
     stacks = [shape[0] for row in blocks for shape in map(_shape, row)
               if len(shape) > 2]  # fmt: skip
     lead = (max(stacks),) if stacks else ()
-    ends = np.cumsum(sizes).tolist()
+    ends = list(itertools.accumulate(sizes))
     starts = [0] + ends[:-1]
     # Each block written into its place (the zero blocks left as they are):
     # one array, no concatenation.
@@ -111,10 +112,10 @@ def assemble(blocks):
                 )
             full[..., starts[i] : ends[i], starts[j] : ends[j]] = item
             if j < i:
-                full[..., starts[j] : ends[j], starts[i] : ends[i]] = np.swapaxes(
-                    item, -1, -2
+                full[..., starts[j] : ends[j], starts[i] : ends[i]] = item.swapaxes(
+                    -1, -2
                 )
-    return 0.5 * (full + np.swapaxes(full, -1, -2))
+    return 0.5 * (full + full.swapaxes(-1, -2))
 
 
 def _like(v, out):
