@@ -275,18 +275,6 @@ _BATCHED = {
 }
 
 
-def _direct(evaluate, read, units, x):
-    values, offset = {}, 0
-    for name, points in units.items():
-        if name in read and len(points):
-            k = len(points)
-            values[name] = (x[offset : offset + k] @ points.reshape(k, -1)).reshape(
-                points.shape[1:]
-            )
-        offset += len(points)
-    return evaluate(values)
-
-
 def columns(
     evaluate, F0, read, units, batched=True, trusted=False, on_checked=None
 ) -> tuple:
@@ -331,15 +319,13 @@ def columns(
         return pieces
     if pieces is not None:
         F0, pieces = pieces
-        rng = np.random.default_rng(20261202)
-        x = np.zeros(sum(len(p) for p in units.values()))
-        for name, (start, stop) in _spans(units).items():
-            if name in read:
-                x[start:stop] = rng.standard_normal(stop - start)
+        # Every variable at one random point (those not read change nothing
+        # of a function that reads only `read`; one that reads more fails).
+        x, values = _probe(units)
         rows, cols, data = pieces
         expected = F0.ravel().copy()
         np.add.at(expected, rows, data * x[cols])
-        actual = _direct(evaluate, read, units, x).ravel()
+        actual = np.asarray(evaluate(values)).ravel()
         # Relative to the size of the terms: a map of small entries gets no
         # absolute allowance.
         scale = np.abs(F0).sum() + np.abs(data * x[cols]).sum()
@@ -359,6 +345,28 @@ def columns(
 # The spans of the last `units` seen: a reading passes the same dict for
 # every inequality (`ctrl_lpv.lmi.reading`), so they are counted once.
 _last_spans: list = [None, None]
+
+
+# The random point of the last `units` seen (`_probe`), for the same reason.
+_last_probe: list = [None, None]
+
+
+def _probe(units):
+    """A random value of every variable of `units`: the vector of its free
+    entries and the variables' values."""
+    if _last_probe[0] is not units:
+        rng = np.random.default_rng(20261202)
+        x = rng.standard_normal(sum(len(p) for p in units.values()))
+        values, offset = {}, 0
+        for name, points in units.items():
+            k = len(points)
+            if k:
+                values[name] = (x[offset : offset + k] @ points.reshape(k, -1)).reshape(
+                    points.shape[1:]
+                )
+            offset += k
+        _last_probe[:] = [units, (x, values)]
+    return _last_probe[1]
 
 
 def _spans(units):
