@@ -330,3 +330,49 @@ def test_frozen_lyapunov_check_is_the_worst_point_recomputed(monkeypatch):
     assert worst < 0
     assert check.value == pytest.approx(worst, rel=1e-8)
     assert check.where == at
+
+
+def test_build_after_the_structure_reads_no_block_again(monkeypatch):
+    # A first call lists the LMIs once (Structure.of) and builds the problem
+    # from that listing: the build evaluates no spec method, and its LMIs
+    # are those of a build that lists them anew.
+    from types import SimpleNamespace
+
+    from ctrl_lpv.lmi.blocks import assemble
+    from ctrl_lpv.synthesis import compose
+    from ctrl_lpv.synthesis import problem as engine
+    from ctrl_lpv.synthesis.specs import Hinf
+
+    problems, real = [], compose.run
+
+    def run(problem, *args, **kwargs):
+        problems.append(problem)
+        return real(problem, *args, **kwargs)
+
+    monkeypatch.setattr(compose, "run", run)
+    lpv.synthesize(polytope(3, 3, 3), "u0", objective=lpv.Hinf(w="w", z=["e", "v0"]),
+                   gains="scheduled")  # fmt: skip
+    (problem,) = problems
+    calls, lmis = [0], Hinf.lmis
+
+    def counted(self, t, continuous):
+        calls[0] += 1
+        return lmis(self, t, continuous)
+
+    monkeypatch.setattr(Hinf, "lmis", counted)
+    monkeypatch.setattr(engine, "_STRICT_SIZES", {})
+    s = engine.Structure.of(problem, 1.0)
+    listed = calls[0]
+    handed = engine.build(problem, s).lmi
+    assert listed > 0 and calls[0] == listed
+    fresh = engine.build(problem, s).lmi
+    assert calls[0] == 2 * listed
+    rng = np.random.default_rng(0)
+    shapes = {k: v.shape for k, v in fresh._vars.items()}
+    shapes |= {k: np.shape(p.value) for k, p in fresh._params.items()}
+    v = SimpleNamespace(
+        **{k: rng.standard_normal(shape) for k, shape in shapes.items()}
+    )
+    assert [x[0] for x in handed._lmis] == [x[0] for x in fresh._lmis]
+    for a, b in zip(handed._lmis, fresh._lmis):
+        np.testing.assert_array_equal(assemble(a[1](v)), assemble(b[1](v)))

@@ -24,6 +24,7 @@ same under a gain bound).
 from __future__ import annotations
 
 import dataclasses
+import weakref
 from dataclasses import dataclass, field
 from types import SimpleNamespace
 
@@ -144,6 +145,12 @@ class Problem:
 _STRICT_SIZES: dict = {}
 _KEPT_STRUCTURES = 64
 
+# The inequalities `Structure.of` listed last (the problem, as a weak
+# reference, the structure, the list and the scales its blocks read), for
+# the `build` that follows it in a first call: listing them evaluates every
+# block once, which is then not done twice.
+_LISTED: list = [None, None, None, None]
+
 
 @dataclass(frozen=True)
 class Structure:
@@ -191,13 +198,14 @@ class Structure:
         sizes = _STRICT_SIZES.pop(key, None)
         if sizes is None:
             zero = _declarations(problem, key).zeros()
+            scales = {"T": np.eye(key.n), "Su": np.eye(key.m)}
+            listed = list(_inequalities(problem, key, zero, scales))
             sizes = [
                 assemble(blocks(zero)).shape[0] if known is None else known
-                for _, blocks, is_strict, _, _, _, known in _inequalities(
-                    problem, key, zero
-                )
+                for _, blocks, is_strict, _, _, _, known in listed
                 if is_strict
             ]
+            _LISTED[:] = [weakref.ref(problem), key, listed, scales]
         _STRICT_SIZES[key] = sizes  # the most recent last
         if len(_STRICT_SIZES) > _KEPT_STRUCTURES:
             del _STRICT_SIZES[next(iter(_STRICT_SIZES))]
@@ -474,11 +482,12 @@ def build(problem: Problem, s: Structure) -> Compiled:
     declarations = _declarations(problem, s)
     lmi = LMIProblem(margin=problem.margin)
     declarations.into(lmi)
-    scales = {"T": np.eye(s.n), "Su": np.eye(s.m)}
-    zero = declarations.zeros()
-    for name, blocks, strict, stages, norm, reads, _ in _inequalities(
-        problem, s, zero, scales
-    ):
+    ref, listed_for, listed, scales = _LISTED
+    _LISTED[:] = [None, None, None, None]
+    if ref is None or ref() is not problem or listed_for != s:
+        scales = {"T": np.eye(s.n), "Su": np.eye(s.m)}
+        listed = _inequalities(problem, s, declarations.zeros(), scales)
+    for name, blocks, strict, stages, norm, reads, _ in listed:
         lmi.add(name, blocks, strict=strict, stages=stages, normalization=norm,
                 reads=reads)  # fmt: skip
     return Compiled(lmi, scales)
