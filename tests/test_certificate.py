@@ -21,6 +21,7 @@ from ctrl_lpv.certificate import (
     Certificate,
     Check,
     negative_definite,
+    negative_definite_each,
     negative_definite_stack,
     rounding_bound,
 )
@@ -135,6 +136,59 @@ def test_stack_reports_its_worst_matrix():
     single = negative_definite(bad, what="stack", where="b")
     assert check == single and not check.passed
     assert negative_definite_stack(stack[[0, 2]]).where == "[0]"
+
+
+def test_each_matrix_of_a_stack_gets_its_own_verdict():
+    """The stacked check (one eigvalsh) gives every matrix the verdict,
+    value and rounding of the matrix checked alone, on random matrices and
+    on nearly singular ones whose sign is at the rounding level."""
+    rng = np.random.default_rng(7)
+    k = 5
+    matrices, exact = [], []
+    for d in (1e-3, -1e-3, 1e-15, -1e-15, 3 * EPS, 0.0, 1e-9):
+        F, top = ones_matrix(k, d)
+        matrices.append(F)
+        exact.append(top)
+    for scale in (1e-8, 1.0, 1e8):
+        Q, _ = np.linalg.qr(rng.standard_normal((k, k)))
+        spectrum = -scale * np.abs(rng.standard_normal(k))
+        spectrum[-1] = rng.choice([-1, 1]) * scale * 1e-14
+        matrices.append(Q @ np.diag(spectrum) @ Q.T)
+        exact.append(None)  # the sign is below the rounding: undecided
+        A = rng.standard_normal((k, k))
+        matrices.append(-scale * (A @ A.T + 0.1 * np.eye(k)))
+        exact.append(None)
+    stack = np.stack(matrices)
+    for margin in (0.0, 1e-6):
+        checks = negative_definite_each(stack, margin=margin, what="F")
+        assert len(checks) == len(matrices)
+        for i, (F, check) in enumerate(zip(matrices, checks)):
+            alone = negative_definite(F, margin=margin, what="F", where=f"[{i}]")
+            assert check == alone
+            # Recomputed here: the largest eigenvalue of the matrix alone
+            # (Jacobi-normalised without a margin) and its rounding.
+            d = np.ones(k)
+            if margin == 0 and np.all(np.diag(F) < 0):
+                d = 1 / np.sqrt(-np.diag(F))
+            eig = np.linalg.eigvalsh(F * np.outer(d, d))
+            assert abs(check.value - eig[-1]) <= 1e-3 * check.rounding
+            assert check.rounding == pytest.approx(
+                rounding_bound(k, np.abs(eig).max()), rel=1e-9
+            )
+            if margin == 0 and exact[i] is not None and check.passed:
+                assert exact[i] < 0  # never passes a matrix that is not < 0
+    # The stack's single check is its worst matrix's.
+    worst = negative_definite_stack(stack, what="F")
+    assert worst in negative_definite_each(stack, what="F")
+    assert not worst.passed
+
+
+def test_each_names_its_matrices():
+    stack = -np.stack([np.eye(2), 2 * np.eye(2)])
+    checks = negative_definite_each(stack, what=["a", "b"], where=["x", "y"])
+    assert [(c.what, c.where) for c in checks] == [("a", "x"), ("b", "y")]
+    with pytest.raises(ValueError, match="what"):
+        negative_definite_each(stack, what=["a"])
 
 
 # ----------------------------------------------------------------------

@@ -440,3 +440,27 @@ def test_invalidate_finds_a_new_code_path_again():
     fast = _dense(lmi._pieces(active), lmi._nfree())
     exact = _dense(lmi._pieces(active, exact=True), lmi._nfree())
     np.testing.assert_allclose(fast[0], exact[0], rtol=1e-12, atol=1e-14)
+
+
+def test_random_point_check_sets_every_variable(caplog):
+    # The batched map's check evaluates the function with every variable at
+    # a random value: a function that reads a variable it was not declared
+    # to read fails it (and is read point by point), one that reads only
+    # what it declared passes.
+    import logging
+
+    shapes = {"X": (2, 2), "Y": (2, 2)}
+    units = {k: unit_points(shape, True) for k, shape in shapes.items()}
+    zero = {k: np.zeros(shape) for k, shape in shapes.items()}
+
+    def evaluate(values):
+        from types import SimpleNamespace
+
+        v = SimpleNamespace(**{**zero, **values})
+        return assemble([[v.X + v.Y - np.eye(2)]])
+
+    with caplog.at_level(logging.DEBUG, logger="ctrl_lpv.lmi"):
+        columns(evaluate, None, {"X", "Y"}, units)
+        assert "rejected" not in caplog.text
+        columns(evaluate, None, {"X"}, units)
+        assert "rejected at a random point" in caplog.text

@@ -169,3 +169,26 @@ def test_set_parameter_checks_values():
         lmi.set_parameter("b", np.ones(3))
     with pytest.raises(ValueError, match="name: no parameter 'c'"):
         lmi.set_parameter("c", 1.0)
+
+
+def test_assemble_is_the_symmetric_part_of_the_block_matrix():
+    # Against np.block of the full lower-and-upper block matrix, for plain
+    # blocks, zero blocks and a stack broadcast with plain ones.
+
+    rng = np.random.default_rng(3)
+    A, B, C = (
+        rng.standard_normal((3, 3)),
+        rng.standard_normal((2, 3)),
+        rng.standard_normal((2, 2)),
+    )
+    M = np.block([[A, B.T], [B, C]])
+    np.testing.assert_array_equal(assemble([[A], [B, C]]), 0.5 * (M + M.T))
+    Z = np.block([[A, np.zeros((3, 2))], [np.zeros((2, 3)), C]])
+    np.testing.assert_array_equal(assemble([[A], [0, C]]), 0.5 * (Z + Z.T))
+    S = rng.standard_normal((4, 2, 3))
+    stacked = assemble([[A], [S, C]])
+    for k in range(4):
+        M = np.block([[A, S[k].T], [S[k], C]])
+        np.testing.assert_array_equal(stacked[k], 0.5 * (M + M.T))
+    with pytest.raises(ValueError, match=r"block \(1, 0\)"):
+        assemble([[A], [B.T, C]])

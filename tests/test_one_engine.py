@@ -226,3 +226,153 @@ def test_frozen_eigenvalue_check_is_the_worst_point_recomputed(seed):
     assert worst < 0
     assert check.value == pytest.approx(worst, rel=1e-9, abs=1e-12)
     assert check.where == at
+
+
+@pytest.mark.parametrize(
+    "kw",
+    [
+        {"objective": lpv.Hinf(w="w", z=["e", "v0"]), "gains": "scheduled"},
+        {"objective": lpv.H2(w="w", z=["e", "v0"]), "gains": "scheduled",
+         "lyapunov": "affine", "rate_bounds": {"p": 1.0}},
+        {"objective": lpv.Hinf(w="w", z=["e", "v0"]), "gains": "common",
+         "constraints": [lpv.GainBound(1e3)]},
+    ],
+)  # fmt: skip
+def test_engine_tells_each_lmi_what_it_reads_and_its_size(monkeypatch, kw):
+    # The engine learns what its LMIs read, and their sizes, from the one
+    # evaluation that names them: recorded again here, LMI by LMI at the
+    # problem's numbers, every name read is among the given ones, and every
+    # strict LMI's matrix has the size the structure counted.
+    from ctrl_lpv.lmi.blocks import Recording, assemble
+    from ctrl_lpv.synthesis import compose
+    from ctrl_lpv.synthesis.problem import Structure, build
+
+    problems, real = [], compose.run
+
+    def run(problem, *args, **kwargs):
+        problems.append(problem)
+        return real(problem, *args, **kwargs)
+
+    monkeypatch.setattr(compose, "run", run)
+    sys = polytope(1, 3, 2)
+    sys = lpv.PolytopicStateSpace.from_affine(
+        (sys.vertex_data()[0]), {"p": tuple(
+            0.1 * np.asarray(x) for x in sys.vertex_data()[1])},
+        {"p": (-1.0, 1.0)}, inputs=["w", "u0"], outputs=["e", "v0"],
+    ) if "rate_bounds" in kw else sys  # fmt: skip
+    lpv.synthesize(sys, "u0", **kw)
+    (problem,) = problems
+    s = Structure.of(problem, 1.0)
+    lmi = build(problem, s).lmi
+    base = lmi._base()
+    sizes = []
+    for name, blocks, strict, _ in lmi._lmis:
+        read: set = set()
+        F = assemble(blocks(Recording(base, read)))
+        given = lmi._given_reads.get(name)
+        if given is not None:
+            assert read & set(base) <= given, name
+        if strict:
+            sizes.append(F.shape[0])
+    assert len(lmi._given_reads) > 0
+    assert (s.nlmis, s.entries) == (len(sizes), sum(k * k for k in sizes))
+
+
+def test_frozen_lyapunov_check_is_the_worst_point_recomputed(monkeypatch):
+    # The dual Lyapunov cross-check is computed for all points and rates
+    # stacked; recomputed here one point and rate at a time from the
+    # point's variables (prescaled, as the check states it): the same
+    # worst value at the same point.
+    from ctrl_lpv.synthesis import points
+    from ctrl_lpv.synthesis.frozen import _where, verification_points
+    from ctrl_lpv.synthesis.parametric import step_terms
+    from ctrl_lpv.synthesis.results import LYAPUNOV
+
+    seen, real = [], points.verify_frozen
+
+    def spy(*args, **kwargs):
+        out = real(*args, **kwargs)
+        seen.append((args, out))
+        return out
+
+    monkeypatch.setattr(points, "verify_frozen", spy)
+    base = polytope(2, 3, 2)
+    A, B = (base.vertices[0].A, base.vertices[0].B)
+    dA, dB = base.vertices[1].A - A, base.vertices[1].B - B
+    C, D = base.vertices[0].C, base.vertices[0].D
+    sys = lpv.PolytopicStateSpace.from_affine(
+        (A, B, C, D), {"p": (0.2 * dA, 0.2 * dB, 0, 0)}, {"p": (-1.0, 1.0)},
+        inputs=["w", "u0"], outputs=["e", "v0"],
+    )  # fmt: skip
+    objective = lpv.H2(w="w", z=["e", "v0"])
+    lpv.synthesize(sys, "u0", objective=objective, gains="scheduled",
+                   lyapunov="affine", rate_bounds={"p": 1.0})  # fmt: skip
+    (problem, shape, frame, values, *_), (certificate, _) = seen[-1]
+    sc, lyap, plant = frame.scaling, problem.lyap, problem.plant
+    assert problem.continuous and not lyap.constant and len(shape.lyap.rates) == 2
+    Ws = [values[f"W{e}"] for e in range(lyap.count)]
+    Zs = [values[f"Z{k}"] for k in range(problem.nZ)]
+    T = sc.matrix
+    worst, at = -np.inf, None
+    for delta, p in verification_points(plant.system):
+        W = sum(d * Ws[lyap.index[j]] for j, d in enumerate(delta))
+        K = sc.unscale_K(-sum(d * Z for d, Z in zip(delta, Zs)) @ np.linalg.inv(W))
+        Acl = sum(d * (Aj - Bj @ K) for d, Aj, Bj in zip(delta, plant.A, plant.B2))
+        Acl = np.linalg.solve(T, Acl @ T) / sc.a
+        for rate in shape.lyap.rates:
+            moved = sum(d * f * Ws[w] for j, d in enumerate(delta)
+                        for w, f in step_terms(shape.lyap, j, rate, True))  # fmt: skip
+            M = Acl @ W + W @ Acl.T - moved
+            value = np.linalg.eigvalsh(0.5 * (M + M.T))[-1] / np.linalg.norm(W, 2)
+            if value > worst:
+                worst, at = value, _where(plant.system, delta, p)
+    (check,) = [c for c in certificate.checks if c.what == LYAPUNOV]
+    assert worst < 0
+    assert check.value == pytest.approx(worst, rel=1e-8)
+    assert check.where == at
+
+
+def test_build_after_the_structure_reads_no_block_again(monkeypatch):
+    # A first call lists the LMIs once (Structure.of) and builds the problem
+    # from that listing: the build evaluates no spec method, and its LMIs
+    # are those of a build that lists them anew.
+    from types import SimpleNamespace
+
+    from ctrl_lpv.lmi.blocks import assemble
+    from ctrl_lpv.synthesis import compose
+    from ctrl_lpv.synthesis import problem as engine
+    from ctrl_lpv.synthesis.specs import Hinf
+
+    problems, real = [], compose.run
+
+    def run(problem, *args, **kwargs):
+        problems.append(problem)
+        return real(problem, *args, **kwargs)
+
+    monkeypatch.setattr(compose, "run", run)
+    lpv.synthesize(polytope(3, 3, 3), "u0", objective=lpv.Hinf(w="w", z=["e", "v0"]),
+                   gains="scheduled")  # fmt: skip
+    (problem,) = problems
+    calls, lmis = [0], Hinf.lmis
+
+    def counted(self, t, continuous):
+        calls[0] += 1
+        return lmis(self, t, continuous)
+
+    monkeypatch.setattr(Hinf, "lmis", counted)
+    monkeypatch.setattr(engine, "_STRICT_SIZES", {})
+    s = engine.Structure.of(problem, 1.0)
+    listed = calls[0]
+    handed = engine.build(problem, s).lmi
+    assert listed > 0 and calls[0] == listed
+    fresh = engine.build(problem, s).lmi
+    assert calls[0] == 2 * listed
+    rng = np.random.default_rng(0)
+    shapes = {k: v.shape for k, v in fresh._vars.items()}
+    shapes |= {k: np.shape(p.value) for k, p in fresh._params.items()}
+    v = SimpleNamespace(
+        **{k: rng.standard_normal(shape) for k, shape in shapes.items()}
+    )
+    assert [x[0] for x in handed._lmis] == [x[0] for x in fresh._lmis]
+    for a, b in zip(handed._lmis, fresh._lmis):
+        np.testing.assert_array_equal(assemble(a[1](v)), assemble(b[1](v)))

@@ -30,6 +30,7 @@ __all__ = [
     "rounding_bound",
     "negative_definite",
     "negative_definite_stack",
+    "negative_definite_each",
 ]
 
 #: Float64 rounding of an eigenvalue, per unit of size and norm.
@@ -460,6 +461,44 @@ def negative_definite_stack(F, *, margin=0.0, absolute=None, cross_check=False,
         As `negative_definite`, or for an empty stack or `where` of the
         wrong length.
     """
+    checks = negative_definite_each(
+        F, margin=margin, absolute=absolute, cross_check=cross_check, what=what,
+        where=where, units=units, group=group,
+    )  # fmt: skip
+    return max(checks, key=lambda c: c.value + (-c.rounding if cross_check
+                                                else c.rounding))  # fmt: skip
+
+
+def negative_definite_each(F, *, margin=0.0, absolute=None, cross_check=False,
+                           what="F < 0", where=None, units="",
+                           group="") -> tuple[Check, ...]:  # fmt: skip
+    """`negative_definite` of every matrix of a stack, one check each.
+
+    The same test, value and rounding as `negative_definite` on each
+    matrix alone, with one stacked eigenvalue computation: the way to
+    check many matrices of one size (the LMIs at a solver's point).
+
+    Parameters
+    ----------
+    F : array_like
+        Stack of square matrices, shape ``(p, k, k)``.
+    margin, absolute, cross_check, units, group
+        As in `negative_definite` (`absolute` a stack like `F`).
+    what : str or sequence of str, optional
+        Name of every check, or of each.
+    where : sequence of str, optional
+        Label of each matrix (default ``"[i]"``).
+
+    Returns
+    -------
+    tuple of `Check`
+        One strict check per matrix, in the order of the stack.
+
+    Raises
+    ------
+    ValueError
+        As `negative_definite_stack`, or for `what` of the wrong length.
+    """
     F = np.asarray(F, dtype=float)
     if F.ndim != 3 or F.shape[1] != F.shape[2] or 0 in F.shape:
         raise ValueError(
@@ -471,6 +510,9 @@ def negative_definite_stack(F, *, margin=0.0, absolute=None, cross_check=False,
     where = [f"[{i}]" for i in range(len(F))] if where is None else list(where)
     if len(where) != len(F):
         raise ValueError(f"where: expected {len(F)} labels, got {len(where)}")
+    whats = [what] * len(F) if isinstance(what, str) else list(what)
+    if len(whats) != len(F):
+        raise ValueError(f"what: expected {len(F)} names, got {len(whats)}")
     # A matrix with a non-finite entry fails (value inf), checked as -I.
     finite = np.all(np.isfinite(F), axis=(1, 2))
     F = np.where(finite[:, None, None], F, -np.eye(F.shape[1]))
@@ -494,8 +536,9 @@ def negative_definite_stack(F, *, margin=0.0, absolute=None, cross_check=False,
         # A nonnegative diagonal entry decides alone: F < 0 is ruled out.
         value = np.where(normalise, value, np.maximum(value, diag.max(axis=1)))
     value = np.where(finite, value, np.inf)
-    i = int(np.argmax(value + (-rounding if cross_check else rounding)))
-    if not units and normalise[i]:
-        units = "normalised"
-    return Check(what, value[i], -margin if margin else 0.0, True, rounding[i],
-                 cross_check, units, where[i], group)  # fmt: skip
+    bound = -margin if margin else 0.0
+    return tuple(
+        Check(whats[i], float(value[i]), bound, True, float(rounding[i]), cross_check,
+              units or ("normalised" if normalise[i] else ""), where[i], group)
+        for i in range(len(F))
+    )  # fmt: skip

@@ -20,6 +20,8 @@ other data may take another branch.
 
 from __future__ import annotations
 
+import functools
+import itertools
 import logging
 from types import SimpleNamespace
 
@@ -34,6 +36,7 @@ __all__ = [
     "diagonal",
     "normalized_max_eig",
     "quadratic_rows",
+    "size",
     "total",
     "unit_points",
 ]
@@ -43,14 +46,26 @@ __all__ = [
 _BATCH_TOLERANCE = 1e-10
 
 
+def _shape(b):
+    # An array's own shape (a `Batch`'s with its stack axis) without numpy's
+    # dispatch: read for every block of every evaluation.
+    return b.shape if isinstance(b, np.ndarray) else np.shape(b)
+
+
 def _sizes(blocks):
     sizes = []
     for i, row in enumerate(blocks):
-        shape = np.shape(row[i])
+        shape = _shape(row[i])
         if len(shape) < 2 or shape[-1] != shape[-2]:
             raise ValueError(f"block ({i}, {i}) must be a square matrix, got {shape}")
         sizes.append(shape[-1])
     return sizes
+
+
+def size(blocks) -> int:
+    """The size of the matrix `assemble` makes of `blocks` (without making
+    it)."""
+    return sum(_sizes(blocks))
 
 
 def assemble(blocks):
@@ -72,27 +87,35 @@ def assemble(blocks):
     ndarray
     """
     sizes = _sizes(blocks)
-    stacks = [np.shape(b)[0] for row in blocks for b in row if np.ndim(b) > 2]
+    stacks = [shape[0] for row in blocks for shape in map(_shape, row)
+              if len(shape) > 2]  # fmt: skip
     lead = (max(stacks),) if stacks else ()
-
-    def block(i, j):
-        item = blocks[i][j] if j <= i else blocks[j][i]
-        if isinstance(item, (int, float)) and item == 0:
-            return np.zeros(lead + (sizes[i], sizes[j]))
-        item = np.asarray(item, float)
-        if j > i:
-            item = np.swapaxes(item, -1, -2)
-        if lead and item.ndim == 2:
-            item = np.broadcast_to(item, lead + item.shape)
-        return item
-
-    if len(blocks) == 1:
-        full = block(0, 0)
-    else:
-        rows = [np.concatenate([block(i, j) for j in range(len(blocks))], axis=-1)
-                for i in range(len(blocks))]  # fmt: skip
-        full = np.concatenate(rows, axis=-2)
-    return 0.5 * (full + np.swapaxes(full, -1, -2))
+    ends = list(itertools.accumulate(sizes))
+    starts = [0] + ends[:-1]
+    # Each block written into its place (the zero blocks left as they are):
+    # one array, no concatenation.
+    full = np.zeros(lead + (ends[-1], ends[-1]))
+    for i, row in enumerate(blocks):
+        for j in range(i + 1):
+            item = row[j]
+            if isinstance(item, (int, float)) and item == 0:
+                continue
+            item = np.asarray(item, float)
+            shape = (sizes[i], sizes[j])
+            if (
+                item.shape[-2:] != shape
+                or item.ndim not in (2, 2 + len(lead))
+                or (item.ndim == 3 and item.shape[0] != lead[0])
+            ):
+                raise ValueError(
+                    f"block ({i}, {j}) must have shape {shape}, got {item.shape}"
+                )
+            full[..., starts[i] : ends[i], starts[j] : ends[j]] = item
+            if j < i:
+                full[..., starts[j] : ends[j], starts[i] : ends[i]] = item.swapaxes(
+                    -1, -2
+                )
+    return 0.5 * (full + full.swapaxes(-1, -2))
 
 
 def _like(v, out):
@@ -252,18 +275,6 @@ _BATCHED = {
 }
 
 
-def _direct(evaluate, read, units, x):
-    values, offset = {}, 0
-    for name, points in units.items():
-        if name in read and len(points):
-            k = len(points)
-            values[name] = (x[offset : offset + k] @ points.reshape(k, -1)).reshape(
-                points.shape[1:]
-            )
-        offset += len(points)
-    return evaluate(values)
-
-
 def columns(
     evaluate, F0, read, units, batched=True, trusted=False, on_checked=None
 ) -> tuple:
@@ -308,15 +319,13 @@ def columns(
         return pieces
     if pieces is not None:
         F0, pieces = pieces
-        rng = np.random.default_rng(20261202)
-        x = np.zeros(sum(len(p) for p in units.values()))
-        for name, (start, stop) in _spans(units).items():
-            if name in read:
-                x[start:stop] = rng.standard_normal(stop - start)
+        # Every variable at one random point (those not read change nothing
+        # of a function that reads only `read`; one that reads more fails).
+        x, values = _probe(units)
         rows, cols, data = pieces
         expected = F0.ravel().copy()
         np.add.at(expected, rows, data * x[cols])
-        actual = _direct(evaluate, read, units, x).ravel()
+        actual = np.asarray(evaluate(values)).ravel()
         # Relative to the size of the terms: a map of small entries gets no
         # absolute allowance.
         scale = np.abs(F0).sum() + np.abs(data * x[cols]).sum()
@@ -336,6 +345,28 @@ def columns(
 # The spans of the last `units` seen: a reading passes the same dict for
 # every inequality (`ctrl_lpv.lmi.reading`), so they are counted once.
 _last_spans: list = [None, None]
+
+
+# The random point of the last `units` seen (`_probe`), for the same reason.
+_last_probe: list = [None, None]
+
+
+def _probe(units):
+    """A random value of every variable of `units`: the vector of its free
+    entries and the variables' values."""
+    if _last_probe[0] is not units:
+        rng = np.random.default_rng(20261202)
+        x = rng.standard_normal(sum(len(p) for p in units.values()))
+        values, offset = {}, 0
+        for name, points in units.items():
+            k = len(points)
+            if k:
+                values[name] = (x[offset : offset + k] @ points.reshape(k, -1)).reshape(
+                    points.shape[1:]
+                )
+            offset += k
+        _last_probe[:] = [units, (x, values)]
+    return _last_probe[1]
 
 
 def _spans(units):
@@ -390,9 +421,18 @@ def _batched(evaluate, F0, read, units):
         return None
     dense = (stack[first:] - F0).reshape(total, -1).T
     # Slot of the stack -> column of the map, for one nonzero() of it all.
-    where = np.concatenate([np.arange(start, stop) for _, (start, stop) in spans])
+    where = _columns_of(tuple(span for _, span in spans))
     rows, slots = np.nonzero(dense)
     return F0, (rows, where[slots], dense[rows, slots])
+
+
+@functools.lru_cache(maxsize=256)
+def _columns_of(spans):
+    """The columns of the map of the stack's slots (`_batched`), kept: the
+    same few sets of spans recur for every inequality of a problem."""
+    where = np.concatenate([np.arange(start, stop) for start, stop in spans])
+    where.flags.writeable = False
+    return where
 
 
 def _one_by_one(evaluate, F0, read, units):

@@ -21,14 +21,14 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass
 from types import SimpleNamespace
 
 import numpy as np
 
 from .. import budget
-from ..certificate import Check, negative_definite
+from ..certificate import Check, negative_definite_each
 from ..exceptions import CertificationError, InfeasibleError
 from . import blocks as _blocks
 from .certificates import (
@@ -131,6 +131,8 @@ class LMIProblem(ConicReading, DualCertificates):
         self._exact: dict = {}
         # The variables and parameters each block function reads.
         self._reads: dict[str, frozenset] = {}
+        # The names given to `add` as read (kept over new declarations).
+        self._given_reads: dict[str, frozenset] = {}
         # The inequalities whose batched reading passed its random-point
         # check (re-read without it), and the variables' unit points.
         self._trusted: set[str] = set()
@@ -218,6 +220,7 @@ class LMIProblem(ConicReading, DualCertificates):
         strict: bool = True,
         stages: Sequence[str] | None = None,
         normalization: bool = False,
+        reads: Collection[str] | None = None,
     ) -> None:
         """Add the inequality ``F(v) < 0`` (or ``<= 0`` if not strict).
 
@@ -238,6 +241,10 @@ class LMIProblem(ConicReading, DualCertificates):
             the point (e.g. ``W <= I`` for homogeneous LMIs): an
             infeasibility proof that does not use it refutes the other
             inequalities alone (`FarkasCertificate.normalized`).
+        reads : collection of str, optional
+            The names `blocks` reads (more will do), when known: its first
+            reading then does not evaluate it once more to learn them.
+            Default: learnt at the first reading.
         """
         if normalization and strict:
             raise ValueError("normalization: only a non-strict inequality can be one")
@@ -249,6 +256,8 @@ class LMIProblem(ConicReading, DualCertificates):
         if normalization:
             self._normalizations.add(name)
         self._forget()
+        if reads is not None:
+            self._given_reads[name] = frozenset(reads)
 
     def _forget(self, declarations: bool = True) -> None:
         if declarations:  # a new variable or inequality, or new code paths
@@ -277,6 +286,8 @@ class LMIProblem(ConicReading, DualCertificates):
             reads and whether it reads batched (its batched map checked at
             a random point once) are kept. Default: found again.
         """
+        if not same_code:  # new code paths: what a function reads too
+            self._given_reads.clear()
         self._forget(declarations=not same_code)
 
     def _active(self, stage: str):
@@ -369,23 +380,35 @@ class LMIProblem(ConicReading, DualCertificates):
         tuple of `ctrl_lpv.certificate.Check`
         """
         v = SimpleNamespace(**{**self._numeric(), **values})
-        checks = []
-        for name, blocks, strict, _ in self._active(stage):
-            F = _blocks.assemble(blocks(v))
+        active = self._active(stage)
+        matrices = [_blocks.assemble(blocks(v)) for _, blocks, _, _ in active]
+        # The same checks matrix by matrix, with one eigenvalue computation
+        # per kind and size (stacked), in the inequalities' order.
+        groups: dict[tuple, list[int]] = {}
+        for i, ((_, _, strict, _), F) in enumerate(zip(active, matrices)):
+            groups.setdefault((strict, F.shape), []).append(i)
+        checks: list = [None] * len(active)
+        # The margin of the certificate, less the rounding of the eigenvalue
+        # (`ctrl_lpv.certificate.negative_definite_each`).
+        margin = _CERTIFIED_FRACTION * self.margin
+        for (strict, _), members in groups.items():
+            stack = np.stack([matrices[i] for i in members])
+            names = [active[i][0] for i in members]
             if strict:
-                # The margin of the certificate, less the rounding of the
-                # eigenvalue (`ctrl_lpv.certificate.negative_definite`).
-                margin = _CERTIFIED_FRACTION * self.margin
-                checks.append(negative_definite(
-                    F, margin=margin, what=name, units="scaled", group="LMI"
-                ))  # fmt: skip
+                found = negative_definite_each(
+                    stack, margin=margin, what=names, where=[""] * len(members),
+                    units="scaled", group="LMI",
+                )  # fmt: skip
             else:
                 # Non-strict side constraints (bounds, normalisations) are kept
                 # to the solver's accuracy; they do not enter the certificate.
-                required = _SIDE_TOLERANCE * max(1.0, float(np.abs(F).max()))
-                value = float(np.linalg.eigvalsh(F)[-1])
-                checks.append(Check(name, value, required, False,
-                                    units="scaled", group="LMI"))  # fmt: skip
+                top = np.linalg.eigvalsh(stack)[:, -1]
+                size = np.abs(stack).max(axis=(1, 2))
+                found = [Check(name, float(value), _SIDE_TOLERANCE * max(1.0, float(s)),
+                               False, units="scaled", group="LMI")
+                         for name, value, s in zip(names, top, size)]  # fmt: skip
+            for i, check in zip(members, found):
+                checks[i] = check
         return tuple(checks)
 
     def solve(

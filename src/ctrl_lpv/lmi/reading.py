@@ -9,6 +9,7 @@ way; a solver's point is turned back into the variables' values.
 
 from __future__ import annotations
 
+import functools
 import time
 from types import SimpleNamespace
 
@@ -81,6 +82,8 @@ class ConicReading:
                 continue
             budget.check(f"reading the LMI {name}")
             F0 = None  # read with the columns, once the names read are known
+            if read is None and name in self._given_reads:
+                self._reads[name] = read = self._given_reads[name] & set(base)
             if read is None:
                 read = set()
                 F0 = _blocks.assemble(blocks(_blocks.Recording(base, read)))
@@ -161,4 +164,10 @@ class ConicReading:
 def _key(read, encoded) -> tuple:
     """The values of the parameters among `read` (`encoded`: each
     parameter's bytes), as a dictionary key."""
-    return tuple((p, encoded[p]) for p in sorted(read) if p in encoded)
+    return tuple((p, encoded[p]) for p in _sorted(read) if p in encoded)
+
+
+@functools.lru_cache(maxsize=4096)
+def _sorted(read: frozenset) -> tuple:
+    # Kept: every reading asks again for each inequality's key.
+    return tuple(sorted(read))

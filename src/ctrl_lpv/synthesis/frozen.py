@@ -120,37 +120,52 @@ class Here:
         return items[0]
 
 
-def _moved(problem, lyap, Ws, delta, p, rate):
-    """``dW/dt`` (continuous) or ``W`` at the next sample, prescaled units
-    (`rate` prescaled, ``p`` the model's parameter)."""
-    N = len(delta)
+def _moved_all(problem, lyap, Ws, deltas, points, rate):
+    """``dW/dt`` (continuous) or ``W`` at the next sample at every point,
+    prescaled units (`rate` prescaled, a point's ``p`` the model's
+    parameter)."""
+    N = deltas.shape[1]
     if problem.continuous:
-        # The weight of each W_w summed first (scalars), then one product:
-        # the same sum with one matrix operation instead of one per term.
-        weights = np.zeros(len(Ws))
+        # The weight of each W_w at a vertex, then at every point one
+        # product: dW/dt = sum_w (sum_j delta_j f_jw) W_w.
+        S = np.zeros((N, len(Ws)))
         for j in range(N):
             for w, f in step_terms(lyap, j, rate, True):
-                weights[w] += delta[j] * f
-        return np.tensordot(weights, np.asarray(Ws), axes=1)
-    nxt = delta
-    if p is not None and not lyap.constant:
+                S[j, w] += f
+        return np.tensordot(deltas @ S, np.asarray(Ws), axes=1)
+    nxt = deltas
+    if not lyap.constant and points[0][1] is not None:
         domain = problem.plant.system.domain
-        nxt = domain._weights(np.clip(p + rate, domain.lower, domain.upper))
+        nxt = np.array([domain._weights(np.clip(p + rate, domain.lower, domain.upper))
+                        for _, p in points])  # fmt: skip
     return np.tensordot(nxt, np.stack([Ws[lyap.index[j]] for j in range(N)]), axes=1)
 
 
-def _dual_lyapunov(Acl, W, W_moved, continuous) -> float:
-    """``lambda_max(A W + W A' - dW/dt)`` (``A W A' - W+``) over ``||W||``.
+def _dual_lyapunov_all(Acl, W, W_moved, continuous) -> np.ndarray:
+    """``lambda_max(A W + W A' - dW/dt)`` (``A W A' - W+``) over ``||W||``
+    at every point (stacks).
 
     In the prescaled units, where ``W`` is the solver's: the margin of the
     LMIs shows here, where the primal form with an ill-conditioned ``P``
     (`lyapunov_residual`) may round it away.
     """
+    AW = Acl @ W
     if continuous:
-        M = Acl @ W + W @ Acl.T - W_moved
+        M = AW + np.swapaxes(AW, 1, 2) - W_moved
     else:
-        M = Acl @ W @ Acl.T - W_moved
-    return float(np.linalg.eigvalsh(0.5 * (M + M.T))[-1] / np.linalg.norm(W, 2))
+        M = AW @ np.swapaxes(Acl, 1, 2) - W_moved
+    M = 0.5 * (M + np.swapaxes(M, 1, 2))
+    return np.linalg.eigvalsh(M)[:, -1] / np.linalg.norm(W, 2, axis=(1, 2))
+
+
+def _unscale_P(sc, Pt):
+    """`~ctrl_lpv.synthesis.scaling.Scaling.unscale_P` of a stack."""
+    if sc.T.ndim == 1:
+        P = Pt / (sc.w_factor * sc.T[:, None] * sc.T)
+    else:
+        Ti = np.linalg.inv(sc.T)
+        P = Ti.T @ Pt @ Ti / sc.w_factor
+    return 0.5 * (P + np.swapaxes(P, -1, -2))
 
 
 def verify_frozen(problem, shape, frame, values, gains, bounds, margin, checks,
@@ -231,6 +246,24 @@ def verify_frozen(problem, shape, frame, values, gains, bounds, margin, checks,
     channels = {i: (mix_all(c.Bw), mix_all(c.Cz) - mix_all(c.Dzu) @ K_all,
                     mix_all(c.Dzw))
                 for i, c in enumerate(plant.channels)}  # fmt: skip
+    # What does not depend on the specs, stacked over the points: P and W
+    # in the model's units, and per rate the moved W and P and the dual
+    # Lyapunov residual.
+    P_all = _unscale_P(sc, np.linalg.inv(W_all))
+    W_model_all = sc.w_factor * (sc.matrix @ W_all @ sc.matrix.T)
+    Acl_scaled_all = Ti @ Acl_all @ sc.matrix / sc.a
+    moved = []
+    for rate in shape.lyap.rates:
+        W_moved_scaled = _moved_all(problem, shape.lyap, Ws, deltas, points, rate)
+        W_moved = sc.w_factor * (sc.matrix @ W_moved_scaled @ sc.matrix.T)
+        if problem.continuous:
+            # d(W^-1)/dt = -W^-1 (dW/dt) W^-1.
+            P_moved = -P_all @ W_moved @ P_all
+        else:
+            P_moved = _sym_inv(W_moved) if not lyap.constant else P_all
+        dual = _dual_lyapunov_all(Acl_scaled_all, W_all, W_moved_scaled,
+                                  problem.continuous)  # fmt: skip
+        moved.append((W_moved, P_moved, dual))
     for index, (delta, p) in enumerate(points):
         where = _Where(plant.system, delta, p)
 
@@ -241,19 +274,11 @@ def verify_frozen(problem, shape, frame, values, gains, bounds, margin, checks,
         for q, spec in enumerate(problem.specs):
             here = Here(problem, frame, values, delta, W_here, q)
             fields |= spec.loop_fields(here)
-        P = sc.unscale_P(np.linalg.inv(W_here))
-        W = sc.unscale_W(W_here)
-        Acl_scaled = Ti @ Acl @ sc.matrix / sc.a
-        for rate in shape.lyap.rates:
-            W_moved_scaled = _moved(problem, shape.lyap, Ws, delta, p, rate)
-            W_moved = sc.unscale_W(W_moved_scaled)
-            if problem.continuous:
-                # d(W^-1)/dt = -W^-1 (dW/dt) W^-1.
-                P_moved = -P @ W_moved @ P
-            else:
-                P_moved = _sym_inv(W_moved) if not lyap.constant else P
+        P, W = P_all[index], W_model_all[index]
+        for W_moved, P_moved, dual in moved:
             npoints += 1
-            loop = FrozenLoop(A, B2, K, Acl, eig, P, P_moved, W, W_moved, **fields)
+            loop = FrozenLoop(A, B2, K, Acl, eig, P, P_moved[index], W,
+                              W_moved[index], **fields)  # fmt: skip
             for q, (spec, i) in enumerate(zip(problem.specs, problem.channels)):
                 if spec.gain_limit is not None and not final:
                     continue
@@ -262,8 +287,7 @@ def verify_frozen(problem, shape, frame, values, gains, bounds, margin, checks,
                     Bw, Cz, Dzw = (data[index] for data in channels[i])
                     channel = replace(loop, Bw=Bw, Cz=Cz, Dzw=Dzw, bound=bounds[i])
                 record(labels[q], spec.residual(channel, problem.continuous), where)
-            record(LYAPUNOV, _dual_lyapunov(Acl_scaled, W_here, W_moved_scaled,
-                                            problem.continuous), where)  # fmt: skip
+            record(LYAPUNOV, dual[index], where)
         for q, spec in enumerate(problem.specs):
             value = spec.reported(P)
             if value is not None:
@@ -300,6 +324,7 @@ def _where(sys, delta, p) -> str:
 
 
 def _sym_inv(W):
-    """``W^-1``, symmetrised (see `ctrl_lpv.synthesis.scaling.Scaling.unscale_P`)."""
+    """``W^-1``, symmetrised (see `ctrl_lpv.synthesis.scaling.Scaling.unscale_P`),
+    of a matrix or a stack."""
     P = np.linalg.inv(W)
-    return 0.5 * (P + P.T)
+    return 0.5 * (P + np.swapaxes(P, -1, -2))

@@ -24,12 +24,14 @@ same under a gain bound).
 from __future__ import annotations
 
 import dataclasses
+import weakref
 from dataclasses import dataclass, field
 from types import SimpleNamespace
 
 import numpy as np
 
 from ..lmi import LMIProblem, assemble
+from ..lmi.blocks import Recording, size
 from .parametric import Coefficient, coefficients
 from .terms import Shape, Terms, names
 
@@ -143,6 +145,12 @@ class Problem:
 _STRICT_SIZES: dict = {}
 _KEPT_STRUCTURES = 64
 
+# The inequalities `Structure.of` listed last (the problem, as a weak
+# reference, the structure, the list and the scales its blocks read), for
+# the `build` that follows it in a first call: listing them evaluates every
+# block once, which is then not done twice.
+_LISTED: list = [None, None, None, None]
+
 
 @dataclass(frozen=True)
 class Structure:
@@ -190,11 +198,14 @@ class Structure:
         sizes = _STRICT_SIZES.pop(key, None)
         if sizes is None:
             zero = _declarations(problem, key).zeros()
+            scales = {"T": np.eye(key.n), "Su": np.eye(key.m)}
+            listed = list(_inequalities(problem, key, zero, scales))
             sizes = [
-                assemble(blocks(zero)).shape[0]
-                for _, blocks, is_strict, _, _ in _inequalities(problem, key, zero)
+                assemble(blocks(zero)).shape[0] if known is None else known
+                for _, blocks, is_strict, _, _, _, known in listed
                 if is_strict
             ]
+            _LISTED[:] = [weakref.ref(problem), key, listed, scales]
         _STRICT_SIZES[key] = sizes  # the most recent last
         if len(_STRICT_SIZES) > _KEPT_STRUCTURES:
             del _STRICT_SIZES[next(iter(_STRICT_SIZES))]
@@ -307,12 +318,21 @@ def _data_parameters(d, problem, s, j) -> None:
 
 
 def _inequalities(problem: Problem, s: Structure, zero, scales=None):
-    """``(name, blocks, strict, stages, normalization)`` of a structure.
+    """``(name, blocks, strict, stages, normalization, reads, size)`` of a
+    structure (`reads`, the names the blocks read, and `size`, the matrix's,
+    None where not known without an evaluation).
 
     `zero` is a numeric namespace of the declared names (the specs' block
     lists are evaluated once on it, for their names); `scales` the state
     and input scalings the gain stage reads as constants.
     """
+    for item in _listed(problem, s, zero, scales):
+        yield item if len(item) == 7 else (*item, None, None)
+
+
+def _listed(problem: Problem, s: Structure, zero, scales=None):
+    """`_inequalities`, the spec's with their reads and sizes, the engine's
+    own (few and small) without."""
     n, m = s.n, s.m
     shape = s.shape(problem)
     channels = problem.channels
@@ -330,11 +350,23 @@ def _inequalities(problem: Problem, s: Structure, zero, scales=None):
     def view(c, r, q):
         return lambda v: Terms(v, c, r, shape, specs).bind(q)
 
+    # The one evaluation on `zero` of a spec's method gives its LMIs'
+    # names, sizes and the names they read (`ctrl_lpv.lmi.LMIProblem.add`,
+    # ``reads``): none of them is evaluated again to learn these.
+    read: set = set()
+    recording = Recording(vars(zero), read)
+
+    def at_zero(method, terms_of):
+        read.clear()
+        found = method(terms_of(recording), cont)
+        return found, None if "__dict__" in read else frozenset(read)
+
     def named(method, terms_of, at, strict=True, stages=None, norm=False):
-        for k, (name, _) in enumerate(method(terms_of(zero), cont)):
+        found, reads = at_zero(method, terms_of)
+        for k, (name, blocks) in enumerate(found):
             yield (f"{name}{at}",
                    lambda v, k=k: method(terms_of(v), cont)[k][1],
-                   strict, stages, norm)  # fmt: skip
+                   strict, stages, norm, reads, size(blocks))  # fmt: skip
 
     for ell in range(problem.lyap.count):
         yield (
@@ -360,11 +392,12 @@ def _inequalities(problem: Problem, s: Structure, zero, scales=None):
     once = Coefficient("problem", 1.0, (), ())
     for q, spec in enumerate(problem.specs):
         terms_of = view(once, rates[0], q)
-        for k, (name, _, strict) in enumerate(spec.problem_lmis(terms_of(zero))):
+        found, reads = at_zero(lambda t, _, spec=spec: spec.problem_lmis(t), terms_of)
+        for k, (name, blocks, strict) in enumerate(found):
             yield (f"{name}{tags[q]}",
                    lambda v, k=k, spec=spec, terms_of=terms_of:
                    spec.problem_lmis(terms_of(v))[k][1],
-                   strict, None, False)  # fmt: skip
+                   strict, None, False, reads, size(blocks))  # fmt: skip
     for i in range(len(problem.plant.channels)):
         if s.objective and i == 0:
             yield ("g <= g_max", lambda v: [[v.g0 - v.g_max]], False,
@@ -449,10 +482,14 @@ def build(problem: Problem, s: Structure) -> Compiled:
     declarations = _declarations(problem, s)
     lmi = LMIProblem(margin=problem.margin)
     declarations.into(lmi)
-    scales = {"T": np.eye(s.n), "Su": np.eye(s.m)}
-    zero = declarations.zeros()
-    for name, blocks, strict, stages, norm in _inequalities(problem, s, zero, scales):
-        lmi.add(name, blocks, strict=strict, stages=stages, normalization=norm)
+    ref, listed_for, listed, scales = _LISTED
+    _LISTED[:] = [None, None, None, None]
+    if ref is None or ref() is not problem or listed_for != s:
+        scales = {"T": np.eye(s.n), "Su": np.eye(s.m)}
+        listed = _inequalities(problem, s, declarations.zeros(), scales)
+    for name, blocks, strict, stages, norm, reads, _ in listed:
+        lmi.add(name, blocks, strict=strict, stages=stages, normalization=norm,
+                reads=reads)  # fmt: skip
     return Compiled(lmi, scales)
 
 
