@@ -470,7 +470,7 @@ def servo_design(
                 dt=dt, delay=delay, Phi=Phi, Gamma=Gamma, M=M, reference=reference,
                 stream_gain=tracker, measured=tuple(_READ[sensors]), estimator=motor,
                 inertia=(
-                    inertia_adaptation(inertia, params.Jl, (lo, hi))
+                    inertia_adaptation(inertia, params.Jl, (lo, hi), dt)
                     if sensors == "encoders" else None
                 ),
             )  # fmt: skip
