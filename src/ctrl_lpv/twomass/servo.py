@@ -395,7 +395,10 @@ def servo_design(
     dt, delay = _sampling(dt, delay, sensors)
     stream = _settings(stream, ServoStream, "stream")
     if inertia is None and dt is not None:
-        inertia = ServoInertia(enabled=sampled_tuning(dt).learn_inertia)
+        tuning = sampled_tuning(dt)
+        inertia = ServoInertia(
+            enabled=tuning.learn_inertia, cold_start=tuning.fit_cold_start
+        )
     inertia = _settings(inertia, ServoInertia, "inertia")
     if reference not in ("plan", "stream"):
         raise ValueError(f"reference: expected 'plan' or 'stream', got {reference!r}")
