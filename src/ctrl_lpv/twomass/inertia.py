@@ -231,37 +231,41 @@ class InertiaAdaptation:
         innovation = np.asarray(innovation, float)
         # Only while the shaft pushes the way the plan accelerates: just
         # after a gap crossing the estimate reads the impact as contact.
-        weight = contact * (xhat[_TS] * accel > 0.0)
-        weight *= accel * accel / (accel * accel + self.accel_floor**2)
-        # At rest the planner's a_r is 1e-26 rad/s^2, not 0: a weight below
-        # REST_WEIGHT is the rest's.
-        weight *= weight > REST_WEIGHT
+        torque, floor = self.Jl * accel, self.Jl * self.accel_floor
+        weight = contact * torque * torque / (torque * torque + floor * floor)
+        weight *= xhat[_TS] * accel > 0.0
         # A load torque learnt at rest (``known`` near 1): what the
         # observer's load torque would absorb while the plan accelerates is
         # the inertia error, so that share of its correction goes to delta
         # directly; from a cold start the fit tells the two apart over the
         # move (the braking half), on the rest of the weight.
-        share, fit = weight * known, weight * (1.0 - known)
+        share = weight * known
+        correction = M @ innovation
+        filtered = xhat + correction
+        if share > 0.0:
+            filtered[_TD] -= share * correction[_TD]
+            delta = delta + share * correction[_TD] / torque
         M = np.array(M, float)
-        handed = share * (M[_TD] @ innovation)
         M[_TD] *= 1.0 - share
-        filtered = xhat + M @ innovation
         # How the predicted readings move with a load-torque offset and with
         # delta: through the model (1 and Jl a_r) and the observer's own
         # correction of it, so that a load torque, which asks the same way
         # while the plan brakes, is told from an inertia error.
         psi = sens[rows]
-        if weight > 0.0:
+        # At rest the planner's a_r is 1e-26 rad/s^2, not 0: a weight below
+        # REST_WEIGHT is the rest's.
+        fit = weight * (1.0 - known)
+        if weight > REST_WEIGHT and fit > 0.0:
             # The fit's gain of readings weighted by `fit` (1/fit times as
             # noisy), written without dividing by a vanishing weight.
             spread = READING_VARIANCE * np.eye(len(rows)) + fit * psi @ P @ psi.T
             K = fit * np.linalg.solve(spread, psi @ P).T
             step = K @ innovation
             filtered[_TD] += step[0]
-            delta += step[1] + handed / (self.Jl * accel)
-            delta = min(max(delta, self.bounds[0]), self.bounds[1])
+            delta = delta + step[1]
             P = P - K @ psi @ P
-        else:
+        delta = min(max(delta, self.bounds[0]), self.bounds[1])
+        if weight <= REST_WEIGHT:
             relax = min(1.0, self.dt / self.memory)
             settled = np.diag([TORQUE_SETTLED**2, self.gain**2])
             P = P + (settled - P) * relax
