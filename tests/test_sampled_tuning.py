@@ -150,12 +150,12 @@ def test_1ms_tuning_at_2ms_rings(design_2ms):
 @pytest.mark.parametrize(
     "dt, case, settling",
     [
-        # Issue 22's 0.3 s is not yet met with a load inertia off nominal at
-        # 2 ms (measured 0.302 s at Jl x0.8 and 0.55 s at Jl x1.2): these
-        # limits only catch a slower rest.
-        (2e-3, dict(Td=8.0, alpha=0.03, Jl=0.8), 0.35),
+        # Issue 22's 0.3 s with a load inertia off nominal at 2 ms: the
+        # inertia estimate learnt at every sample time (0.302 s at Jl x0.8
+        # and 0.55 s at Jl x1.2 without it; 0.21 s with it).
+        (2e-3, dict(Td=8.0, alpha=0.03, Jl=0.8), 0.3),
         (2e-3, dict(Td=30.0, alpha=0.03), 0.3),
-        (2e-3, dict(Td=-10.0, alpha=0.045, Jl=1.2, theta_r=-0.5), 0.6),
+        (2e-3, dict(Td=-10.0, alpha=0.045, Jl=1.2, theta_r=-0.5), 0.3),
         # 125 us keeps the 1 ms tuning: its floor is 28.2 Nm.
         (1.25e-4, dict(Td=30.0, alpha=0.03), 0.3),
     ],
@@ -173,3 +173,42 @@ def test_certified_rest_holds_along_runs(dt, case, settling):
     assert m["ripple"] <= cert.rest_ripple_bound
     assert m["torque_std"] <= 5.0
     assert m["settling"] <= settling
+
+
+#: The rows of ``benchmarks/bench_sampled_servo.py`` at 2 ms (name, Td,
+#: alpha (None: the paper's gap step), Jl, theta_r).
+_ROWS_2MS = [
+    ("paper", 8.0, None, 1.0, 0.5),
+    ("Td 5, alpha 0.06, Jl x0.8", 5.0, 0.06, 0.8, 0.5),
+    ("Td 5, alpha 0.03, Jl x1.2, -1 rad", 5.0, 0.03, 1.2, -1.0),
+    ("Td 2, alpha 0.06", 2.0, 0.06, 1.0, 0.5),
+    pytest.param(
+        "Td 3, alpha 0.06, 0.05 rad",
+        3.0,
+        0.06,
+        1.0,
+        0.05,
+        marks=pytest.mark.xfail(
+            strict=True,
+            reason="issue 22: the small move's gap crossing (0.40 s without "
+            "the inertia estimate, 0.37 s with it)",
+        ),
+    ),  # fmt: skip
+    ("Td 0, alpha 0.03", 0.0, 0.03, 1.0, 0.5),
+    ("Td 0, alpha 0.06", 0.0, 0.06, 1.0, 0.5),
+    ("Td 1, alpha 0.03", 1.0, 0.03, 1.0, 0.5),
+    ("Td 0, alpha 0.03, Jl x0.8, 0.05 rad", 0.0, 0.03, 0.8, 0.05),
+    ("Td 0, alpha 0.03, Jl x1.2, 1 rad", 0.0, 0.03, 1.2, 1.0),
+    ("Td 30, alpha 0.03", 30.0, 0.03, 1.0, 0.5),
+]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name, Td, alpha, Jl, theta_r", _ROWS_2MS)
+def test_2ms_rows_settle(design_2ms, name, Td, alpha, Jl, theta_r):
+    """Issue 22 at 2 ms: settling (2 %) within 0.3 s on the benchmark's
+    rows, the load inertia off nominal included (without the inertia
+    estimate at 2 ms, main 9ded357, seed 1: Jl x0.8 0.300 s, Jl x1.2 -1 rad
+    0.386 s, Jl x0.8 0.05 rad 1.12 s, Jl x1.2 1 rad 0.382 s)."""
+    m = _run(design_2ms, Td=Td, alpha=alpha, Jl=Jl, theta_r=theta_r, T=1.5)
+    assert m["settling"] <= 0.3

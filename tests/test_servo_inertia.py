@@ -15,7 +15,12 @@ import pytest
 
 from ctrl_lpv import sampled_response, twomass
 from ctrl_lpv.sensors import Encoder
-from ctrl_lpv.twomass.inertia import InertiaAdaptation, ServoInertia
+from ctrl_lpv.twomass.drive_observer import (
+    DRIVE_STATES,
+    drive_observer,
+    observer_matrices,
+)
+from ctrl_lpv.twomass.inertia import INERTIA_STATES, InertiaAdaptation, ServoInertia
 
 DT = 1e-3
 ENCODERS = {"theta_m": Encoder(2**20, 0.5), "theta_l": Encoder(2**17, 0.5)}
@@ -81,26 +86,176 @@ def test_inertia_estimate_learns_the_load(design, Jl):
     assert abs(delta[-1] - (Jl - 1.0)) <= 0.05
 
 
+def _adaptation(dt=2e-3, gain=0.1):
+    return InertiaAdaptation(
+        Jl=5.6, gain=gain, accel_floor=3.0, memory=0.1, bounds=(-0.2, 0.2), dt=dt
+    )
+
+
 def test_estimate_is_idle_at_rest():
     """At rest (no planned acceleration) the adaptation is the drive
-    observer: the correction goes to the load torque, the prediction is
-    the observer's own."""
-    adapt = InertiaAdaptation(Jl=5.6, gain=1.0, accel_floor=3.0, bounds=(-0.2, 0.2))
+    observer: the correction is the observer's, delta is held, the
+    prediction is the observer's own."""
+    adapt = _adaptation()
     rng = np.random.default_rng(0)
-    xhat, corr = rng.normal(size=6), rng.normal(size=6)
-    Phi, Gamma = rng.normal(size=(6, 6)), rng.normal(size=6)
-    filtered, delta = adapt.correct(xhat, 0.1, corr, 0.0, 1.0)
-    assert delta == 0.1
-    np.testing.assert_array_equal(filtered, xhat + corr)
+    xhat, innovation = rng.normal(size=6), rng.normal(size=2)
+    Phi, Gamma, M = rng.normal(size=(6, 6)), rng.normal(size=6), rng.normal(size=(6, 2))
+    learnt = rng.normal(size=len(INERTIA_STATES))
+    learnt[0] = 0.1
+    filtered, after = adapt.correct(xhat, learnt, innovation, M, [0, 3], Phi, 0.0)
+    assert after[0] == 0.1
+    np.testing.assert_array_equal(filtered, xhat + M @ innovation)
     np.testing.assert_allclose(
-        adapt.predict(Phi, Gamma, filtered, 2.0, delta, 0.0),
+        adapt.predict(Phi, Gamma, filtered, 2.0, after[0], 0.0),
         Phi @ filtered + Gamma * 2.0,
     )
-    # Accelerating, in contact, the shaft pushing: the correction of the
-    # load torque moves to the inertia, projected on the range.
+    # Accelerating, in contact, the shaft pushing: delta moves, projected
+    # on the range.
     xhat[2] = 50.0
-    filtered, delta = adapt.correct(xhat, 0.1, corr, 30.0, 1.0)
-    assert delta != 0.1 and -0.2 <= delta <= 0.2
+    _, after = adapt.correct(xhat, learnt, innovation, M, [0, 3], Phi, 30.0)
+    assert after[0] != 0.1 and -0.2 <= after[0] <= 0.2
+
+
+def _fit_move(
+    Td, delta, *, dt=2e-3, accel=50.0, rest=0.0, rates=(300.0, 50.0), gain=0.1
+):
+    """The drive observer of the 2 ms servo (in contact) with the estimate,
+    on the linear contact model of the drive driven by the torque that
+    accelerates both inertias along a bang-bang rest-to-rest move (after
+    `rest` seconds at rest, 0.1 s at +accel, 0.1 s at -accel, then 0.1 s
+    at rest), with a load torque `Td` and the load inertia ``(1 + delta)
+    Jl``; exact angle readings. Returns the times from the move's start,
+    the estimates ``(Td_hat, delta_hat)`` and the estimate's last states."""
+    params = twomass.Parameters()
+    true = params.replace(Jl=(1.0 + delta) * params.Jl)
+    kw = dict(dt=dt, shaft_torque_rate=rates[0], load_torque_rate=rates[1])
+    Phi, Gamma, M = (m[1] for m in observer_matrices(drive_observer(params, **kw)))
+    Phi_true, Gamma_true, _ = (
+        m[1] for m in observer_matrices(drive_observer(true, **kw))
+    )
+    adapt = _adaptation(dt, gain=gain)
+    rows = [DRIVE_STATES.index("theta_m"), DRIVE_STATES.index("theta_l")]
+    t = np.arange(-rest, 0.3 - dt / 2, dt)
+    a_r = np.where(t < 0.1, accel, np.where(t < 0.2, -accel, 0.0))
+    a_r[t < 0.0] = 0.0
+    x, xhat = np.zeros(6), np.zeros(6)
+    x[5] = Td
+    # The shaft carries the load torque before the move (at rest in
+    # contact); the observer does not know it yet.
+    x[2] = Td
+    learnt = adapt.initial()
+    trace = []
+    for a in a_r:
+        u = (params.Jm + true.Jl) * a + Td
+        filtered, learnt = adapt.correct(
+            xhat, learnt, x[rows] - xhat[rows], M, rows, Phi, a
+        )
+        xhat = adapt.predict(Phi, Gamma, filtered, u, learnt[0], a)
+        x = Phi_true @ x + Gamma_true * u
+        trace.append((filtered[5], learnt[0]))
+    return t, np.array(trace), learnt
+
+
+def test_fit_separates_load_torque_from_inertia():
+    """A load torque of 30 Nm unknown when a rest-to-rest move starts: by
+    the end of the move (the planned acceleration integrated to zero) the
+    load-torque estimate holds it and delta is back near zero, though
+    while the plan accelerated the two could not be told apart (a share
+    of the correction per sample by the acceleration alone held the load
+    torque at 2-4 Nm through such a move); at rest delta is held."""
+    t, trace, _ = _fit_move(30.0, 0.0)
+    end = np.searchsorted(t, 0.2)
+    assert abs(trace[end, 0] - 30.0) <= 3.0
+    assert abs(trace[end, 1]) <= 0.03
+    assert np.ptp(trace[end + 1 :, 1]) == 0.0
+
+
+@pytest.mark.parametrize("delta", [0.15, -0.1])
+def test_fit_learns_an_inertia_error_in_one_move(delta):
+    """An inertia error without load torque: the move's fit moves delta
+    towards it (at least a third of the way in one move, the rest in the
+    next ones) and keeps it at rest."""
+    t, trace, _ = _fit_move(0.0, delta)
+    end = np.searchsorted(t, 0.2)
+    assert 0.33 * abs(delta) <= np.sign(delta) * trace[end, 1] <= abs(delta) + 0.02
+    assert np.ptp(trace[end + 1 :, 1]) == 0.0
+
+
+def test_rest_hands_the_load_torque_correction_to_the_inertia():
+    """At rest the observer learns the load torque: over ``memory`` the
+    estimate counts it known (``Td_known`` from 0 at a cold start to 1),
+    and then, while the plan accelerates, the observer's load-torque
+    correction goes to delta (as the inertia error it is) instead of to
+    the load torque."""
+    adapt = _adaptation(dt=1e-3)
+    rng = np.random.default_rng(1)
+    Phi, M = rng.normal(size=(6, 6)) * 0.1, rng.normal(size=(6, 2))
+    rows = [0, 3]
+    learnt = adapt.initial()
+    assert learnt[INERTIA_STATES.index("Td_known_dev")] == 0.0
+    for _ in range(1000):  # 1 s at rest
+        _, learnt = adapt.correct(np.zeros(6), learnt, np.zeros(2), M, rows, Phi, 0.0)
+    assert learnt[INERTIA_STATES.index("Td_known_dev")] > 0.99
+    xhat, innovation = rng.normal(size=6), rng.normal(size=2)
+    xhat[2] = 50.0  # in contact, pushing the way the plan accelerates
+    accel = 30.0
+    filtered, after = adapt.correct(xhat, learnt, innovation, M, rows, Phi, accel)
+    share = accel**2 / (accel**2 + adapt.accel_floor**2)
+    correction = M @ innovation
+    np.testing.assert_allclose(
+        filtered[5], xhat[5] + (1.0 - share) * correction[5], atol=1e-3
+    )
+    np.testing.assert_allclose(
+        after[0], share * correction[5] / (adapt.Jl * accel), rtol=1e-3
+    )
+
+
+@pytest.fixture(scope="module")
+def design_2ms():
+    return twomass.servo_design(dt=2e-3, delay=1, sensors="encoders", certify=False)
+
+
+@pytest.mark.parametrize("Jl", [0.8, 1.2])
+def test_fit_learns_the_inertia_in_one_move_at_2ms(design_2ms, Jl):
+    """2 ms, a cold start (the load torque of 5 Nm unknown when the 0.5 rad
+    move starts): after the one move the estimate is the true inertia
+    within 5 % of its error (0.01 of nominal), and issue 22's settling of
+    0.3 s is met (without an inertia estimate at 2 ms, main 9ded357, seed
+    1: 0.300 s at Td 5, alpha 0.06, Jl x0.8; 0.386 s at Jl x1.2, -1 rad)."""
+    plant = twomass.plant(
+        twomass.Parameters().replace(Jl=Jl * twomass.Parameters().Jl), alpha=0.03
+    )
+    res = sampled_response(
+        plant, design_2ms.controller(), 1.5, inputs={"Td": 5.0, "theta_r": 0.5},
+        delay=1, sensors=ENCODERS, seed=1,
+    )  # fmt: skip
+    c = res.controller
+    delta = c.states[c.state_labels.index("delta_Jl_hat")]
+    assert abs(delta[-1] - (Jl - 1.0)) <= 0.01
+    t, e = res.plant.time, res.plant.outputs[2] - 0.5
+    outside = np.flatnonzero(np.abs(e) > 0.02 * 0.5)
+    assert t[outside[-1] + 1] <= 0.3
+
+
+def test_cold_start_with_a_large_load_torque_at_2ms():
+    """2 ms (the slow observer of `sampled_tuning`, the estimate on by
+    default): a 0.5 rad move from a cold start against Td = 30 Nm settles
+    within issue 22's 0.3 s (the load torque is not read as inertia; 0.40 s
+    with the per-sample share this fit replaced, 0.29 s without any
+    estimate) and the estimate ends near the true inertia."""
+    dt = 2e-3
+    design = twomass.servo_design(dt=dt, delay=1, sensors="encoders", certify=False)
+    plant = twomass.plant(twomass.Parameters(), alpha=0.03)
+    res = sampled_response(
+        plant, design.controller(), 1.5, inputs={"Td": 30.0, "theta_r": 0.5},
+        delay=1, sensors=ENCODERS, seed=1,
+    )  # fmt: skip
+    t, e = res.plant.time, res.plant.outputs[2] - 0.5
+    outside = np.flatnonzero(np.abs(e) > 0.02 * 0.5)
+    assert t[outside[-1] + 1] <= 0.3
+    assert np.max(e) <= 0.015 * 0.5
+    c = res.controller
+    assert abs(c.states[c.state_labels.index("delta_Jl_hat")][-1]) <= 0.05
 
 
 def test_rest_certificate_is_unchanged(design):

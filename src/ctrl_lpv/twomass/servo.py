@@ -395,7 +395,10 @@ def servo_design(
     dt, delay = _sampling(dt, delay, sensors)
     stream = _settings(stream, ServoStream, "stream")
     if inertia is None and dt is not None:
-        inertia = ServoInertia(enabled=sampled_tuning(dt).learn_inertia)
+        tuning = sampled_tuning(dt)
+        inertia = ServoInertia(
+            enabled=tuning.learn_inertia, cold_start=tuning.fit_cold_start
+        )
     inertia = _settings(inertia, ServoInertia, "inertia")
     if reference not in ("plan", "stream"):
         raise ValueError(f"reference: expected 'plan' or 'stream', got {reference!r}")
@@ -470,7 +473,7 @@ def servo_design(
                 dt=dt, delay=delay, Phi=Phi, Gamma=Gamma, M=M, reference=reference,
                 stream_gain=tracker, measured=tuple(_READ[sensors]), estimator=motor,
                 inertia=(
-                    inertia_adaptation(inertia, params.Jl, (lo, hi))
+                    inertia_adaptation(inertia, params.Jl, (lo, hi), dt)
                     if sensors == "encoders" else None
                 ),
             )  # fmt: skip

@@ -54,6 +54,7 @@ import control as ct
 import numpy as np
 
 from .drive_observer import DRIVE_STATES
+from .inertia import INERTIA_STATES
 from .rest_flank import rest_flank_step
 from .servo_kernel import ServoTuning, _smoothstep
 from .stream import jerk_model
@@ -264,18 +265,20 @@ def sampled_servo(
         contact = _smoothstep(abs(xhat[2]) / tc - 1.0)
         if motor is None:
             Ph, Gh = blend(Phi, contact), blend(Gam, contact)
-            correction = blend(M, contact) @ (np.asarray(y[:nread]) - xhat[rows])
+            gain = blend(M, contact)
+            innovation = np.asarray(y[:nread]) - xhat[rows]
             # With delay=1 the command computed now acts from the next
             # sample, on the state the command already on its way leads to.
             if inertia is None:
-                filtered = xhat + correction
+                filtered = xhat + gain @ innovation
                 ahead = Ph @ filtered + Gh * u_prev
             else:
-                # The load inertia learnt along moves (`inertia`): a share
-                # of the load-torque correction while the plan accelerates.
-                filtered, dJ = inertia.correct(
-                    xhat, x[_NS], correction, plan[2], contact
+                # The load inertia learnt along moves (`inertia`).
+                learnt = x[_NS : _NS + len(INERTIA_STATES)]
+                filtered, learnt = inertia.correct(
+                    xhat, learnt, innovation, gain, rows, Ph, plan[2], contact
                 )
+                dJ = learnt[0]
                 ahead = inertia.predict(Ph, Gh, filtered, u_prev, dJ, plan[2])
         else:
             # Motor encoder alone: the dead-zone model, the half-gap
@@ -394,7 +397,7 @@ def sampled_servo(
         state = [*next_plan, *predicted, xi + dt * dxi, dah + dt * ddah, u, side]
         state += [evidence, td_rest]
         if inertia is not None:
-            state.append(dJ)
+            state += list(learnt)
         if motor is not None:
             window = motor.learning_window(filtered, predicted, gap, x[_NS + 6])
             state[13] = gap - a0
@@ -403,7 +406,7 @@ def sampled_servo(
 
     states = SAMPLED_STATES if motor is None else SAMPLED_STATES + MOTOR_STATES
     if inertia is not None:
-        states = SAMPLED_STATES + ["delta_Jl_hat"]
+        states = SAMPLED_STATES + INERTIA_STATES
     return law_system(law, [*s.measured, "theta_r"], states, s.dt, name)
 
 
