@@ -295,25 +295,17 @@ _MOVES = [(0.5, 0.0), (-0.3, 0.05), (0.0, 1.0), (1.0, 0.0)]
 #: 0.05 rad steps from rest and the 0.1 rad reversal.
 _SMALL = [(0.05, -0.05), (0.0, -0.05), (0.0, 0.05)]
 #: The runs of `_SMALL` that miss the targets (measured; docs/servo.rst,
-#: "A load heavier or lighter than nominal"; re-measured on main dc97464:
-#: 61 of 108 pass, these 47 miss). Every one crosses the gap mid-move:
-#: a 0.05 rad move in 0.2 s brakes with 53 Nm (63 at Jl x1.2) and the
-#: load torque gives 3-8, so the flank choice flips when the plan starts
-#: braking and the motor crosses 2 alpha in 20-40 ms (5-6 rad/s relative,
-#: 65-105 Nm impact) while the load runs on. 0 -> +0.05 against the load
-#: torque at alpha 0.06 overshoots 11-25 %; 0 -> -0.05 crosses twice
-#: (taking up the gap to accelerate, then braking), stops 10 % short and
-#: creeps in at 0.02 rad/s (0.38-0.50 s); at Jl x1.2 and alpha 0.03 the
-#: load coasts across the smaller gap (2.2-3.2 %). Not the feedforward's
-#: inertia: braking with the range's largest inertia (or halfway to it)
-#: while the plan decelerates changed the count to 60 and 61 (fixing
-#: three reversals, breaking three Jl x0.8 runs). Not a longer plan
-#: either: a move that never crosses (braking or accelerating with the
-#: load torque alone) takes at least sqrt(2 d (1/a_max + Jl/Td)) in
-#: bang-bang, 0.39-0.48 s at Td 3 and 0.24-0.29 s at Td 8 (Jl x0.8-1.2),
-#: and is impossible at Td 0. What is left is a crossing the law paces
-#: (the flank offset following a planned crossing at a low relative
-#: speed), which is the flank logic's (servo_sampled, rest_flank).
+#: "Small moves across the gap"; 86 of 108 pass, 61 before the planned
+#: crossing). A 0.05 rad move in 0.2 s brakes with 53 Nm (63 at Jl x1.2)
+#: and the load torque gives 3-8, so the motor crosses the gap mid-move;
+#: the crossing now starts half a crossing before the planned shaft
+#: torque changes sign (`ctrl_lpv.twomass.gap_crossing`), and the gap
+#: estimate learnt in the move no longer kicks the load through the
+#: integral. Left: 0 -> -0.05 at alpha 0.06 with Td 3 (the planned torque
+#: changes flank 7 ms into the move, too soon for a crossing planned from
+#: rest: 0.34-0.36 s, 0.1 % overshoot), Td 0 at Jl x0.8 (1.7-2.1 %) and
+#: Jl x1.2 with alpha 0.06 (Td 0: 4.1-5.4 %; 0 -> +0.05 against Td 3 and
+#: 8: 2.1 % and 0.33 s), 0 -> +0.05 at Jl x0.8, Td 3, seed 6 (1.8 %).
 #: Strict: a run that starts meeting them fails here, so that the list
 #: is kept true.
 _SMALL_MISSES = {
@@ -325,45 +317,20 @@ _SMALL_MISSES = {
     (0.8, 0.0, 0.06, (0.0, 0.05), 6),
     (0.8, 3.0, 0.06, (0.0, -0.05), 5),
     (0.8, 3.0, 0.06, (0.0, -0.05), 6),
-    (0.8, 3.0, 0.06, (0.0, 0.05), 5),
     (0.8, 3.0, 0.06, (0.0, 0.05), 6),
-    (0.8, 8.0, 0.06, (0.0, -0.05), 5),
-    (0.8, 8.0, 0.06, (0.0, -0.05), 6),
-    (0.8, 8.0, 0.06, (0.0, 0.05), 5),
-    (0.8, 8.0, 0.06, (0.0, 0.05), 6),
-    (1.0, 0.0, 0.06, (0.05, -0.05), 6),
     (1.0, 3.0, 0.06, (0.0, -0.05), 5),
     (1.0, 3.0, 0.06, (0.0, -0.05), 6),
-    (1.0, 3.0, 0.06, (0.0, 0.05), 5),
-    (1.0, 3.0, 0.06, (0.0, 0.05), 6),
-    (1.0, 8.0, 0.06, (0.0, -0.05), 5),
-    (1.0, 8.0, 0.06, (0.0, -0.05), 6),
-    (1.0, 8.0, 0.06, (0.0, 0.05), 5),
-    (1.0, 8.0, 0.06, (0.0, 0.05), 6),
-    (1.2, 0.0, 0.03, (0.0, -0.05), 5),
-    (1.2, 0.0, 0.03, (0.0, -0.05), 6),
-    (1.2, 0.0, 0.03, (0.0, 0.05), 5),
-    (1.2, 0.0, 0.03, (0.0, 0.05), 6),
     (1.2, 0.0, 0.06, (0.0, -0.05), 5),
     (1.2, 0.0, 0.06, (0.0, -0.05), 6),
     (1.2, 0.0, 0.06, (0.0, 0.05), 5),
     (1.2, 0.0, 0.06, (0.0, 0.05), 6),
-    (1.2, 0.0, 0.06, (0.05, -0.05), 6),
-    (1.2, 3.0, 0.03, (0.0, 0.05), 5),
     (1.2, 3.0, 0.03, (0.0, 0.05), 6),
     (1.2, 3.0, 0.06, (0.0, -0.05), 5),
     (1.2, 3.0, 0.06, (0.0, -0.05), 6),
     (1.2, 3.0, 0.06, (0.0, 0.05), 5),
     (1.2, 3.0, 0.06, (0.0, 0.05), 6),
-    (1.2, 3.0, 0.06, (0.05, -0.05), 5),
-    (1.2, 3.0, 0.06, (0.05, -0.05), 6),
-    (1.2, 8.0, 0.03, (0.0, -0.05), 6),
-    (1.2, 8.0, 0.06, (0.0, -0.05), 5),
-    (1.2, 8.0, 0.06, (0.0, -0.05), 6),
     (1.2, 8.0, 0.06, (0.0, 0.05), 5),
     (1.2, 8.0, 0.06, (0.0, 0.05), 6),
-    (1.2, 8.0, 0.06, (0.05, -0.05), 5),
-    (1.2, 8.0, 0.06, (0.05, -0.05), 6),
 }
 
 

@@ -53,6 +53,7 @@ from dataclasses import dataclass
 import control as ct
 import numpy as np
 
+from . import gap_crossing as _gx
 from .drive_observer import DRIVE_STATES
 from .inertia import INERTIA_STATES
 from .rest_flank import rest_flank_step
@@ -319,6 +320,15 @@ def sampled_servo(
         kp = k3 * band
         tstar = F - ratio * (kp * el + k4 * dl + k5 * xi) if c.anti_hunting else F
         psi = math.copysign(_smoothstep((abs(tstar) - deadband) / teps), tstar)
+        dpsi = ddpsi = 0.0
+        if not streamed and not at_rest and c.anti_hunting and motor is None:
+            # The planned shaft torque's sign changes ahead: the motor
+            # starts across the gap before the braking is needed
+            # (`gap_crossing`; measured with both encoders only).
+            sgn, changes = _gx.torque_sign_changes(plan, scale * c.Jl, c.cl, at[5], tc)
+            if sgn != 0.0:
+                dur = _gx.crossing_duration(2.0 * ah, _gx.CROSSING_ACCEL)
+                psi, dpsi, ddpsi = _gx.crossing_offset(sgn, changes, dur)
         if rest is not None and c.anti_hunting:
             side, evidence = rest_flank_step(
                 rest, dt, side, evidence, resting=at_rest, error=el, speed=dl,
@@ -326,8 +336,19 @@ def sampled_servo(
             )  # fmt: skip
             if side != 0.0:
                 psi = side * max(0.0, 1.0 - rest.clearance / ah)
+                dpsi = ddpsi = 0.0
         thm = r + F / ks + ah * psi
-        raw = tff - (k1 * (tm - thm) + k2 * (wm - wmf) + kp * el + k4 * dl + k5 * xi)
+        wmf, tff = wmf + ah * dpsi, tff + c.Jm * ah * ddpsi + c.cm * ah * dpsi
+        # In the gap the load feedback cannot reach the load: while a planned
+        # crossing is under way it would only hold the motor off its flank.
+        # (Summed so that without a crossing it is the sum before to the last
+        # bit: the Td = 0 rest is chaotic, one rounding of this sum turned
+        # Td 0, alpha 0.03, seed 1 from 0.4 to 22 Nm of chatter.)
+        reach = psi * psi if dpsi != 0.0 else 1.0
+        raw = tff - (
+            k1 * (tm - thm) + k2 * (wm - wmf)
+            + reach * kp * el + reach * k4 * dl + reach * k5 * xi
+        )  # fmt: skip
         u = min(max(raw, -limit), limit)
 
         # Integral: conditional on saturation, in contact only, held in moves.
@@ -394,7 +415,17 @@ def sampled_servo(
             predicted, sens_ahead, dP_ahead = motor.predict(
                 filtered, sens, u, gap, dP, resting
             )
-        state = [*next_plan, *predicted, xi + dt * dxi, dah + dt * ddah, u, side]
+        xi_next = xi + dt * dxi
+        if not at_rest:
+            # The gap estimate learnt in a move moves the flank offset by
+            # psi d(alpha_hat): the integral gives back what it held of the
+            # old estimate's error (bumpless, as for a gain change).
+            # Only what it holds: an integral that did not hold the old
+            # error (no contact at rest) has nothing to give back.
+            give = k1 * psi * dt * ddah / k5
+            if give * xi_next < 0.0:
+                xi_next = math.copysign(max(abs(xi_next) - abs(give), 0.0), xi_next)
+        state = [*next_plan, *predicted, xi_next, dah + dt * ddah, u, side]
         state += [evidence, td_rest]
         if inertia is not None:
             state += list(learnt)
