@@ -85,6 +85,13 @@ class SampledTuning:
         x0.85: ``delta_hat`` -0.04 after the first move, true -0.15) and
         kept 56 of the 61 small moves of ``tests/test_servo_inertia.py``
         that pass without it.
+    plan_crossings : bool
+        Whether the motor crosses the gap along a move where the planned
+        shaft torque changes sign (`ctrl_lpv.twomass.gap_crossing`): up to
+        `FAST_SAMPLING`, where it was tuned (1 ms: 86 of the 108 small
+        moves of ``tests/test_servo_inertia.py`` against 61). At 2 ms it
+        made the 0.05 rad move at Td = 3 worse (0.37 s -> 0.69 s, 7 %
+        overshoot, seed 1).
     """
 
     torque_weight: float
@@ -93,6 +100,7 @@ class SampledTuning:
     max_time_constant: float = MAX_TIME_CONSTANT
     learn_inertia: bool = True
     fit_cold_start: bool = True
+    plan_crossings: bool = False
 
 
 def sampled_tuning(dt: float) -> SampledTuning:
@@ -110,6 +118,9 @@ def sampled_tuning(dt: float) -> SampledTuning:
     dt = real_number(dt, "dt", positive=True)
     if dt <= FAST_SAMPLING:
         return SampledTuning(
-            FAST_TORQUE_WEIGHT, ((3000.0, 20.0),), fit_cold_start=False
+            FAST_TORQUE_WEIGHT,
+            ((3000.0, 20.0),),
+            fit_cold_start=False,
+            plan_crossings=True,
         )
     return SampledTuning(SLOW_TORQUE_WEIGHT, SLOW_RATES)

@@ -476,6 +476,7 @@ def servo_design(
                     inertia_adaptation(inertia, params.Jl, (lo, hi), dt)
                     if sensors == "encoders" else None
                 ),
+                plan_crossings=sampled_tuning(dt).plan_crossings,
             )  # fmt: skip
 
         if sensors == "motor":

@@ -124,6 +124,10 @@ class SampledServo:
     inertia : `ctrl_lpv.twomass.inertia.InertiaAdaptation` or None
         The load-inertia estimate learnt along moves (drive observer only;
         its state ``delta_Jl_hat`` last), or None for the nominal inertia.
+    plan_crossings : bool
+        Whether the gap crossings along a move are planned
+        (`ctrl_lpv.twomass.gap_crossing`, both encoders only;
+        `ctrl_lpv.twomass.sampled_tuning.SampledTuning.plan_crossings`).
     """
 
     dt: float
@@ -136,6 +140,7 @@ class SampledServo:
     measured: tuple = ("theta_m", "theta_l")
     estimator: object = None
     inertia: object = None
+    plan_crossings: bool = True
 
 
 def plan_stepper(c: ServoTuning, dt: float):
@@ -237,6 +242,7 @@ def sampled_servo(
     filtered_share = 0.0 if rest is None else 1.0 - math.exp(-dt / rest.lean_time)
 
     streamed = s.reference == "stream"
+    crossings = s.plan_crossings and not streamed and motor is None
     if streamed:
         Lz, Pz = np.asarray(s.stream_gain, float), jerk_model(dt)
         # The set-point where the command computed now acts: `delay` samples
@@ -321,7 +327,7 @@ def sampled_servo(
         tstar = F - ratio * (kp * el + k4 * dl + k5 * xi) if c.anti_hunting else F
         psi = math.copysign(_smoothstep((abs(tstar) - deadband) / teps), tstar)
         dpsi = ddpsi = 0.0
-        if not streamed and not at_rest and c.anti_hunting and motor is None:
+        if crossings and not at_rest and c.anti_hunting:
             # The planned shaft torque's sign changes ahead: the motor
             # starts across the gap before the braking is needed
             # (`gap_crossing`; measured with both encoders only).
