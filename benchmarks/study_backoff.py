@@ -33,9 +33,11 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-sys.path.insert(
-    0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests")
-)
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "..", "tests"))
+sys.path.insert(0, HERE)
+
+from synthesis_cases import SOLVES, _record_solves  # noqa: E402
 
 # (n, N, seeds) of the random corpus.
 CORPUS = (
@@ -48,28 +50,6 @@ CORPUS = (
     (2, 3, range(7, 13)),
     (8, 4, range(7, 11)),
 )
-SOLVES: list[tuple[float, int]] = []
-
-
-def _record_solves():
-    import clarabel
-
-    original = clarabel.DefaultSolver
-
-    class Recorded:
-        def __init__(self, *args, **kwargs):
-            self._solver = original(*args, **kwargs)
-
-        def solve(self):
-            cpu = time.process_time()
-            sol = self._solver.solve()
-            SOLVES.append((time.process_time() - cpu, int(sol.iterations)))
-            return sol
-
-        def __getattr__(self, name):
-            return getattr(self._solver, name)
-
-    clarabel.DefaultSolver = Recorded
 
 
 def cases(lpv):
@@ -106,8 +86,8 @@ def run():
             "verified": bool(design.certificate.verified),
             "cpu": time.process_time() - cpu,
             "solves": len(solves),
-            "iterations": [it for _, it in solves],
-            "solver_cpu": sum(c for c, _ in solves),
+            "iterations": [s["iterations"] for s in solves],
+            "solver_cpu": sum(s["cpu"] for s in solves),
         }
         print(f"{name:24s} " + json.dumps(rows[name]), flush=True)
     return rows

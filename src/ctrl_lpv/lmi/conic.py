@@ -396,8 +396,9 @@ def _clarabel_lifted(c, data: ConicData, b, options) -> ConicResult:
     by its own. An LMI whose entries span many orders of magnitude (a mode
     at 1e9 beside one at 1e-9, in coordinates where neither is hidden by a
     time scaling) stops the direct form in a numerical error; lifted, it
-    solves (fuzz cases 4242:47 and 6161:12). The problem is larger, so it
-    is the last attempt of a solve (`LIFTED`), after a Clarabel error.
+    solves (fuzz cases 4242:47 and 6161:12). The problem is larger: the
+    engine's ladder calls it (as the solver `LIFTED`) only in its last
+    rungs, after every other rung failed.
     """
     import clarabel
 
