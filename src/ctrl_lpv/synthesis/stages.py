@@ -12,9 +12,10 @@ A `Rung` loads its problem's parameters for one prescaling (a
   in one extra solve: one convex-concave step of the gain in the model's
   units from the certified optimum ("bounded", `~.gains.GainSteps`, its
   tangent exact at the optimum's ``W``). Where the optimum's ``W`` is
-  pinned at the margin (an eigenvalue below `PINNED` margins, a tangent
-  there keeps the gain large: measured 3x on the two-mass Theorem 2
-  design) or the optimum did not certify, the smallest gain under the
+  pinned at the margin (an eigenvalue below `PINNED` margins) or ill
+  conditioned (`ILL_CONDITIONED`), where a tangent there keeps the gain
+  large (measured 3x on the two-mass Theorem 2 design, 1.9x on the 2 ms
+  servo), or the optimum did not certify, the smallest gain under the
   bound instead ("gain", tangent at a point of the margin's order) and one
   step from there; the centering stage of the old back-off ("center":
   ``W``'s smallest eigenvalue maximised) only where these do not certify;
