@@ -8,11 +8,17 @@ A `Rung` loads its problem's parameters for one prescaling (a
 * a bound to minimise: the raw optimum ("optimal"), posed again only when
   it did not certify or the margin is not negligible against it (its
   bound rescaled to order one, or a margin far below the data's scale for
-  the estimate); then the back-off in one solve of the smallest gain under
-  ``bound <= (1 + backoff) bound*`` ("gain", `~.gains.GainSteps`) and one
-  convex-concave step of the gain in the model's units ("bounded"); the
-  centering stage of the old back-off ("center": ``W``'s smallest
-  eigenvalue maximised) only where these do not certify;
+  the estimate); then the back-off under ``bound <= (1 + backoff) bound*``
+  in one extra solve: one convex-concave step of the gain in the model's
+  units from the certified optimum ("bounded", `~.gains.GainSteps`, its
+  tangent exact at the optimum's ``W``). Where the optimum's ``W`` is
+  pinned at the margin (an eigenvalue below `PINNED` margins) or ill
+  conditioned (`ILL_CONDITIONED`), where a tangent there keeps the gain
+  large (measured 3x on the two-mass Theorem 2 design, 1.9x on the 2 ms
+  servo), or the optimum did not certify, the smallest gain under the
+  bound instead ("gain", tangent at a point of the margin's order) and one
+  step from there; the centering stage of the old back-off ("center":
+  ``W``'s smallest eigenvalue maximised) only where these do not certify;
 * a given bound: the same back-off under it (a "center" point where it
   does not certify, or without a back-off).
 
@@ -34,7 +40,7 @@ import numpy as np
 from .. import budget
 from ..lmi import default_solvers, schur_norm_bound, symmetric_norm_bound
 from .decay import DecaySearch, search_decay
-from .gains import GainSteps
+from .gains import STEP_SPAN, GainSteps
 from .points import Ws as _Ws
 from .points import check_point
 from .problem import load, set_eps
@@ -57,6 +63,13 @@ EPSILONS = (100.0, 30.0, 10.0, 3.0, 1.0, 0.1, 0.01)
 # value at a bound of 1e-6; 0.35 % and 0.6 % on H2 problems).
 MARGIN_FRACTION = 2e-5
 PINNED = 10.0
+# The default back-off steps once from the optimum unless the optimum's W
+# is pinned or its condition number is above this: there the tangent,
+# exact at W only, keeps the gain large (measured with
+# benchmarks/study_backoff.py: 38 random polytopes with W's condition
+# number 1.2-28 within 0.91-1.05x of the smallest-gain path's gain; one
+# at 67 at 1.29x; the 2 ms servo, 7e5, at 1.9x).
+ILL_CONDITIONED = 50.0
 # (1e-2 of the margin: the shift is linear in the margin, and a point at
 # 1e-4 of it missed its LMIs and cost a retry every time.)
 _ESTIMATE_MARGIN = 1e-2
@@ -344,7 +357,10 @@ class Rung(GainSteps):
                         raw, raw_design = again, other
         spectra = [np.linalg.eigvalsh(W) for W in _Ws(raw)]
         W_star = max(float(e[-1]) for e in spectra)
-        if min(float(e[0]) for e in spectra) < PINNED * self.margin:
+        pinned = min(float(e[0]) for e in spectra) < PINNED * self.margin
+        # A tangent at an ill-conditioned W is a poor bound away from it.
+        tangent_poor = pinned or any(e[-1] > ILL_CONDITIONED * e[0] for e in spectra)
+        if pinned:
             # The optimum re-estimated at a margin far below the data's
             # scale: it needs no certificate, the designs keep the margin.
             self.lmi.margin = self.margin * _ESTIMATE_MARGIN
@@ -393,6 +409,14 @@ class Rung(GainSteps):
         best = None
         if backoff:
             self.lmi.set_parameter("g_max", g_opt * (1 + backoff) ** 2)
+            if raw_design is not None and not tangent_poor:
+                # One convex-concave step from the optimum (see the module
+                # docstring): the back-off in one extra solve.
+                best = self._gain_step(
+                    raw_design, "back-off (one gain step)", STEP_SPAN
+                )
+                if best is not None:
+                    return self._gain_bound(best, gamma_opt)
             best = self._smallest_gain()
         if best is None:
             best = self._center(g_opt, w_star, raw_design)
