@@ -135,19 +135,25 @@ class ConicReading:
         if objective is None:
             return c
 
-        def value(values):
-            base = {
-                **self._numeric(),
-                **{k: np.zeros(v.shape) for k, v in self._vars.items()},
-                **values,
-            }
-            return float(np.asarray(objective(SimpleNamespace(**base))).reshape(()))
+        # One namespace for every evaluation (as `_pieces`): a unit point is
+        # set, evaluated and put back to zero.
+        base = self._base()
+        namespace = SimpleNamespace(**base)
 
-        zero = value({})
+        def value(name=None, E=None):
+            if name is not None:
+                setattr(namespace, name, E)
+            try:
+                return float(np.asarray(objective(namespace)).reshape(()))
+            finally:
+                if name is not None:
+                    setattr(namespace, name, base[name])
+
+        zero = value()
         offset = 0
         for name, points in self._units().items():
             for k, E in enumerate(points):
-                c[offset + k] = value({name: E}) - zero
+                c[offset + k] = value(name, E) - zero
             offset += len(points)
         return c
 
