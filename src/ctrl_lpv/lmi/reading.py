@@ -10,6 +10,7 @@ way; a solver's point is turned back into the variables' values.
 from __future__ import annotations
 
 import functools
+import logging
 import time
 from types import SimpleNamespace
 
@@ -22,10 +23,16 @@ from .dual import id_equal
 
 __all__ = ["ConicReading"]
 
+logger = logging.getLogger("ctrl_lpv.lmi")
+
 # Maps of one inequality kept for as many sets of the parameter values it
 # reads: stages and prescalings that alternate (a bound set per stage) then
 # read each inequality once.
 _KEPT_MAPS = 4
+
+# A stacked matrix at a point must agree with its map to this relative
+# accuracy (the rounding of a few products and sums, as a batched reading).
+_STACK_TOLERANCE = 1e-10
 
 
 class ConicReading:
@@ -157,6 +164,75 @@ class ConicReading:
             offset += len(points)
         return c
 
+    def _stacked_values(self, v, values, active) -> list:
+        """Per active inequality, its matrix at the point from its group's
+        stacked evaluation (`LMIProblem.add`, ``stacked``), or None (to be
+        evaluated alone).
+
+        A group's stacked matrices are kept only where every member's
+        agrees with its map at the point, ``F0 + M x`` (read at these
+        parameter values): a block function that broadcasts wrongly over
+        the stack is caught by a reading of another kind, and evaluated
+        alone.
+        """
+        found: list = [None] * len(active)
+        groups: dict = {}
+        for i, (name, _, _, _) in enumerate(active):
+            member = self._stacked.get(name)
+            if member is not None:
+                groups.setdefault(id(member[0]), (member[0], []))[1].append(
+                    (i, name, member[1])
+                )
+        if not groups:
+            return found
+        x = self._point_vector(values)
+        if x is None:
+            return found
+        encoded = {p: value.tobytes() for p, value in self._numeric().items()}
+        for group, members in groups.values():
+            try:
+                stack = _blocks.assemble(group(v))
+            except (ValueError, TypeError, IndexError):
+                logger.debug("a stacked group of LMIs does not evaluate stacked")
+                continue
+            if stack.ndim != 3 or stack.shape[0] <= max(k for *_, k in members):
+                continue
+            ks = [k for *_, k in members]
+            maps = [self._kept_map(name, encoded) for _, name, _ in members]
+            if any(piece is None or piece[0].shape != stack.shape[1:]
+                   for piece in maps):  # fmt: skip
+                continue
+            expected, scale = _mapped(maps, x)
+            matrices = stack[ks]
+            error = np.abs(matrices - expected).max(axis=(1, 2))
+            if not np.all(error <= _STACK_TOLERANCE * scale):
+                logger.debug("stacked values of LMIs differ from their maps")
+                continue
+            for (i, _, _), F in zip(members, matrices):
+                found[i] = F
+        return found
+
+    def _point_vector(self, values):
+        """The vector of free entries of `values` (None if one is missing)."""
+        parts = []
+        for name, var in self._vars.items():
+            if name not in values:
+                return None
+            value = np.asarray(values[name], float)
+            if var.symmetric:
+                parts.append(value[np.triu_indices(var.shape[0])])
+            else:
+                parts.append(value.ravel())
+        return np.concatenate(parts) if parts else np.zeros(0)
+
+    def _kept_map(self, name, encoded):
+        """An inequality's map kept for the current parameter values, or
+        None."""
+        read = self._reads.get(name)
+        if read is None:
+            return None
+        return self._columns.get(name, {}).get(_key(read, encoded))
+
     def _values(self, x) -> dict[str, np.ndarray]:
         """The variables' values from the vector of free entries."""
         values, offset = {}, 0
@@ -165,6 +241,23 @@ class ConicReading:
             values[name] = np.tensordot(x[offset : offset + k], points, axes=1)
             offset += k
         return values
+
+
+def _mapped(maps, x):
+    """``F0 + M x`` of each of a list of maps (`_pieces`) of matrices of one
+    size, stacked, and each one's scale ``sum |F0| + sum |M_k x_k|``."""
+    size = maps[0][0].size
+    F0 = np.stack([F0 for F0, _ in maps])
+    rows = np.concatenate([rows + k * size for k, (_, (rows, _, _)) in enumerate(maps)])
+    cols = np.concatenate([cols for _, (_, cols, _) in maps])
+    data = np.concatenate([data for _, (_, _, data) in maps])
+    terms = data * x[cols]
+    total = len(maps) * size
+    mapped = F0.reshape(-1) + np.bincount(rows, terms, minlength=total)
+    scale = np.abs(F0).reshape(len(maps), -1).sum(axis=1) + np.bincount(
+        rows // size, np.abs(terms), minlength=len(maps)
+    )
+    return mapped.reshape(F0.shape), scale
 
 
 def _key(read, encoded) -> tuple:
