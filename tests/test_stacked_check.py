@@ -134,3 +134,75 @@ def test_a_group_that_disagrees_with_its_maps_is_not_used(error, raises):
         top = np.linalg.eigvalsh(A.T @ P + P @ A)[-1]
         check = next(c for c in alone if c.what == f"vertex {j}")
         assert check.passed and top < 0
+
+
+@pytest.fixture
+def problems(monkeypatch):
+    """Every LMI problem a call solves, with the stage it solved."""
+    from ctrl_lpv.lmi import problem as lmi_problem
+
+    seen = []
+    original = lmi_problem.LMIProblem.check
+
+    def recorded(self, values, stage="default"):
+        if not any(p is self and s == stage for p, s in seen):
+            seen.append((self, stage))
+        return original(self, values, stage)
+
+    monkeypatch.setattr(lmi_problem.LMIProblem, "check", recorded)
+    return seen
+
+
+def _conic(lmi, stage, groups):
+    """The stage's conic data read afresh, with or without the groups."""
+    kept = dict(lmi._stacked)
+    if not groups:
+        lmi._stacked.clear()
+    lmi._columns.clear()
+    lmi._conic.clear()
+    try:
+        return lmi._conic_data(stage, True)[0]
+    finally:
+        lmi._stacked.update(kept)
+
+
+def _assert_same_conic(new, old, what):
+    assert new.sizes == old.sizes, what
+    assert new.A.shape == old.A.shape, what
+    A, B = new.A.tocsc(), old.A.tocsc()
+    A.sort_indices()
+    B.sort_indices()
+    np.testing.assert_array_equal(A.indptr, B.indptr, err_msg=what)
+    np.testing.assert_array_equal(A.indices, B.indices, err_msg=what)
+    np.testing.assert_array_equal(A.data, B.data, err_msg=what)
+    np.testing.assert_array_equal(new.b0, old.b0, err_msg=what)
+    np.testing.assert_array_equal(new.b_margin, old.b_margin, err_msg=what)
+
+
+@pytest.mark.parametrize("call", list(CALLS))
+def test_grouped_reading_gives_the_same_conic_data(problems, call, caplog):
+    CALLS[call]()
+    assert problems
+    grouped = 0
+    for lmi, stage in problems:
+        active = [name for name, *_ in lmi._active(stage)]
+        grouped += sum(name in lmi._stacked for name in active)
+        with caplog.at_level("DEBUG", logger="ctrl_lpv.lmi"):
+            new = _conic(lmi, stage, groups=True)
+        # A group reads stacked where its LMIs read batched one by one.
+        if "does not read stacked" in caplog.text:
+            assert "does not evaluate batched" in caplog.text
+        _assert_same_conic(new, _conic(lmi, stage, groups=False), f"{call} {stage}")
+    assert grouped, "no grouped LMI"
+
+
+@pytest.mark.parametrize("index", [1, 2, 3, 4, 5, 7])
+def test_grouped_reading_on_the_fuzz_corpus(problems, index):
+    case = generate_case(2026, index, small=True)
+    try:
+        case.call(lpv)
+    except lpv.InfeasibleError:
+        pass
+    for lmi, stage in problems:
+        new = _conic(lmi, stage, groups=True)
+        _assert_same_conic(new, _conic(lmi, stage, groups=False), f"{index} {stage}")

@@ -134,6 +134,7 @@ class LMIProblem(ConicReading, DualCertificates):
         # The names given to `add` as read (kept over new declarations).
         self._given_reads: dict[str, frozenset] = {}
         self._stacked: dict[str, tuple] = {}
+        self._trusted_groups: set[str] = set()
         # The inequalities whose batched reading passed its random-point
         # check (re-read without it), and the variables' unit points.
         self._trusted: set[str] = set()
@@ -276,6 +277,7 @@ class LMIProblem(ConicReading, DualCertificates):
             # code, kept over new numbers (`invalidate` with ``same_code``).
             self._reads.clear()
             self._trusted.clear()
+            self._trusted_groups.clear()
             self._unit_points = None
         self._columns.clear()
         self._conic.clear()

@@ -370,9 +370,15 @@ def _listed(problem: Problem, s: Structure, zero, scales=None):
     def group(method, r, q, k):
         key = (method, r.tobytes(), q, k)
         if key not in groups:
-            groups[key] = lambda v: method(
-                StackedTerms(v, s.coefficients, r, shape, specs).bind(q), cont
-            )[k][1]
+
+            def blocks(v, positions=None, repeats=None):
+                cs = s.coefficients
+                if positions is not None:
+                    cs = [cs[p] for p in positions]
+                t = StackedTerms(v, cs, r, shape, specs, repeats)
+                return method(t.bind(q), cont)[k][1]
+
+            groups[key] = blocks
         return groups[key]
 
     def named(method, terms_of, at, strict=True, stages=None, norm=False,

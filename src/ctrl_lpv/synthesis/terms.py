@@ -263,18 +263,24 @@ class StackedTerms(Terms):
     v, rate, shape, specs
         As `Terms`.
     coefficients : sequence of `Coefficient`
+    repeats : sequence of int, optional
+        Rows per coefficient (default one): reading the maps, each
+        coefficient's rows hold the unit points of the variables it reads,
+        and the namespace's variables are stacks of one value per row.
     """
 
-    def __init__(self, v, coefficients, rate, shape: Shape, specs=()):
+    def __init__(self, v, coefficients, rate, shape: Shape, specs=(), repeats=None):
         super().__init__(v, coefficients[0], rate, shape, specs)
         self.coefficients = tuple(coefficients)
-        self._const = np.array([c.const for c in self.coefficients], float)
-        self._const = self._const[:, None, None].view(Batch)
+        self.repeats = repeats
+        const = np.array([c.const for c in self.coefficients], float)
+        if repeats is not None:
+            const = np.repeat(const, repeats)
+        self._const = const[:, None, None].view(Batch)
 
     def bind(self, q: int) -> StackedTerms:
-        view = StackedTerms(
-            self.v, self.coefficients, self.rate, self.shape, self.specs
-        )
+        view = StackedTerms(self.v, self.coefficients, self.rate, self.shape,
+                            self.specs, self.repeats)  # fmt: skip
         view.q, view.i = q, self.specs[q][1]
         return view
 
@@ -283,26 +289,42 @@ class StackedTerms(Terms):
         width = max((len(x) for x in lists), default=0)
         return [[x[s] if s < len(x) else None for x in lists] for s in range(width)]
 
-    @staticmethod
-    def _gather(value_of, items):
-        """The stack of ``value_of(item)`` (zeros where the item is None)."""
+    def _gather(self, value_of, items):
+        """The stack of ``value_of(item)`` (zeros where the item is None),
+        one per coefficient, or per row (`repeats`): a variable given as a
+        stack of rows is taken row by row."""
         found = {}
         for item in items:
             if item is not None and item not in found:
                 value = value_of(item)
                 if value is None:
                     return None
-                if type(value) is not np.ndarray:
+                if type(value) is not np.ndarray and not (
+                    self.repeats is not None and isinstance(value, Batch)
+                ):
                     raise TypeError("a stacked coefficient reads plain values only")
-                found[item] = value
+                found[item] = np.asarray(value)
         if not found:
             raise TypeError("no value in a slot")
         # The distinct values (a few vertices) and a zero, then one take.
         position = {item: k for k, item in enumerate(found)}
         position[None] = len(found)
         values = list(found.values())
-        table = np.stack(values + [np.zeros_like(values[0])])
-        return table[[position[item] for item in items]].view(Batch)
+        if self.repeats is None:
+            table = np.stack(values + [np.zeros_like(values[0])])
+            return table[[position[item] for item in items]].view(Batch)
+        rows = np.repeat([position[item] for item in items], self.repeats)
+        shapes = {value.shape for value in values}
+        if shapes == {values[0].shape} and values[0].ndim == 2:
+            table = np.stack(values + [np.zeros_like(values[0])])
+            return table[rows].view(Batch)
+        # Row-stacked values (variables): row r of the value of its item,
+        # written item by item (each a few rows of the stack).
+        out = np.zeros((len(rows),) + values[0].shape[-2:])
+        for k, value in enumerate(values):
+            where = np.flatnonzero(rows == k)
+            out[where] = value[where] if value.ndim == 3 else value
+        return out.view(Batch)
 
     def _linear_sum(self, value_of):
         lists = [c.linear for c in self.coefficients]
@@ -331,6 +353,8 @@ class StackedTerms(Terms):
         out = 0
         for slot in slots:
             factors = np.array([0.0 if t is None else t[1] for t in slot])
+            if self.repeats is not None:
+                factors = np.repeat(factors, self.repeats)
             W = self._gather(self._W, [None if t is None else t[0] for t in slot])
             out = out + factors[:, None, None] * W
         return out
