@@ -35,6 +35,7 @@ __all__ = [
     "columns",
     "diagonal",
     "normalized_max_eig",
+    "normalized_max_eigs",
     "quadratic_rows",
     "size",
     "total",
@@ -153,11 +154,19 @@ def normalized_max_eig(M) -> float:
     The Jacobi normalisation makes the test scale-free; a nonnegative
     diagonal entry (no strict inequality possible) gives ``inf``.
     """
+    return float(normalized_max_eigs(M).max())
+
+
+def normalized_max_eigs(M) -> np.ndarray:
+    """`normalized_max_eig` of each matrix of a stack (``inf`` where a
+    diagonal entry is nonnegative)."""
     diag = np.diagonal(M, axis1=1, axis2=2)
-    if not np.all(diag < 0):
-        return float("inf")
-    d = 1.0 / np.sqrt(-diag)
-    return float(np.linalg.eigvalsh(M * d[:, :, None] * d[:, None, :])[:, -1].max())
+    out = np.full(len(M), np.inf)
+    ok = np.all(diag < 0, axis=1)
+    if ok.any():
+        d = 1.0 / np.sqrt(-diag[ok])
+        out[ok] = np.linalg.eigvalsh(M[ok] * d[:, :, None] * d[:, None, :])[:, -1]
+    return out
 
 
 def unit_points(shape, symmetric: bool) -> np.ndarray:

@@ -57,6 +57,18 @@ def _layout(d: int, upper: bool) -> tuple[np.ndarray, np.ndarray]:
     return i * d + j, scale
 
 
+@functools.cache
+def _positions(d: int, upper: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Per entry of ``vec F``, its position in the triangle (-1: not
+    stored), and ``svec(I)``; kept, as `_layout`."""
+    where, _ = _layout(d, upper)
+    position = np.full(d * d, -1)
+    position[where] = np.arange(where.size)
+    eye = np.eye(d).ravel()[where]
+    position.flags.writeable = eye.flags.writeable = False
+    return position, eye
+
+
 @dataclass(frozen=True)
 class ConicData:
     """``min c'x`` s.t. ``b - A x`` in PSD triangle cones of `sizes`.
@@ -121,15 +133,14 @@ def conic_data(pieces, strict, nfree: int, upper: bool) -> ConicData:
     for (F0, (r, c, x)), is_strict in zip(pieces, strict):
         d = F0.shape[0]
         where, scale = _layout(d, upper)
-        position = np.full(d * d, -1)
-        position[where] = np.arange(where.size)
+        position, eye = _positions(d, upper)
         keep = position[r] >= 0
         svec_rows = position[r[keep]]
         rows.append(svec_rows + offset)
         cols.append(c[keep])
         data.append(x[keep] * scale[svec_rows])
         b0.append(-F0.ravel()[where] * scale)
-        b_margin.append(np.eye(d).ravel()[where] * (1.0 if is_strict else 0.0))
+        b_margin.append(eye * (1.0 if is_strict else 0.0))
         sizes.append(d)
         offset += where.size
     A = sp.csc_array(

@@ -133,6 +133,8 @@ class LMIProblem(ConicReading, DualCertificates):
         self._reads: dict[str, frozenset] = {}
         # The names given to `add` as read (kept over new declarations).
         self._given_reads: dict[str, frozenset] = {}
+        self._stacked: dict[str, tuple] = {}
+        self._trusted_groups: set[str] = set()
         # The inequalities whose batched reading passed its random-point
         # check (re-read without it), and the variables' unit points.
         self._trusted: set[str] = set()
@@ -221,6 +223,7 @@ class LMIProblem(ConicReading, DualCertificates):
         stages: Sequence[str] | None = None,
         normalization: bool = False,
         reads: Collection[str] | None = None,
+        stacked: tuple | None = None,
     ) -> None:
         """Add the inequality ``F(v) < 0`` (or ``<= 0`` if not strict).
 
@@ -245,6 +248,13 @@ class LMIProblem(ConicReading, DualCertificates):
             The names `blocks` reads (more will do), when known: its first
             reading then does not evaluate it once more to learn them.
             Default: learnt at the first reading.
+        stacked : (callable, int), optional
+            ``(group, k)``: ``group(v)`` is the lower block triangle of a
+            stack of inequalities (a leading axis, `Batch`), of which this
+            one is number ``k``. `check` evaluates a group once for all its
+            members, and keeps the stacked values only where they agree
+            with each member's map read from `blocks` (otherwise `blocks`
+            at the point, as without a group).
         """
         if normalization and strict:
             raise ValueError("normalization: only a non-strict inequality can be one")
@@ -258,6 +268,8 @@ class LMIProblem(ConicReading, DualCertificates):
         self._forget()
         if reads is not None:
             self._given_reads[name] = frozenset(reads)
+        if stacked is not None:
+            self._stacked[name] = stacked
 
     def _forget(self, declarations: bool = True) -> None:
         if declarations:  # a new variable or inequality, or new code paths
@@ -265,6 +277,7 @@ class LMIProblem(ConicReading, DualCertificates):
             # code, kept over new numbers (`invalidate` with ``same_code``).
             self._reads.clear()
             self._trusted.clear()
+            self._trusted_groups.clear()
             self._unit_points = None
         self._columns.clear()
         self._conic.clear()
@@ -381,7 +394,9 @@ class LMIProblem(ConicReading, DualCertificates):
         """
         v = SimpleNamespace(**{**self._numeric(), **values})
         active = self._active(stage)
-        matrices = [_blocks.assemble(blocks(v)) for _, blocks, _, _ in active]
+        matrices = self._stacked_values(v, values, active)
+        matrices = [_blocks.assemble(blocks(v)) if F is None else F
+                    for (_, blocks, _, _), F in zip(active, matrices)]  # fmt: skip
         # The same checks matrix by matrix, with one eigenvalue computation
         # per kind and size (stacked), in the inequalities' order.
         groups: dict[tuple, list[int]] = {}

@@ -264,12 +264,17 @@ def verify_frozen(problem, shape, frame, values, gains, bounds, margin, checks,
         dual = _dual_lyapunov_all(Acl_scaled_all, W_all, W_moved_scaled,
                                   problem.continuous)  # fmt: skip
         moved.append((W_moved, P_moved, dual))
+    # The loops each spec judges, in order, its residuals asked for at once
+    # (`~ctrl_lpv.synthesis.spec.Spec.residuals`); the records made after,
+    # in the order of the points.
+    judged = {q: [] for q in range(len(problem.specs))}
+    order = []
     for index, (delta, p) in enumerate(points):
         where = _Where(plant.system, delta, p)
 
         A, B2, W_here, K = A_all[index], B2_all[index], W_all[index], K_all[index]
         Acl, eig = Acl_all[index], eig_all[index]
-        record(EIGENVALUES, eig_value[index], where, eig_rounding[index])
+        order.append((EIGENVALUES, eig_value[index], where, eig_rounding[index]))
         fields = {}
         for q, spec in enumerate(problem.specs):
             here = Here(problem, frame, values, delta, W_here, q)
@@ -286,12 +291,19 @@ def verify_frozen(problem, shape, frame, values, gains, bounds, margin, checks,
                 if i is not None:
                     Bw, Cz, Dzw = (data[index] for data in channels[i])
                     channel = replace(loop, Bw=Bw, Cz=Cz, Dzw=Dzw, bound=bounds[i])
-                record(labels[q], spec.residual(channel, problem.continuous), where)
-            record(LYAPUNOV, dual[index], where)
+                order.append((q, len(judged[q]), where, 0.0))
+                judged[q].append(channel)
+            order.append((LYAPUNOV, dual[index], where, 0.0))
         for q, spec in enumerate(problem.specs):
             value = spec.reported(P)
             if value is not None:
                 reported[q] = max(reported.get(q, value), value)
+    residuals = {q: problem.specs[q].residuals(loops, problem.continuous)
+                 for q, loops in judged.items() if loops}  # fmt: skip
+    for what, value, where, rounding in order:
+        if isinstance(what, int):
+            what, value = labels[what], residuals[what][value]
+        record(what, value, where, rounding)
     eig_value, eig_where, eig_rounding = worst.pop(EIGENVALUES)
     units = "real part" if problem.continuous else "modulus - 1"
     checks = (

@@ -33,7 +33,7 @@ import numpy as np
 from ..lmi import LMIProblem, assemble
 from ..lmi.blocks import Recording, size
 from .parametric import Coefficient, coefficients
-from .terms import Shape, Terms, names
+from .terms import Shape, StackedTerms, Terms, names
 
 # A given bound is posed as bound^2 (1 - BOUND_SLACK), met strictly.
 BOUND_SLACK = 1e-6
@@ -202,7 +202,7 @@ class Structure:
             listed = list(_inequalities(problem, key, zero, scales))
             sizes = [
                 assemble(blocks(zero)).shape[0] if known is None else known
-                for _, blocks, is_strict, _, _, _, known in listed
+                for _, blocks, is_strict, _, _, _, known, _ in listed
                 if is_strict
             ]
             _LISTED[:] = [weakref.ref(problem), key, listed, scales]
@@ -318,16 +318,17 @@ def _data_parameters(d, problem, s, j) -> None:
 
 
 def _inequalities(problem: Problem, s: Structure, zero, scales=None):
-    """``(name, blocks, strict, stages, normalization, reads, size)`` of a
-    structure (`reads`, the names the blocks read, and `size`, the matrix's,
-    None where not known without an evaluation).
+    """``(name, blocks, strict, stages, normalization, reads, size,
+    stacked)`` of a structure (`reads`, the names the blocks read, `size`,
+    the matrix's, and `stacked`, its group and position, None where not
+    known without an evaluation or not in a group).
 
     `zero` is a numeric namespace of the declared names (the specs' block
     lists are evaluated once on it, for their names); `scales` the state
     and input scalings the gain stage reads as constants.
     """
     for item in _listed(problem, s, zero, scales):
-        yield item if len(item) == 7 else (*item, None, None)
+        yield item + (None,) * (8 - len(item))
 
 
 def _listed(problem: Problem, s: Structure, zero, scales=None):
@@ -361,12 +362,34 @@ def _listed(problem: Problem, s: Structure, zero, scales=None):
         found = method(terms_of(recording), cont)
         return found, None if "__dict__" in read else frozenset(read)
 
-    def named(method, terms_of, at, strict=True, stages=None, norm=False):
+    # A spec's LMIs of one kind, rate and position in its list, at every
+    # coefficient: one group, evaluated stacked at a point (`StackedTerms`;
+    # `ctrl_lpv.lmi.LMIProblem.add`, ``stacked``).
+    groups: dict = {}
+
+    def group(method, r, q, k):
+        key = (method, r.tobytes(), q, k)
+        if key not in groups:
+
+            def blocks(v, positions=None, repeats=None):
+                cs = s.coefficients
+                if positions is not None:
+                    cs = [cs[p] for p in positions]
+                t = StackedTerms(v, cs, r, shape, specs, repeats)
+                return method(t.bind(q), cont)[k][1]
+
+            groups[key] = blocks
+        return groups[key]
+
+    def named(method, terms_of, at, strict=True, stages=None, norm=False,
+              stacked=None):  # fmt: skip
         found, reads = at_zero(method, terms_of)
         for k, (name, blocks) in enumerate(found):
             yield (f"{name}{at}",
                    lambda v, k=k: method(terms_of(v), cont)[k][1],
-                   strict, stages, norm, reads, size(blocks))  # fmt: skip
+                   strict, stages, norm, reads, size(blocks),
+                   None if stacked is None else (group(method, *stacked[:2], k),
+                                                 stacked[2]))  # fmt: skip
 
     for ell in range(problem.lyap.count):
         yield (
@@ -376,19 +399,22 @@ def _listed(problem: Problem, s: Structure, zero, scales=None):
             None,
             False,
         )
-    for c in s.coefficients:
+    for ci, c in enumerate(s.coefficients):
         for r in rates:
+            r = np.asarray(r, float)
             at = c.label + (f", rate {np.round(r, 12).tolist()}"
                             if len(rates) > 1 else "")  # fmt: skip
             for q, spec in enumerate(problem.specs):
-                yield from named(spec.lmis, view(c, r, q), f"{tags[q]} {at}")
+                yield from named(spec.lmis, view(c, r, q), f"{tags[q]} {at}",
+                                 stacked=(r, q, ci))  # fmt: skip
                 if not s.objective:
                     yield from named(spec.decay_lmis, view(c, r, q),
                                      f"{tags[q]} {at}", False, ("stabilize",),
-                                     True)  # fmt: skip
+                                     True, (r, q, ci))  # fmt: skip
         for q, spec in enumerate(problem.specs):
-            yield from named(spec.coefficient_lmis, view(c, rates[0], q),
-                             f"{tags[q]} {c.label}")  # fmt: skip
+            r = np.asarray(rates[0], float)
+            yield from named(spec.coefficient_lmis, view(c, r, q),
+                             f"{tags[q]} {c.label}", stacked=(r, q, ci))  # fmt: skip
     once = Coefficient("problem", 1.0, (), ())
     for q, spec in enumerate(problem.specs):
         terms_of = view(once, rates[0], q)
@@ -487,9 +513,9 @@ def build(problem: Problem, s: Structure) -> Compiled:
     if ref is None or ref() is not problem or listed_for != s:
         scales = {"T": np.eye(s.n), "Su": np.eye(s.m)}
         listed = _inequalities(problem, s, declarations.zeros(), scales)
-    for name, blocks, strict, stages, norm, reads, _ in listed:
+    for name, blocks, strict, stages, norm, reads, _, stacked in listed:
         lmi.add(name, blocks, strict=strict, stages=stages, normalization=norm,
-                reads=reads)  # fmt: skip
+                reads=reads, stacked=stacked)  # fmt: skip
     return Compiled(lmi, scales)
 
 

@@ -20,8 +20,6 @@ from scipy.linalg import (
     solve_discrete_lyapunov,
 )
 
-from .channels import spectral_norm
-
 
 def pow2(x: float) -> float:
     """Nearest power of two, so that scaling is exact in floating point."""
@@ -34,13 +32,23 @@ def channel_scales(vertices, T, Su, a) -> tuple[float, float]:
     `T` is the state scaling, a diagonal (1-D) or a full matrix.
     """
     T = np.diag(T) if T.ndim == 1 else T
-    nb1 = max(spectral_norm(np.linalg.solve(T, v[1])) for v in vertices)
+    # Stacked over the vertices: the same solves and norms, one call each.
+    B1 = np.stack([v[1] for v in vertices])
+    nb1 = _largest_norm(np.linalg.solve(T, B1) if B1.size else B1)
     sw = pow2(a / nb1) if nb1 > 0 else 1.0
-    nz = max(
-        spectral_norm(np.hstack([v[3] @ T, v[4] * sw, v[5] * Su])) for v in vertices
-    )
+    C = np.stack([v[3] for v in vertices])
+    D1 = np.stack([v[4] for v in vertices])
+    D2 = np.stack([v[5] for v in vertices])
+    nz = _largest_norm(np.concatenate([C @ T, D1 * sw, D2 * Su], axis=2))
     sz = pow2(nz) if nz > 0 else 1.0
     return sw, sz
+
+
+def _largest_norm(stack) -> float:
+    """The largest spectral norm of a stack of matrices (0 if empty)."""
+    if not stack.size:
+        return 0.0
+    return float(np.linalg.norm(stack, 2, axis=(1, 2)).max())
 
 
 @dataclass(frozen=True)
@@ -66,11 +74,8 @@ class Scaling:
             T = np.array([pow2(x) for x in t])
         else:
             T = np.ones(n)
-        a = (
-            pow2(max(np.linalg.norm(v[0] * (T / T[:, None]), 2) for v in vertices))
-            if time_scaling
-            else 1.0
-        )
+        A = np.stack([v[0] for v in vertices])
+        a = pow2(_largest_norm(A * (T / T[:, None]))) if time_scaling else 1.0
         Su = np.array(
             [
                 pow2(a / c) if c > 0 else 1.0

@@ -196,6 +196,15 @@ class Spec(ABC):
         below rounding for a certified design.
         """
 
+    def residuals(self, loops, continuous) -> np.ndarray:
+        """`residual` of each of a sequence of frozen loops.
+
+        The engine asks for every point of a verification at once; a spec
+        whose residual is a few products and an eigenvalue may evaluate
+        them stacked. Default: one `residual` per loop.
+        """
+        return np.array([self.residual(loop, continuous) for loop in loops], float)
+
     def reported(self, P):
         """A value the design reports for this spec at ``P`` (or None)."""
         return None

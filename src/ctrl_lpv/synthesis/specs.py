@@ -49,6 +49,7 @@ import numpy as np
 
 from .._checks import per_input, positive_levels, real_number, signal_selection
 from ..lmi import normalized_max_eig
+from ..lmi.blocks import normalized_max_eigs
 from .spec import Spec, extended, unit
 
 # The decays of a `Peak` spec tried: prescaled time units in continuous
@@ -167,25 +168,39 @@ class Hinf(_Performance):
 
         At a `~ctrl_lpv.synthesis.frozen.FrozenLoop` with this spec's
         channel; continuous time the primal form with ``P``, discrete time
-        the dual form with ``W`` and its next value ``W+``.
+        the dual form with ``W`` and its next value ``W+`` (`residuals`
+        of the one loop).
         """
-        A, Bw, Cz, Dzw, gamma = loop.Acl, loop.Bw, loop.Cz, loop.Dzw, loop.bound
-        P, P_moved, W, W_moved = loop.P, loop.P_moved, loop.W, loop.W_moved
-        n, nw, nz = A.shape[0], Bw.shape[1], Cz.shape[0]
+        return float(self.residuals([loop], continuous)[0])
+
+    def residuals(self, loops, continuous) -> np.ndarray:
+        """`residual` of each loop, in one stacked evaluation."""
+
+        def stack(field):
+            return np.stack([getattr(loop, field) for loop in loops])
+
+        A, Bw, Cz, Dzw = stack("Acl"), stack("Bw"), stack("Cz"), stack("Dzw")
+        gamma = np.array([loop.bound for loop in loops], float)[:, None, None]
+        k, n, nw, nz = A.shape[0], A.shape[1], Bw.shape[2], Cz.shape[1]
+        At, Bwt, Czt, Dzwt = (np.swapaxes(X, 1, 2) for X in (A, Bw, Cz, Dzw))
+        eye_w = np.broadcast_to(np.eye(nw), (k, nw, nw))
+        bound = gamma**2 * np.eye(nz)
         if continuous:
-            M = np.block([
-                [A.T @ P + P @ A + P_moved, P @ Bw, Cz.T],
-                [Bw.T @ P, -np.eye(nw), Dzw.T],
-                [Cz, Dzw, -gamma**2 * np.eye(nz)],
+            P, P_moved = stack("P"), stack("P_moved")
+            M = _block([
+                [At @ P + P @ A + P_moved, P @ Bw, Czt],
+                [Bwt @ P, -eye_w, Dzwt],
+                [Cz, Dzw, -bound],
             ])  # fmt: skip
         else:
-            M = np.block([
-                [-W_moved, A @ W, Bw, np.zeros((n, nz))],
-                [W @ A.T, -W, np.zeros((n, nw)), W @ Cz.T],
-                [Bw.T, np.zeros((nw, n)), -np.eye(nw), Dzw.T],
-                [np.zeros((nz, n)), Cz @ W, Dzw, -gamma**2 * np.eye(nz)],
+            W, W_moved = stack("W"), stack("W_moved")
+            M = _block([
+                [-W_moved, A @ W, Bw, np.zeros((k, n, nz))],
+                [W @ At, -W, np.zeros((k, n, nw)), W @ Czt],
+                [Bwt, np.zeros((k, nw, n)), -eye_w, Dzwt],
+                [np.zeros((k, nz, n)), Cz @ W, Dzw, -bound],
             ])  # fmt: skip
-        return normalized_max_eig(M[None])
+        return normalized_max_eigs(M)
 
 
 @dataclass(frozen=True)
@@ -449,3 +464,8 @@ def _pair_names(channel, row, col) -> tuple[str, str]:
         repr(w[col]) if w else f"number {col}",
         repr(z[row]) if z else f"number {row}",
     )
+
+
+def _block(rows) -> np.ndarray:
+    """`numpy.block` of stacked blocks (a leading axis over the points)."""
+    return np.concatenate([np.concatenate(row, axis=2) for row in rows], axis=1)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..lmi.blocks import Batch
 from .parametric import Coefficient, step_terms
 
 
@@ -242,3 +243,154 @@ class Terms:
                 if found is not None:
                     out.append(found)
         return out
+
+
+class StackedTerms(Terms):
+    """`Terms` of several coefficients at once, stacked along a leading axis.
+
+    For the float64 check of a point (`ctrl_lpv.lmi.LMIProblem.check`): the
+    namespace holds plain values; each sum over a coefficient's vertices is
+    taken slot by slot (its first vertex, its second, ...), every slot's
+    values gathered into one stack (`~ctrl_lpv.lmi.blocks.Batch`) and a
+    coefficient with fewer vertices given zeros there. The sums are those
+    of `Terms`, term for term in the same order (a zero added last changes
+    no bit), so a spec's block function evaluates every coefficient in one
+    pass. A value that is not a plain array (a stack already) raises
+    ``TypeError``, as a block function that does not broadcast may.
+
+    Parameters
+    ----------
+    v, rate, shape, specs
+        As `Terms`.
+    coefficients : sequence of `Coefficient`
+    repeats : sequence of int, optional
+        Rows per coefficient (default one): reading the maps, each
+        coefficient's rows hold the unit points of the variables it reads,
+        and the namespace's variables are stacks of one value per row.
+    """
+
+    def __init__(self, v, coefficients, rate, shape: Shape, specs=(), repeats=None):
+        super().__init__(v, coefficients[0], rate, shape, specs)
+        self.coefficients = tuple(coefficients)
+        self.repeats = repeats
+        const = np.array([c.const for c in self.coefficients], float)
+        if repeats is not None:
+            const = np.repeat(const, repeats)
+        self._const = const[:, None, None].view(Batch)
+
+    def bind(self, q: int) -> StackedTerms:
+        view = StackedTerms(self.v, self.coefficients, self.rate, self.shape,
+                            self.specs, self.repeats)  # fmt: skip
+        view.q, view.i = q, self.specs[q][1]
+        return view
+
+    def _slots(self, lists):
+        """Per slot, the item of each coefficient's list (None past its end)."""
+        width = max((len(x) for x in lists), default=0)
+        return [[x[s] if s < len(x) else None for x in lists] for s in range(width)]
+
+    def _gather(self, value_of, items):
+        """The stack of ``value_of(item)`` (zeros where the item is None),
+        one per coefficient, or per row (`repeats`): a variable given as a
+        stack of rows is taken row by row."""
+        found = {}
+        for item in items:
+            if item is not None and item not in found:
+                value = value_of(item)
+                if value is None:
+                    return None
+                if type(value) is not np.ndarray and not (
+                    self.repeats is not None and isinstance(value, Batch)
+                ):
+                    raise TypeError("a stacked coefficient reads plain values only")
+                found[item] = np.asarray(value)
+        if not found:
+            raise TypeError("no value in a slot")
+        # The distinct values (a few vertices) and a zero, then one take.
+        position = {item: k for k, item in enumerate(found)}
+        position[None] = len(found)
+        values = list(found.values())
+        if self.repeats is None:
+            table = np.stack(values + [np.zeros_like(values[0])])
+            return table[[position[item] for item in items]].view(Batch)
+        rows = np.repeat([position[item] for item in items], self.repeats)
+        shapes = {value.shape for value in values}
+        if shapes == {values[0].shape} and values[0].ndim == 2:
+            table = np.stack(values + [np.zeros_like(values[0])])
+            return table[rows].view(Batch)
+        # Row-stacked values (variables): row r of the value of its item,
+        # written item by item (each a few rows of the stack).
+        out = np.zeros((len(rows),) + values[0].shape[-2:])
+        for k, value in enumerate(values):
+            where = np.flatnonzero(rows == k)
+            out[where] = value[where] if value.ndim == 3 else value
+        return out.view(Batch)
+
+    def _linear_sum(self, value_of):
+        lists = [c.linear for c in self.coefficients]
+        return sum(self._gather(value_of, slot) for slot in self._slots(lists))
+
+    def identity(self, size):
+        return self._const * np.eye(size)
+
+    def const(self, expression):
+        return self._const * expression
+
+    def W(self):
+        index = self.shape.lyap.index
+        return self._linear_sum(lambda j: self._W(index[j]))
+
+    def W_moved(self):
+        lyap, continuous = self.shape.lyap, self.shape.continuous
+        lists = [
+            [term for j in c.linear
+             for term in step_terms(lyap, j, self.rate, continuous)]
+            for c in self.coefficients
+        ]  # fmt: skip
+        slots = self._slots(lists)
+        if not slots:
+            return np.zeros((self.n, self.n))
+        out = 0
+        for slot in slots:
+            factors = np.array([0.0 if t is None else t[1] for t in slot])
+            if self.repeats is not None:
+                factors = np.repeat(factors, self.repeats)
+            W = self._gather(self._W, [None if t is None else t[0] for t in slot])
+            out = out + factors[:, None, None] * W
+        return out
+
+    def _product(self, left, right, slack=False):
+        index = self.shape.lyap.index
+        out = 0
+        for slot in self._slots([c.bilinear for c in self.coefficients]):
+            js = [None if p is None else p[0] for p in slot]
+            ks = [None if p is None else p[1] for p in slot]
+            if slack:
+                X = self._get("G")
+            else:
+                X = self._gather(lambda k: self._W(index[k]), ks)
+            term = self._gather(lambda j: self._vertex(left, j), js) @ X
+            B = self._gather(lambda j: self._vertex(right, j), js)
+            if B is not None:
+                term = term + B @ self._gather(self._Z, ks)
+            out = out + term
+        return out
+
+    def Z(self):
+        if self.shape.scheduled:
+            return self._linear_sum(self._Z)
+        return self._const * self._Z(0)
+
+    def B2(self):
+        return self._linear_sum(lambda j: self._vertex("B2", j))
+
+    def G(self):
+        return self._const * self._get("G")
+
+    def data(self, key):
+        return self._linear_sum(lambda j: self._vertex(key, j))
+
+    def local_linear(self, name):
+        if self.shape.scheduled:
+            return self._linear_sum(lambda j: self.var(f"{name}{j}"))
+        return self._const * self.var(f"{name}0")
