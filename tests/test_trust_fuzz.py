@@ -138,6 +138,25 @@ def test_modes_nine_decades_apart_get_a_design(seed, index):
     assert record["check_ok"], record["hard"]
 
 
+def test_a_gain_bound_beyond_the_backoff_gets_a_design():
+    # Fuzz 8484:6: H-infinity with gain_bound 7.38 at the default back-off.
+    # At gamma <= 1.2 gamma* the convex-concave steps converge at a gain
+    # of 10.6; a design under the bound exists at 1.44 gamma* (the probe's,
+    # 1.707). The bound is the user's limit: the back-off widens.
+    case = generate_case(8484, 6)
+    assert case.gain_bound is not None
+    record = run_case(case, lpv, probe_budget=PROBE_BUDGET)
+    assert record["outcome"] == "design", record["message"][:300]
+    assert record["check_ok"], record["hard"]
+    design = case.call(lpv)
+    assert max(np.linalg.norm(K, 2) for K in design.gains) <= case.gain_bound
+    # What it cost is stated: the back-off it was certified within.
+    assert design.backoff > 0.2
+    assert 1.2 * design.gamma_opt < design.gamma
+    assert design.gamma <= (1 + design.backoff) * design.gamma_opt * (1 + 1e-6)
+    assert "widened" in design.ladder[0]
+
+
 def test_uncontrollable_unstable_mode_is_refused_as_such():
     # x2' = 0.5 x2 is not reached by u (exactly): not stabilizable, vertex 1.
     v0 = (np.array([[-1.0, 1.0], [0.0, -2.0]]), np.array([[1.0], [1.0]]))

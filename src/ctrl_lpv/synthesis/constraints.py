@@ -31,7 +31,11 @@ class GainBound(Spec):
     -----
     Imposed by convex-concave iterations from the first certified point (a
     sufficient condition); a design whose gain stays above the bound is
-    not returned.
+    not returned. With an objective to minimise the bound is the user's
+    limit and the back-off a default: where the iterations end above the
+    bound on every rung, the ladder runs again with ``1 + backoff``
+    squared (up to 4 times the optimum), and the design's ``backoff`` and
+    ``ladder`` say so.
     """
 
     unique = True

@@ -96,6 +96,7 @@ class GainSteps:
             return best, gamma_opt
         worst = max(np.linalg.norm(K, 2) for K in best.gains)
         if worst > limit:
+            self.gain_short = True
             self.notes.append(
                 f"final point: gain norm {worst:.4g} above the bound (gain_bound "
                 f"{limit:g})"

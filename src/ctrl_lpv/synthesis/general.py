@@ -51,6 +51,13 @@ MARGIN_FACTORS = (1.0, 1e-3)
 SLOW_SHARE = 1.0
 SLOW_FLOOR = 10.0
 
+# Under a gain bound the back-off (`DEFAULT_BACKOFF` without one) is
+# widened, ``1 + b`` squared in turn, up to this many times the optimum
+# (fuzz 8484:6: at 1.2 times the optimum the gain steps converge at 10.6
+# above a bound of 7.38; a design under it exists at 1.44 times).
+DEFAULT_BACKOFF = 0.2
+WIDEST_BACKOFF = 4.0
+
 
 def run_general(
     sys, iu, specs, channels, objective, constraints, scheduled, lyap, continuous,
@@ -92,7 +99,35 @@ def run_analysis(loop, spec, lyap, margin, chain=None, method="analysis"):
 
 
 def run(problem: Problem, time_limit=None) -> StateFeedbackDesign:
-    """Run the ladder; a certified `StateFeedbackDesign` or an exception."""
+    """Run the ladder; a certified `StateFeedbackDesign` or an exception.
+
+    A gain bound is the user's limit, the back-off a default: where every
+    rung's gain steps ended above the bound, the ladder runs again with
+    the back-off widened (``1 + b`` squared, up to `WIDEST_BACKOFF` times
+    the optimum), and the design says so (its ``backoff`` and ``ladder``).
+    """
+    design, refusal, short = _climb(problem, time_limit)
+    objective = problem.objective
+    short = short and objective is not None and objective.bound is None
+    factor = 1.0 + (problem.backoff or DEFAULT_BACKOFF)
+    widened = []
+    while design is None and short and factor**2 <= WIDEST_BACKOFF:
+        factor **= 2
+        widened.append(f"gain_bound not met within backoff={problem.backoff}: "
+                       f"the back-off widened to {factor - 1:.4g}")  # fmt: skip
+        budget.progress("%s", widened[-1])
+        wider = dataclasses.replace(problem, backoff=factor - 1.0)
+        design, _, short = _climb(wider, time_limit)
+    if design is None:
+        raise refusal
+    if widened:
+        design = dataclasses.replace(design, ladder=(*widened, *design.ladder))
+    return design
+
+
+def _climb(problem: Problem, time_limit):
+    """``(design, None, short)`` or ``(None, refusal, short)``: one run of
+    the ladder; `short` whether gain steps ended above a gain bound."""
     start = time.perf_counter()
     deadline = budget.deadline()  # the call's (`ctrl_lpv.budget`)
     plant = problem.plant
@@ -132,6 +167,7 @@ def run(problem: Problem, time_limit=None) -> StateFeedbackDesign:
     compiling = verifying = 0.0
     built = time.perf_counter()
     fallback = best = None
+    short = False
     stopped = []  # slower solvers stopped at their share of the time
 
     def rung_of(frame, compiled, rung_margin, chain, until=deadline):
@@ -180,6 +216,7 @@ def run(problem: Problem, time_limit=None) -> StateFeedbackDesign:
                 rung.notes.append(f"refuted: {refuted.brief(name)}")
         compiling += rung.compiling
         verifying += rung.verifying
+        short = short or rung.gain_short
         if rung.best is not None and (best is None or rung.best[0] < best[0]):
             best = rung.best
         record.extend(f"{label}: {note}" for note in rung.notes)
@@ -217,8 +254,8 @@ def run(problem: Problem, time_limit=None) -> StateFeedbackDesign:
 
         refuted.complete([(f.name, f) for f in prescalings], judge, deadline)
     if fallback is None:
-        raise _refusal(problem, best, record, attempts, rungs, solvers, prescalings,
-                       stopped)  # fmt: skip
+        return None, _refusal(problem, best, record, attempts, rungs, solvers,
+                              prescalings, stopped), short  # fmt: skip
     solved = time.perf_counter()
     timing = {
         "build": built - start,
@@ -226,7 +263,7 @@ def run(problem: Problem, time_limit=None) -> StateFeedbackDesign:
         "solve": solved - built - compiling - verifying,
         "verify": verifying,
     }
-    return _design(problem, *fallback, attempts, timing, record)
+    return _design(problem, *fallback, attempts, timing, record), None, short
 
 
 def _default_chain():

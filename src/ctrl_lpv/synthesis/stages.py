@@ -115,6 +115,9 @@ class Rung(GainSteps):
         # this rung's optimum confirmed it (then it stops there).
         self.confirm = None
         self.confirmed = False
+        # Whether the gain steps ended above a gain bound (the ladder may
+        # widen the back-off: `ctrl_lpv.synthesis.general.run`).
+        self.gain_short = False
         self._load(frame)
 
     @property
