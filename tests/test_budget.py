@@ -230,7 +230,7 @@ def test_a_slower_solver_gets_its_share_of_the_time(plant, clock, monkeypatch):
     for its share of the ladder's time (at least `SLOW_FLOOR`), not for the
     whole budget: SCS stalled at 1e3 s per solve is called once, with a
     limit of the share, and the refusal says it was stopped."""
-    from ctrl_lpv.synthesis.general import SLOW_FLOOR
+    from ctrl_lpv.synthesis.hooked import SLOW_FLOOR
 
     seen = []
 

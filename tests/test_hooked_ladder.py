@@ -1,9 +1,10 @@
-"""The engine's ladder for a problem that supplies its stages
-(`ctrl_lpv.synthesis.hooked`, `ctrl_lpv.synthesis.general.run_hooked`),
-driven by a scripted hook: the order of the stages, the held raw optimum,
-the renormalisation and the refusal, against the rules stated in the
-module's docstring (the output-feedback numerics themselves are gated by
-the output-feedback tests and `benchmarks/compare_output_feedback.py`)."""
+"""The engine's one ladder (`ctrl_lpv.synthesis.hooked`): for a problem
+that supplies its stages, driven by a scripted hook (the order of the
+stages, the held raw optimum, the renormalisation and the refusal, against
+the rules stated in the module's docstring; the output-feedback numerics
+themselves are gated by the output-feedback tests and
+`benchmarks/compare_output_feedback.py`), and on a corpus of state- and
+output-feedback problems against the two loops it replaced."""
 
 from __future__ import annotations
 
@@ -12,8 +13,7 @@ from dataclasses import dataclass
 import pytest
 
 from ctrl_lpv import CertificationError
-from ctrl_lpv.synthesis.general import run_hooked
-from ctrl_lpv.synthesis.hooked import Posed, StageHook, run_rung
+from ctrl_lpv.synthesis.hooked import Posed, StageHook, ladder, run_rung
 
 RAW = (0.0, 1e-5, 1e-4, 5e-4)
 
@@ -31,6 +31,7 @@ class Design:
 class Rung:
     label: str
     name: str
+    slow: bool = False
 
 
 class ScriptedPosed(Posed):
@@ -72,16 +73,18 @@ class ScriptedPosed(Posed):
 
 class ScriptedHook(StageHook):
     prefix = "scripted: "
+    method = "scripted"
 
     def __init__(self, certifies, estimate=1.0, backoffs=RAW, homogeneous=True,
                  names=("first",)):  # fmt: skip
+        super().__init__()
         self.certifies = certifies
         self.estimate = estimate
         self._backoffs = backoffs
         self.homogeneous = homogeneous
         self.names = names
         self.no_optimum = False
-        self.log, self.limits, self.refused = [], [], None
+        self.log, self.limits = [], []
 
     def rungs(self):
         return [Rung(f"rung {n}", n) for n in self.names]
@@ -99,9 +102,11 @@ class ScriptedHook(StageHook):
     def reached(self, design, label):
         return f"certified on {label}"
 
-    def refusal(self, notes, estimates, attempts):
-        self.refused = (list(notes), list(estimates))
-        return CertificationError("scripted refusal", attempts)
+    def estimated(self, estimate):
+        return f"estimate {estimate:g}"
+
+    def tried(self):
+        return f"rungs {list(self.names)}"
 
 
 def test_raw_optimum_above_its_estimate_is_held_until_a_backoff_fits_it():
@@ -166,7 +171,7 @@ def test_no_renormalisation_of_a_non_homogeneous_problem_or_near_one():
 def test_ladder_takes_the_first_rung_that_certifies_and_refuses_with_every_note():
     hook = ScriptedHook(lambda rung, scale, b: 1.0 if rung.name == "second" else None,
                         names=("first", "second", "third"))  # fmt: skip
-    design = run_hooked(hook)
+    design = ladder(hook)
     assert design.gamma == 1.0
     assert {name for _, name, _ in hook.log} == {"first", "second"}
     # The rung passed over is the design's ladder, by name and reason.
@@ -175,19 +180,70 @@ def test_ladder_takes_the_first_rung_that_certifies_and_refuses_with_every_note(
 
     hook = ScriptedHook(lambda rung, scale, b: None, estimate=1.5,
                         names=("first", "second"))  # fmt: skip
-    with pytest.raises(CertificationError, match="scripted refusal"):
-        run_hooked(hook)
-    notes, estimates = hook.refused
-    # The last refusal of each rung, named by the rung, without the prefix.
-    assert notes == ["first: first refused at 0.0005",
-                     "second: second refused at 0.0005"]  # fmt: skip
-    assert estimates == [1.5, 1.5]
+    with pytest.raises(CertificationError) as info:
+        ladder(hook)
+    # The engine's refusal: the best point reached (the smallest estimate)
+    # first, then the last refusal of each rung without the prefix, digested,
+    # and what was tried.
+    first, failed, tried = str(info.value).splitlines()
+    assert first == ("scripted: no certified solution found, best point reached: "
+                     "estimate 1.5")  # fmt: skip
+    assert failed == "what failed: first refused at 0.0005; second refused at 0.0005"
+    assert tried == "tried: rungs ['first', 'second']"
 
 
 def test_a_rung_without_an_optimum_gives_no_estimate():
     hook = ScriptedHook(lambda rung, scale, b: 1.0, estimate=1e3)
     hook.no_optimum = True
-    with pytest.raises(CertificationError):
-        run_hooked(hook)
-    notes, estimates = hook.refused
-    assert notes == ["first: no optimum"] and estimates == []
+    with pytest.raises(CertificationError) as info:
+        ladder(hook)
+    first, failed, _ = str(info.value).splitlines()
+    assert first.endswith("best point reached: none")
+    assert "no optimum" in failed
+
+
+def test_a_rung_after_the_deadline_is_not_tried(monkeypatch):
+    """The one ladder's budget: rungs past the call's deadline are noted
+    as not tried, without a solve."""
+    from ctrl_lpv import budget
+
+    monkeypatch.setattr(budget, "deadline", lambda: float("-inf"))
+    hook = ScriptedHook(lambda rung, scale, b: 1.0, names=("first", "second"))
+    with pytest.raises(CertificationError) as info:
+        ladder(hook)
+    assert hook.log == []
+    assert "time_limit reached" in str(info.value)
+
+
+# ----------------------------------------------------------------------
+# One ladder: the corpus decides as the two loops did (issue 20)
+# ----------------------------------------------------------------------
+# Outcomes recorded from the separate state-feedback (`run`) and
+# output-feedback (`run_hooked`) loops at commit 1f84be3, before they
+# became one (`tests/_ladder_corpus.py`): the same solves, so the same
+# verdicts, the same bits of every bound and gain, the same ladder notes
+# and solver attempts. Cases over ~3 s of CPU run with ``-m slow``.
+_CORPUS_SLOW = {"fuzz 2026:6 (small) quadratic_stabilization", "hinf_of 2-vertex",
+                "h2_of 2 raw"}  # fmt: skip
+
+
+def _corpus():
+    import json
+    from pathlib import Path
+
+    from _ladder_corpus import cases
+
+    recorded = json.loads((Path(__file__).parent / "data" / "ladder_corpus.json")
+                          .read_text())  # fmt: skip
+    return [
+        pytest.param(call, recorded[name], id=name,
+                     marks=[pytest.mark.slow] if name in _CORPUS_SLOW else [])
+        for name, call in cases()
+    ]  # fmt: skip
+
+
+@pytest.mark.parametrize(("call", "recorded"), _corpus())
+def test_one_ladder_decides_as_the_two_loops_did(call, recorded):
+    from _ladder_corpus import outcome
+
+    assert outcome(call) == recorded

@@ -3,7 +3,7 @@
 The public calls: the arguments checked, the plant partitioned into
 ``w, u, z, y``, the objective and its constraints as specs
 (`ctrl_lpv.output_feedback.objectives`, `.mixed`), then the engine's
-ladder (`ctrl_lpv.synthesis.general.run_hooked`) over the stages output
+ladder (`ctrl_lpv.synthesis.hooked.ladder`) over the stages output
 feedback supplies (`ctrl_lpv.output_feedback.stages`: prescalings, the
 optimal and back-off stages on the LMIs of `ctrl_lpv.output_feedback.
 problem`, the controller rebuilt and certified on the closed loop). A
@@ -22,7 +22,7 @@ from ..budget import DEFAULT_TIME_LIMIT, time_budget
 from ..exceptions import InfeasibleError
 from ..lmi import default_solvers, solver_chain
 from ..stabilizability import _vertex_modes, check_stabilizability
-from ..synthesis.general import run_hooked
+from ..synthesis.hooked import ladder
 from ..systems import PolytopicStateSpace
 from .mixed import output_feedback_constraints
 from .objectives import H2Objective, HinfObjective
@@ -219,7 +219,7 @@ def _output_feedback(kind, sys, w, u, z, y, gains, constraints, backoff, margin,
     # read here, at the call.
     hook = OutputFeedbackStages(plant, objective, gains == "scheduled", backoff,
                                 margin, chain, prescalings(plant), rebuild)  # fmt: skip
-    return run_hooked(hook, started)
+    return ladder(hook, started)
 
 
 def _require_stabilizable_detectable(plant):

@@ -1,7 +1,7 @@
 """What output feedback supplies to the engine's ladder: its stage hook.
 
-The ladder and its rung (`ctrl_lpv.synthesis.general.run_hooked`,
-`ctrl_lpv.synthesis.hooked`) fix the order of the stages; this hook
+The engine's ladder and its staged rung (`ctrl_lpv.synthesis.hooked`:
+`climb`, `run_rung`) fix the order of the stages; this hook
 supplies output feedback's own numerics on one `ctrl_lpv.lmi.LMIProblem`
 (`ctrl_lpv.output_feedback.problem.build`; every point is checked in
 float64 before it is used):
@@ -37,7 +37,6 @@ import numpy as np
 
 from ..exceptions import CertificationError, InfeasibleError
 from ..synthesis.hooked import Posed, StageHook
-from ..synthesis.refusals import refusal
 from .fixed_modes import describe, slow_fixed_modes
 from .prescale import Prescaling
 from .problem import build, certified
@@ -72,6 +71,7 @@ class _Rung:
     kind: str
     label: str
     name: str
+    slow: bool = False  # every rung starts with the first solver
 
 
 class OutputFeedbackStages(StageHook):
@@ -86,6 +86,8 @@ class OutputFeedbackStages(StageHook):
 
     def __init__(self, plant, objective, scheduled, backoff, margin, chain,
                  kinds, rebuild):  # fmt: skip
+        super().__init__()
+        self.method = f"{objective.label} output feedback"
         self.plant = plant
         self.objective = objective
         self.scheduled = scheduled
@@ -126,25 +128,24 @@ class OutputFeedbackStages(StageHook):
     def reached(self, design, label):
         return f"a certified point ({label}), {self.objective.name} {design.gamma:.6g}"
 
-    def refusal(self, notes, estimates, attempts):
-        objective = self.objective
-        best = None
-        if estimates:
-            best = (f"the optimum's estimate, {objective.name} {min(estimates):.6g} "
-                    "(not certified)")  # fmt: skip
+    def estimated(self, estimate):
+        return (f"the optimum's estimate, {self.objective.name} {estimate:.6g} "
+                "(not certified)")  # fmt: skip
+
+    def hint(self):
         fixed = slow_fixed_modes(self.plant)
         # The likely cause, named: such a mode keeps the certificate's slack
         # along it at its own slow rate.
-        hint = (f". Slow modes no controller moves: {describe(fixed)}; a "
+        return (f". Slow modes no controller moves: {describe(fixed)}; a "
                 "quadratic certificate's slack along them is of the order of "
                 "their rate (remedy: move the slow pole into the controller, or "
                 "a smaller margin)") if fixed else ""  # fmt: skip
-        tried = (f"{len(self.kinds)} prescalings ("
-                 + ", then ".join(_PRESCALED[k] for k in self.kinds)
-                 + f"), back-offs {list(self.backoffs())}, solvers "
-                 f"{[n for n, _ in self.chain]}, margin {self.margin:g}")  # fmt: skip
-        return refusal(f"{objective.label} output feedback", best, notes, tried,
-                       attempts, hint)  # fmt: skip
+
+    def tried(self):
+        return (f"{len(self.kinds)} prescalings ("
+                + ", then ".join(_PRESCALED[k] for k in self.kinds)
+                + f"), back-offs {list(self.backoffs())}, solvers "
+                f"{[n for n, _ in self.chain]}, margin {self.margin:g}")  # fmt: skip
 
 
 class _Posed(Posed):

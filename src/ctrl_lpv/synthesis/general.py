@@ -1,4 +1,4 @@
-"""The engine: the fallback ladder over the rungs of one `Problem`.
+"""State feedback on the engine's ladder: the rungs of one `Problem`.
 
 Rungs: the first solver at every prescaling (balanced, Riccati,
 unbalanced, none; `ctrl_lpv.synthesis.scaling.frames`) and margin (the
@@ -13,27 +13,29 @@ back-off starts from an estimate the solver could not meet): the other
 prescalings at the nominal margin are asked for one that certifies; if
 none does, the first design stands.
 
-A problem that supplies its own stages (output feedback, through a
-`~ctrl_lpv.synthesis.hooked.StageHook`) runs on `run_hooked`: the rungs it
-supplies in turn, each run by `~ctrl_lpv.synthesis.hooked.run_rung`.
+The loop over the rungs (the time budget and a slower solver's share of
+it, progress lines, notes, timing, the refusal) is the engine's one ladder,
+`ctrl_lpv.synthesis.hooked.climb`, which output feedback runs too: state
+feedback supplies it a `_StateFeedback` (its rungs, each run as a
+`~ctrl_lpv.synthesis.stages.Rung`, and its refutations and fallback).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
 from .. import budget
-from ..exceptions import CertificationError, InfeasibleError
+from ..exceptions import InfeasibleError
 from ..lmi.conic import LIFTED
 from ..problem_cache import synthesis_cache
 from .channels import Partition
-from .hooked import run_rung
+from .hooked import Climbed, Ladder, climb
 from .options import guard_size
 from .problem import Problem, Structure, build
-from .refusals import refusal
 from .refutation import Refutations, RungRefuted
 from .results import StateFeedbackDesign
 from .scaling import frames
@@ -41,15 +43,6 @@ from .stages import Rung
 
 # Margins tried in turn, relative to the given one.
 MARGIN_FACTORS = (1.0, 1e-3)
-
-# A slower solver's rung (SCS and later, after the first solver failed at
-# every prescaling) runs for at most this many times the ladder's time so
-# far, and at least `SLOW_FLOOR` seconds. Measured on 52 fuzz problems
-# (benchmarks/fuzz_trust.py, seeds 6161, 7373, 5151): SCS certified none
-# that Clarabel could not, and spent 20-460 s before each of 9 refusals
-# (a refusal after 494 s at n = 9, N = 12).
-SLOW_SHARE = 1.0
-SLOW_FLOOR = 10.0
 
 # Under a gain bound the back-off (`DEFAULT_BACKOFF` without one) is
 # widened, ``1 + b`` squared in turn, up to this many times the optimum
@@ -126,144 +119,188 @@ def run(problem: Problem, time_limit=None) -> StateFeedbackDesign:
 
 
 def _climb(problem: Problem, time_limit):
-    """``(design, None, short)`` or ``(None, refusal, short)``: one run of
-    the ladder; `short` whether gain steps ended above a gain bound."""
-    start = time.perf_counter()
-    deadline = budget.deadline()  # the call's (`ctrl_lpv.budget`)
-    plant = problem.plant
-    for i, spec in enumerate(problem.bound_specs):
-        channel = plant.channels[i]
-        spec.check_data(
-            [{"Dzw": D, "w": [plant.system.physical_inputs[k] for k in channel.w],
-              "z": [plant.system.output_labels[k] for k in channel.z]}
-             for D in channel.Dzw],
-            problem.continuous,
-        )  # fmt: skip
-    hints = [s.state_scaling(plant.n) for s in problem.specs]
-    hint = next((h for h in hints if h is not None), None)
-    prescalings = frames(plant, problem.continuous, hint)
-    structures: dict = {}
+    """``(design, None, short)`` or ``(None, refusal, short)``: the ladder
+    once; `short` whether gain steps ended above a gain bound."""
+    started = time.perf_counter()
+    ladder = _StateFeedback(problem, time_limit)
+    design, refusal = climb(ladder, started)
+    return design, refusal, ladder.short
 
-    def structure_of(frame) -> Structure:
-        key = tuple(tuple((r / frame.a).tolist()) for r in problem.lyap.rates)
-        if key not in structures:
-            structures[key] = Structure.of(problem, frame.a)
-        return structures[key]
 
-    guard_size(structure_of(prescalings[0]), time_limit)
-    record, attempts = [], []
-    solvers = [[entry] for entry in (problem.chain or _default_chain())]
-    margin = problem.margin
-    rungs = [(solvers[0], f, factor) for f in prescalings for factor in MARGIN_FACTORS]
-    rungs += [(one, prescalings[0], MARGIN_FACTORS[0]) for one in solvers[1:]]
-    # Last, Clarabel's lifted form at every prescaling (`LIFTED`): it solves
-    # LMIs whose entries span too many decades for the direct form (modes
-    # 1e18 apart), where every rung above fails; only then, so that no
-    # design found above changes.
-    rungs += [([(LIFTED, options)], f, MARGIN_FACTORS[0])
-              for name, options in solvers[0][:1] if name.upper() == "CLARABEL"
-              for f in prescalings]  # fmt: skip
-    refuted = Refutations(problem.method, [f.name for f in prescalings], attempts)
-    compiling = verifying = 0.0
-    built = time.perf_counter()
-    fallback = best = None
-    short = False
-    stopped = []  # slower solvers stopped at their share of the time
+@dataclass(frozen=True)
+class _Rung:
+    """A rung of state feedback: a solver chain at a prescaling and margin."""
 
-    def rung_of(frame, compiled, rung_margin, chain, until=deadline):
+    solvers: list
+    frame: object
+    factor: float
+    label: str
+    slow: bool  # not the first solver: run for its share of the time
+
+    @property
+    def name(self) -> str:
+        return self.label
+
+    @property
+    def solver(self) -> str:
+        return self.solvers[0][0]
+
+
+class _StateFeedback(Ladder):
+    """State feedback on the engine's ladder (`ctrl_lpv.synthesis.hooked`).
+
+    Its rungs: the first solver at every prescaling and margin, the slower
+    solvers at the first prescaling and the nominal margin, Clarabel's
+    lifted form last (module docstring). Its own capabilities: a
+    prescaling refuted by one rung is not tried again (and the rungs tried
+    before a late refutation are judged without a solve once every rung
+    failed, `Refutations.complete`); a design whose optimum did not
+    certify asks the other prescalings at the nominal margin for a
+    certified one (then only those rungs are wanted).
+    """
+
+    def __init__(self, problem: Problem, time_limit):
+        super().__init__()
+        self.problem = problem
+        self.method = problem.method
+        plant = problem.plant
+        for i, spec in enumerate(problem.bound_specs):
+            channel = plant.channels[i]
+            spec.check_data(
+                [{"Dzw": D, "w": [plant.system.physical_inputs[k] for k in channel.w],
+                  "z": [plant.system.output_labels[k] for k in channel.z]}
+                 for D in channel.Dzw],
+                problem.continuous,
+            )  # fmt: skip
+        hints = [s.state_scaling(plant.n) for s in problem.specs]
+        hint = next((h for h in hints if h is not None), None)
+        self.prescalings = frames(plant, problem.continuous, hint)
+        self.structures: dict = {}
+        guard_size(self.structure_of(self.prescalings[0]), time_limit)
+        self.solvers = [[entry] for entry in (problem.chain or _default_chain())]
+        first, margin = self.solvers[0], problem.margin
+        plan = [
+            (first, f, factor) for f in self.prescalings for factor in MARGIN_FACTORS
+        ]
+        plan += [
+            (one, self.prescalings[0], MARGIN_FACTORS[0]) for one in self.solvers[1:]
+        ]
+        # Last, Clarabel's lifted form at every prescaling (`LIFTED`): it
+        # solves LMIs whose entries span too many decades for the direct
+        # form (modes 1e18 apart), where every rung above fails; only then,
+        # so that no design found above changes.
+        plan += [([(LIFTED, options)], f, MARGIN_FACTORS[0])
+                 for name, options in first[:1] if name.upper() == "CLARABEL"
+                 for f in self.prescalings]  # fmt: skip
+        self._rungs = [
+            _Rung(one, f, factor,
+                  f"{one[0][0]}, {f.name} scaling, margin {margin * factor:g}",
+                  one is not first)
+            for one, f, factor in plan
+        ]  # fmt: skip
+        self.refuted = Refutations(
+            problem.method, [f.name for f in self.prescalings], self.attempts
+        )
+        # Whether gain steps ended above a gain bound (`run` widens the
+        # back-off then).
+        self.short = False
+
+    def structure_of(self, frame) -> Structure:
+        key = tuple(tuple((r / frame.a).tolist()) for r in self.problem.lyap.rates)
+        if key not in self.structures:
+            self.structures[key] = Structure.of(self.problem, frame.a)
+        return self.structures[key]
+
+    def _rung(self, frame, compiled, rung_margin, chain, until):
+        problem = self.problem
         return Rung(
-            problem, structure_of(frame), compiled, frame, rung_margin, chain,
-            until, attempts, margin * min(MARGIN_FACTORS),
+            problem, self.structure_of(frame), compiled, frame, rung_margin, chain,
+            until, self.attempts, problem.margin * min(MARGIN_FACTORS),
         )  # fmt: skip
 
-    def checkout(frame):
-        s = structure_of(frame)
-        return synthesis_cache.checkout(s, lambda s: build(problem, s))
+    def _checkout(self, frame):
+        problem = self.problem
+        return synthesis_cache.checkout(
+            self.structure_of(frame), lambda s: build(problem, s)
+        )
 
-    for one_solver, frame, factor in rungs:
-        name = frame.name
-        label = f"{one_solver[0][0]}, {name} scaling, margin {margin * factor:g}"
-        if fallback is not None and (
-            one_solver is not solvers[0] or factor != MARGIN_FACTORS[0]
-        ):
-            continue
-        if name in refuted:
-            record.append(f"{label}: not tried (refuted: {refuted.brief(name)})")
-            continue
-        if deadline is not None and time.perf_counter() > deadline:
-            record.append(f"{label}: not tried (time_limit reached)")
-            continue
-        budget.progress("rung %s", label, rung=label)
-        until, share = deadline, None
-        if one_solver is not solvers[0]:
-            now = time.perf_counter()
-            share = max(SLOW_FLOOR, SLOW_SHARE * (now - start))
-            until = now + share if deadline is None else min(deadline, now + share)
-        with checkout(frame) as (compiled, _):
-            rung = rung_of(frame, compiled, margin * factor, one_solver, until)
-            rung.carried = refuted.last
-            if fallback is not None:
-                rung.confirm = fallback[1]
+    # -- the ladder's protocol ---------------------------------------------
+    def rungs(self):
+        return self._rungs
+
+    def wanted(self, rung, found):
+        # With a design at hand, only the first solver at the nominal margin
+        # is asked for a certified optimum.
+        return found is None or not (rung.slow or rung.factor != MARGIN_FACTORS[0])
+
+    def not_tried(self, rung):
+        name = rung.frame.name
+        return f"refuted: {self.refuted.brief(name)}" if name in self.refuted else None
+
+    def climb(self, rung, until, found):
+        problem, frame = self.problem, rung.frame
+        with self._checkout(frame) as (compiled, _):
+            one = self._rung(frame, compiled, problem.margin * rung.factor,
+                             rung.solvers, until)  # fmt: skip
+            one.carried = self.refuted.last
+            if found is not None:
+                one.confirm = found[1]
             try:
-                found = rung.run()
+                point = one.run()
             except InfeasibleError as exc:
                 raise InfeasibleError(
-                    f"{problem.method}: {exc}", attempts, exc.farkas
+                    f"{problem.method}: {exc}", self.attempts, exc.farkas
                 ) from None
             except RungRefuted as exc:
-                found = None
-                refuted.add(name, exc)  # raises once every prescaling is
-                rung.notes.append(f"refuted: {refuted.brief(name)}")
-        compiling += rung.compiling
-        verifying += rung.verifying
-        short = short or rung.gain_short
-        if rung.best is not None and (best is None or rung.best[0] < best[0]):
-            best = rung.best
-        record.extend(f"{label}: {note}" for note in rung.notes)
-        if share is not None and until != deadline and time.perf_counter() >= until:
-            stopped.append(f"{one_solver[0][0]} stopped after {share:.3g} s, its "
-                           "share of the ladder's time")  # fmt: skip
-            record.append(f"{label}: {stopped[-1]}")
-        if rung.confirmed:
-            if found is not None and found[0].value < fallback[0].value:
+                point = None
+                self.refuted.add(frame.name, exc)  # raises once every prescaling is
+                one.notes.append(f"refuted: {self.refuted.brief(frame.name)}")
+        self.compiling += one.compiling
+        self.verifying += one.verifying
+        self.short = self.short or one.gain_short
+        step = Climbed(found, one.notes, one.best)
+        if one.confirmed:
+            if point is not None and point[0].value < found[0].value:
                 # A raw optimum below the design at hand; the lower estimate.
-                estimates = [e for e in (found[1], fallback[1]) if e is not None]
-                fallback = (found[0], min(estimates, default=None))
-            break
-        if found is None:
-            continue
-        if fallback is not None and found[0].value >= fallback[0].value:
-            continue
-        fallback = found
-        if rung.optimum_certified:
-            break
-        record.append(
-            f"{label}: a design, but its optimum did not certify; other "
-            "prescalings asked for a certified one"
-        )
-    if fallback is None:
+                estimates = [e for e in (point[1], found[1]) if e is not None]
+                step.found = (point[0], min(estimates, default=None))
+            step.stop = True
+        elif point is not None and (found is None or point[0].value < found[0].value):
+            step.found = point
+            step.stop = one.optimum_certified
+            if not step.stop:
+                step.notes.append("a design, but its optimum did not certify; other "
+                                  "prescalings asked for a certified one")  # fmt: skip
+        return step
+
+    def exhausted(self, deadline):
         # A prescaling refuted late (by the slower solvers) may refute the
         # ones tried before it: judged without a solver call.
+        margin, first = self.problem.margin, self.solvers[0]
+
         def judge(frame, carried):
-            with checkout(frame) as (compiled, _):
-                rung = rung_of(frame, compiled, margin, solvers[0])
+            with self._checkout(frame) as (compiled, _):
+                rung = self._rung(frame, compiled, margin, first, deadline)
                 if rung.gate_bounds("stabilize") is None:
                     return  # nothing a refutation could carry to
                 rung.carried, rung.solving = carried, False
                 rung.run()
 
-        refuted.complete([(f.name, f) for f in prescalings], judge, deadline)
-    if fallback is None:
-        return None, _refusal(problem, best, record, attempts, rungs, solvers,
-                              prescalings, stopped), short  # fmt: skip
-    solved = time.perf_counter()
-    timing = {
-        "build": built - start,
-        "compile": compiling,
-        "solve": solved - built - compiling - verifying,
-        "verify": verifying,
-    }
-    return _design(problem, *fallback, attempts, timing, record), None, short
+        self.refuted.complete([(f.name, f) for f in self.prescalings], judge, deadline)
+
+    def design(self, found, timing, notes):
+        return _design(self.problem, *found, self.attempts, timing, notes)
+
+    def tried(self):
+        problem = self.problem
+        return (
+            f"{len(self._rungs)} rungs (solvers {[one[0][0] for one in self.solvers]}, "
+            f"prescalings {[f.name for f in self.prescalings]}, margins "
+            f"{[problem.margin * f for f in MARGIN_FACTORS]})"
+        )
+
+    def hint(self):
+        return "".join(f"; weakly controllable: {m}" for m in self.problem.suspects)
 
 
 def _default_chain():
@@ -305,49 +342,3 @@ def _design(problem, point, gamma_opt, attempts, timing, record):
         rational=point.rational,
         values={problem.specs[q]: v for q, v in point.values.items()},
     )
-
-
-def _refusal(problem, best, record, attempts, rungs, solvers, prescalings, stopped):
-    """The refusal: a short first line, the ladder's detail after it."""
-    hint = "".join(f"; weakly controllable: {m}" for m in problem.suspects)
-    tried = (
-        f"{len(rungs)} rungs (solvers {[one[0][0] for one in solvers]}, "
-        f"prescalings {[f.name for f in prescalings]}, margins "
-        f"{[problem.margin * f for f in MARGIN_FACTORS]})"
-    )
-    if stopped:
-        tried += (f"; {'; '.join(stopped)} (solvers=[<it>, ...] gives it the "
-                  "whole time_limit)")  # fmt: skip
-    return refusal(problem.method, None if best is None else best[1], record, tried,
-                   attempts, hint)  # fmt: skip
-
-
-def run_hooked(hook, started=None):
-    """The ladder over the rungs a problem supplies through its
-    `~ctrl_lpv.synthesis.hooked.StageHook` (output feedback): the first
-    certified design, with the `timing` of a state-feedback design and the
-    notes of the rungs passed over as its `ladder`, or the hook's refusal
-    with every rung's notes. `started`: when the call began (its checks
-    count as "build")."""
-    begun = time.perf_counter()
-    notes, estimates, attempts = [], [], []
-    for rung in hook.rungs():
-        budget.progress("rung %s", rung.label, rung=rung.label)
-        design, failure, estimate = run_rung(hook, rung)
-        if design is not None:
-            budget.reached(hook.reached(design, rung.label), design.gamma)
-            spent = time.perf_counter() - begun
-            timing = {
-                "build": begun - (begun if started is None else started),
-                "compile": hook.compiling,
-                "solve": spent - hook.compiling - hook.verifying,
-                "verify": hook.verifying,
-            }
-            return dataclasses.replace(design, timing=timing, ladder=tuple(notes))
-        if not isinstance(failure, CertificationError):
-            raise failure
-        notes.append(f"{rung.name}: {str(failure).removeprefix(hook.prefix)}")
-        attempts.extend(failure.attempts)
-        if estimate is not None:
-            estimates.append(estimate)
-    raise hook.refusal(notes, estimates, attempts)

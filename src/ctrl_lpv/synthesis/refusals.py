@@ -1,8 +1,8 @@
-"""The one refusal format of the engine's ladders.
+"""The one refusal format of the engine's ladder.
 
-Every refusal of a design (`ctrl_lpv.synthesis.general.run` for state
-feedback, `~ctrl_lpv.synthesis.general.run_hooked` with the hook of
-`ctrl_lpv.output_feedback.stages` for output feedback) reads the same: a
+Every refusal of a design (the ladder `ctrl_lpv.synthesis.hooked.climb`,
+for state feedback through `ctrl_lpv.synthesis.general.run`, for output
+feedback with the hook of `ctrl_lpv.output_feedback.stages`) reads the same: a
 short first line (what was asked, the best point reached), what failed
 (the ladder's notes without repeats, `ctrl_lpv.budget.digest`), a hint
 where the data show a likely cause, and what was tried.
