@@ -42,3 +42,45 @@ def test_default_backoff_is_one_solve_beyond_the_optimum(seed, scheduled):
     # The step's tangent is exact at the optimum, which it may keep: the
     # gain never grows, and the slack in the bound buys a smaller one.
     assert _largest_gain(design) < _largest_gain(raw)
+
+
+def test_the_one_steps_loose_gap_tolerance_keeps_its_point(monkeypatch):
+    """The one step solved to Clarabel's default gap tolerance and to
+    `STEP_GAP_TOL`: the same gain to 1e-4, both certified, fewer iterations.
+
+    The step's point is verified in float64 like any other; the digits of
+    its objective the default tolerance buys cost iterations only.
+    """
+    import clarabel
+
+    from ctrl_lpv.synthesis import stages
+
+    iterations = []
+    original = clarabel.DefaultSolver
+
+    class Counted:
+        def __init__(self, *args, **kwargs):
+            self._solver = original(*args, **kwargs)
+
+        def solve(self):
+            solution = self._solver.solve()
+            iterations.append(int(solution.iterations))
+            return solution
+
+        def __getattr__(self, name):
+            return getattr(self._solver, name)
+
+    monkeypatch.setattr(clarabel, "DefaultSolver", Counted)
+    sys = lpv.pss(random_vertices(8, 16, seed=1))
+    designs, steps = {}, {}
+    for tol in (None, stages.STEP_GAP_TOL):
+        monkeypatch.setattr(stages, "STEP_GAP_TOL", tol)
+        del iterations[:]
+        designs[tol] = lpv.gain_scheduled_hinf(sys, w=W, u=U, z=Z)
+        assert designs[tol].certificate.verified
+        assert len(iterations) == 2  # the optimum, the one step
+        steps[tol] = iterations[-1]
+    tight, loose = designs[None], designs[stages.STEP_GAP_TOL]
+    assert _largest_gain(loose) == pytest.approx(_largest_gain(tight), rel=1e-4)
+    assert loose.gamma == pytest.approx(tight.gamma, rel=1e-4)
+    assert steps[stages.STEP_GAP_TOL] < steps[None]

@@ -40,7 +40,7 @@ import numpy as np
 from .. import budget
 from ..lmi import default_solvers, schur_norm_bound, symmetric_norm_bound
 from .decay import DecaySearch, search_decay
-from .gains import STEP_SPAN, GainSteps
+from .gains import STEP_GAP_TOL, STEP_SPAN, GainSteps
 from .points import Ws as _Ws
 from .points import check_point
 from .problem import load, set_eps
@@ -416,7 +416,7 @@ class Rung(GainSteps):
                 # One convex-concave step from the optimum (see the module
                 # docstring): the back-off in one extra solve.
                 best = self._gain_step(
-                    raw_design, "back-off (one gain step)", STEP_SPAN
+                    raw_design, "back-off (one gain step)", STEP_SPAN, STEP_GAP_TOL
                 )
                 if best is not None:
                     return self._gain_bound(best, gamma_opt)
