@@ -110,8 +110,13 @@ def test_impossible_gamma_is_proven_infeasible(plant):
 
 
 def test_gain_bound_miss_is_not_called_infeasible(plant):
-    with pytest.raises(lpv.CertificationError, match="gain_bound"):
+    with pytest.raises(lpv.CertificationError, match="gain_bound") as info:
         lpv.hinf_state_feedback(plant, gain_bound=1e-3, **CHANNELS)
+    # The back-off was widened before the refusal, and the refusal says so
+    # after the detail of the back-off asked for.
+    message = str(info.value)
+    assert "no certified solution found" in message.splitlines()[0]
+    assert message.splitlines()[-1].startswith("widened: the back-off up to 1.07")
 
 
 def test_huge_bounds_are_accepted(plant):

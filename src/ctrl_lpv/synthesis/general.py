@@ -112,6 +112,14 @@ def run(problem: Problem, time_limit=None) -> StateFeedbackDesign:
         wider = dataclasses.replace(problem, backoff=factor - 1.0)
         design, _, short = _climb(wider, time_limit)
     if design is None:
+        if widened:
+            # What the widening tried, after the refusal at the back-off asked.
+            last = widened[-1].rsplit(" ", 1)[-1]
+            refusal = type(refusal)(
+                f"{refusal}\nwidened: the back-off up to {last} met the gain bound "
+                "nowhere either",
+                refusal.attempts, refusal.farkas,
+            )  # fmt: skip
         raise refusal
     if widened:
         design = dataclasses.replace(design, ladder=(*widened, *design.ladder))
