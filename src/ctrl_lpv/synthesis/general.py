@@ -245,7 +245,7 @@ class _StateFeedback(Ladder):
         name = rung.frame.name
         return f"refuted: {self.refuted.brief(name)}" if name in self.refuted else None
 
-    def climb(self, rung, until, found):
+    def attempt(self, rung, until, found):
         problem, frame = self.problem, rung.frame
         with self._checkout(frame) as (compiled, _):
             one = self._rung(frame, compiled, problem.margin * rung.factor,

@@ -63,7 +63,7 @@ SLOW_FLOOR = 10.0
 
 @dataclass
 class Climbed:
-    """What one rung gave the ladder (`Ladder.climb`).
+    """What one rung gave the ladder (`Ladder.attempt`).
 
     Attributes
     ----------
@@ -119,7 +119,7 @@ class Ladder(abc.ABC):
         return None
 
     @abc.abstractmethod
-    def climb(self, rung, until, found) -> Climbed:
+    def attempt(self, rung, until, found) -> Climbed:
         """Run `rung` (its solvers stop at `until`, a ``perf_counter``
         value, or None) given the answer `found` so far."""
 
@@ -165,7 +165,7 @@ def climb(problem: Ladder, started=None):
             now = time.perf_counter()
             share = max(SLOW_FLOOR, SLOW_SHARE * (now - started))
             until = now + share if deadline is None else min(deadline, now + share)
-        step = problem.climb(rung, until, found)
+        step = problem.attempt(rung, until, found)
         if step.best is not None and (best is None or step.best[0] < best[0]):
             best = step.best
         record.extend(f"{rung.name}: {note}" for note in step.notes)
@@ -258,7 +258,7 @@ class StageHook(Ladder):
         """`design` of the plant scaled by `scale` certified on the plant
         within `limit`, or a `CertificationError`."""
 
-    def climb(self, rung, until, found) -> Climbed:
+    def attempt(self, rung, until, found) -> Climbed:
         design, failure, estimate = run_rung(self, rung)
         if design is not None:
             budget.reached(self.reached(design, rung.label), design.gamma)
