@@ -116,8 +116,8 @@ def run(problem: Problem, time_limit=None) -> StateFeedbackDesign:
             # What the widening tried, after the refusal at the back-off asked.
             last = widened[-1].rsplit(" ", 1)[-1]
             refusal = type(refusal)(
-                f"{refusal}\nwidened: the back-off up to {last} met the gain bound "
-                "nowhere either",
+                f"{refusal}\nwidened: with the back-off up to {last}, no certified "
+                "design under the gain bound either",
                 refusal.attempts, refusal.farkas,
             )  # fmt: skip
         raise refusal
