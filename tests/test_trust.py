@@ -116,7 +116,7 @@ def test_gain_bound_miss_is_not_called_infeasible(plant):
     # after the detail of the back-off asked for.
     message = str(info.value)
     assert "no certified solution found" in message.splitlines()[0]
-    assert message.splitlines()[-1].startswith("widened: with the back-off up to 1.07,")
+    assert message.splitlines()[-1].startswith("widened: with the back-off up to 1.07")
 
 
 def test_huge_bounds_are_accepted(plant):
