@@ -145,8 +145,12 @@ def run_stream(design, Td, alpha, *, T=5.0, seed=1):
         delay=design.delay, sensors=ENCODERS, seed=seed,
     )  # fmt: skip
     t = res.plant.time
-    e = (res.plant.outputs[2] - sine(t))[t >= 1.0]
-    return np.abs(e).max(), np.sqrt(np.mean(e**2)), np.abs(res.plant.inputs[0]).max()
+    after = t >= 1.0
+    e = (res.plant.outputs[2] - sine(t))[after]
+    # The torque after the first second: the sine starts at full speed, a
+    # step the tracker takes at the limit; after it, the gap crossings.
+    peak = np.abs(res.plant.inputs[0][after]).max()
+    return np.abs(e).max(), np.sqrt(np.mean(e**2)), peak
 
 
 def stream_table(dt, seed, planned):
@@ -156,7 +160,7 @@ def stream_table(dt, seed, planned):
     print(f"\nstreamed 0.2 rad 1 Hz sine at dt = {dt:g} s (max |e| after 1 s "
           "<= 5 mrad)")  # fmt: skip
     print(f"{'reference':10s} {'scenario':24s} {'max |e|':>9s} {'rms e':>9s} "
-          f"{'peak Tm':>8s}  ok")  # fmt: skip
+          f"{'peak Tm':>8s}  ok  (after the first second)")  # fmt: skip
     for name, Td, alpha in STREAM_SCENARIOS:
         rows = [("stream", stream)]
         if alpha is None:

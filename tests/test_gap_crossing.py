@@ -15,6 +15,7 @@ from ctrl_lpv.twomass.gap_crossing import (
     crossing_duration,
     crossing_offset,
     remaining_move,
+    streamed_sign_changes,
     torque_sign_changes,
 )
 from ctrl_lpv.twomass.trajectory import rest_to_rest
@@ -134,3 +135,24 @@ def test_crossing_duration_meets_its_acceleration():
     x = np.linspace(0, T / 2, 2001)
     ddpsi = np.array([crossing_offset(1.0, [c], T)[2] for c in x])
     assert 0.06 * np.max(np.abs(ddpsi)) == pytest.approx(625.0, rel=1e-3)
+
+
+@pytest.mark.parametrize(
+    "v, a, j, Td",
+    [(1.2, 0.5, -20.0, 0.0), (1.2, -0.2, -20.0, 0.0), (-0.8, 2.0, 30.0, -8.0),
+     (0.6, 0.1, 5.0, 0.0)],
+)  # fmt: skip
+def test_streamed_sign_changes_on_the_constant_jerk_extrapolation(v, a, j, Td):
+    """The torque ``Jl (a + j t) + cl (v + a t + j t^2 / 2) + Td`` of the
+    tracker's extrapolation, its zero found by numpy's roots, from half a
+    crossing back to half a crossing ahead; `side` is the flank before it."""
+    duration = 0.08
+    found_side, changes = streamed_sign_changes(v, a, j, duration, JL, CL, Td, 1e-9)
+    roots = np.roots([0.5 * CL * j, JL * j + CL * a, JL * a + CL * v + Td])
+    roots = sorted(r.real for r in roots
+                   if abs(r.imag) < 1e-12 and abs(r.real) < 0.5 * duration)  # fmt: skip
+    assert len(changes) == len(roots)
+    np.testing.assert_allclose(changes, roots, atol=duration / 95)
+    start = -0.5 * duration
+    F0 = JL * (a + j * start) + CL * (v + a * start + 0.5 * j * start**2) + Td
+    assert found_side == np.sign(F0)

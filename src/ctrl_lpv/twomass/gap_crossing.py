@@ -40,9 +40,12 @@ import numpy as np
 __all__ = [
     "remaining_move",
     "torque_sign_changes",
+    "streamed_sign_changes",
     "crossing_duration",
     "crossing_offset",
     "QUINTIC_PEAK_ACCEL",
+    "CROSSING_ACCEL",
+    "STREAM_CROSSING_ACCEL",
 ]
 
 #: Peak of ``|q''|`` of the quintic ``q(s) = 10 s^3 - 15 s^4 + 6 s^5``.
@@ -59,6 +62,15 @@ _GRID = 96
 #: torque limit on the motor inertia (250 Nm / 0.4 kg m^2), 33 ms for the
 #: 0.12 rad gap of alpha = 0.06.
 CROSSING_ACCEL = 625.0
+#: The same for a streamed set-point's reversals (`streamed_sign_changes`):
+#: 40 Nm on the motor inertia, 83 ms across the 0.12 rad gap. Measured on
+#: the 0.2 rad 1 Hz sine (1 ms, delay 1, encoders; peak torque after the
+#: first second / max |e|): the flank choice alone 434-500 Nm / 0.34-0.70
+#: mrad; 625 rad/s^2 500 Nm; 150: 97-128 Nm / 0.27-0.67 mrad; 100: 65-76
+#: Nm / 0.31-0.76 mrad; 75: 49-64 Nm / 0.32-1.25 mrad (the gap-step row aside,
+#: 3.1-3.4 mrad in each; the sine's rigid-body
+#: torque 47 Nm): a slower crossing leaves the load free longer.
+STREAM_CROSSING_ACCEL = 100.0
 
 
 def remaining_move(x0, v, a, j, h):
@@ -111,7 +123,34 @@ def torque_sign_changes(plan, Jl, cl, Td, significant):
         The times of the significant sign changes from now, in order.
     """
     r, v, a, j, g, h = plan
-    c = remaining_move(r - g, v, a, j, h)
+    return _sign_changes(remaining_move(r - g, v, a, j, h), h, Jl, cl, Td, significant)
+
+
+def streamed_sign_changes(v, a, j, duration, Jl, cl, Td, significant):
+    """`torque_sign_changes` about a streamed set-point, for a crossing of
+    `duration` (s) centred on the change.
+
+    A streamed set-point has no plan: its tracker's constant-jerk
+    extrapolation (`ctrl_lpv.twomass.stream`) from the speed `v`, the
+    acceleration `a` and the jerk `j` stands for it, short next to a motion
+    controller's profile, from half a crossing back to half a crossing
+    ahead. A change up to half a crossing ago is returned too (a negative
+    time, with `side` the flank before it): `crossing_offset` then finishes
+    the crossing along its quintic, where the planned crossing leaves the
+    rest to the flank choice (a jump of half the gap, the slam a streamed
+    reversal must not make: it has no move whose time it costs).
+    """
+    h = duration
+    t0 = -0.5 * h
+    v0, a0 = v + a * t0 + 0.5 * j * t0 * t0, a + j * t0
+    c = np.array([0.0, v0 * h, 0.5 * a0 * h * h, j * h**3 / 6.0, 0.0, 0.0, 0.0, 0.0])
+    side, changes = _sign_changes(c, h, Jl, cl, Td, significant)
+    return side, [t + t0 for t in changes]
+
+
+def _sign_changes(c, h, Jl, cl, Td, significant):
+    """`torque_sign_changes` along the position polynomial `c` (in ``u =
+    tau / h``, lowest order first)."""
     F = np.polynomial.polynomial.polyval(
         np.linspace(0.0, 1.0, _GRID), _torque_coefficients(c, h, Jl, cl, Td)
     )

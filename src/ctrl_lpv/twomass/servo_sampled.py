@@ -88,6 +88,10 @@ MOTOR_STATES = [
 
 _PLAN_SUBSTEPS = 4
 _STREAM_REST_ACCEL = 1e-3  # rad/s^2
+# A streamed set-point's gap crossings are planned above this speed (rad/s):
+# where a streamed move stops, the tracker's acceleration rings (1.5 rad/s^2
+# after a quintic's end, 4e-3 rad/s) and would plan a crossing to nowhere.
+_STREAM_CROSSING_SPEED = 0.05
 
 
 @dataclass(frozen=True)
@@ -125,8 +129,9 @@ class SampledServo:
         The load-inertia estimate learnt along moves (drive observer only;
         its state ``delta_Jl_hat`` last), or None for the nominal inertia.
     plan_crossings : bool
-        Whether the gap crossings along a move are planned
-        (`ctrl_lpv.twomass.gap_crossing`, both encoders only;
+        Whether the gap crossings along a move, and at a streamed
+        set-point's reversals, are planned (`ctrl_lpv.twomass.gap_crossing`,
+        both encoders only;
         `ctrl_lpv.twomass.sampled_tuning.SampledTuning.plan_crossings`).
     """
 
@@ -242,7 +247,7 @@ def sampled_servo(
     filtered_share = 0.0 if rest is None else 1.0 - math.exp(-dt / rest.lean_time)
 
     streamed = s.reference == "stream"
-    crossings = s.plan_crossings and not streamed and motor is None
+    crossings = s.plan_crossings and motor is None
     if streamed:
         Lz, Pz = np.asarray(s.stream_gain, float), jerk_model(dt)
         # The set-point where the command computed now acts: `delay` samples
@@ -256,7 +261,7 @@ def sampled_servo(
             r, v, a, j, g, h = plan
             snap = snap_of(r, v, a, j, g, h)
             F, wmf, tff = flat_feedforward(c, v, a, j, snap, scale)
-            return (r, v, a, F, wmf, tff, g, h), plan_step(plan, target)
+            return (r, v, a, j, F, wmf, tff, g, h), plan_step(plan, target)
         # Streamed: correct the tracker with the sample, extrapolate it (the
         # constant-jerk model has no snap), no planning.
         predicted = np.asarray(plan[:4])
@@ -264,7 +269,7 @@ def sampled_servo(
         r, v, a, j = to_act @ z
         F, wmf, _ = flat_feedforward(c, v, a, j, 0.0, scale)
         tff = flat_feedforward(c, *(to_hold @ z)[1:], 0.0, scale)[2]
-        return (r, v, a, F, wmf, tff, target, hmin), [*(Pz @ z), target, hmin]
+        return (r, v, a, j, F, wmf, tff, target, hmin), [*(Pz @ z), target, hmin]
 
     def law(x, y):
         plan, xhat = list(x[0:6]), np.asarray(x[6:12])
@@ -302,7 +307,7 @@ def sampled_servo(
         at = ahead if delayed else filtered
         tm, wm, tsh, tl, wl = at[:5]
         scale = 1.0 if inertia is None else 1.0 + dJ
-        (r, v, a, F, wmf, tff, g, h), next_plan = reference(plan, y[nread], scale)
+        (r, v, a, j, F, wmf, tff, g, h), next_plan = reference(plan, y[nread], scale)
         if streamed:
             # A streamed set-point rarely rests: the integral is held while
             # it moves, so the observer's load torque joins the feedforward
@@ -330,10 +335,23 @@ def sampled_servo(
         if crossings and not at_rest and c.anti_hunting:
             # The planned shaft torque's sign changes ahead: the motor
             # starts across the gap before the braking is needed
-            # (`gap_crossing`; measured with both encoders only).
-            sgn, changes = _gx.torque_sign_changes(plan, scale * c.Jl, c.cl, at[5], tc)
+            # (`gap_crossing`; measured with both encoders only). A
+            # streamed set-point's reversals are seen on its tracker's
+            # extrapolation over a crossing.
+            accel = _gx.STREAM_CROSSING_ACCEL if streamed else _gx.CROSSING_ACCEL
+            dur = _gx.crossing_duration(2.0 * ah, accel)
+            if streamed:
+                # Not at a stop: the tracker's ringing there is no reversal.
+                sgn, changes = 0.0, []
+                if abs(v) >= _STREAM_CROSSING_SPEED:
+                    sgn, changes = _gx.streamed_sign_changes(
+                        v, a, j, dur, scale * c.Jl, c.cl, at[5], tc
+                    )
+            else:
+                sgn, changes = _gx.torque_sign_changes(
+                    plan, scale * c.Jl, c.cl, at[5], tc
+                )
             if sgn != 0.0:
-                dur = _gx.crossing_duration(2.0 * ah, _gx.CROSSING_ACCEL)
                 psi, dpsi, ddpsi = _gx.crossing_offset(sgn, changes, dur)
         if rest is not None and c.anti_hunting:
             side, evidence = rest_flank_step(
