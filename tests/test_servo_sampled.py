@@ -262,7 +262,8 @@ def _sine_torque(Td, Jl=1.0):
     p = twomass.Parameters()
     w = 2.0 * np.pi * SINE_HZ
     inertia = p.Jm + Jl * p.Jl
-    return inertia * SINE_AMPLITUDE * w**2 + (p.cm + p.cl) * SINE_AMPLITUDE * w + abs(Td)
+    friction = (p.cm + p.cl) * SINE_AMPLITUDE * w
+    return inertia * SINE_AMPLITUDE * w**2 + friction + abs(Td)
 
 
 def test_stream_tracker_poles_and_polynomials():
