@@ -67,18 +67,26 @@ def test_observability_per_mode_from_the_motor_angle():
 
 def test_mode_observers_error_dynamics_are_schur(observers):
     """Each certified gain on the mode's own model, sampled by
-    python-control (the gap: the motor alone)."""
+    python-control (the gap: the motor alone); the contact gain of moves
+    learns a load torque faster than the one of rests (the error left of a
+    1 Nm step of ``Td`` after 50 ms)."""
     assert observers.certified
+    left = {}
     for mode, design, keep in (
         ("contact", observers.contact, [0, 1, 2, 3, 4]),
+        ("contact_move", observers.contact_move, [0, 1, 2, 3, 4]),
         ("gap", observers.gap, [0, 1]),
     ):
-        A, B, C = _drive(mode == "contact")
+        A, B, C = _drive(mode != "gap")
         sys = ct.ss(A[np.ix_(keep, keep)], B[keep], C[:, keep], 0)
         Phi = ct.c2d(sys, DT, "zoh").A
         L = np.asarray(design.gain([]), float)
         radius = np.abs(np.linalg.eigvals(Phi - L @ C[:, keep])).max()
         assert radius < 1.0, (mode, radius)
+        if mode != "gap":
+            error = np.linalg.matrix_power(Phi - L @ C, 50) @ np.eye(5)[4]
+            left[mode] = abs(error[4])
+    assert left["contact_move"] < 0.9 * left["contact"], left
 
 
 def _plant_step(x, torque, alpha, T=DT):
@@ -202,12 +210,57 @@ def _pressed_targets_hold(m):
 
 
 @pytest.mark.parametrize(
-    "Td, theta_r, seed", [(8.0, 0.5, 3), (5.0, -1.0, 4)]
+    "Td, alpha, theta_r, seed",
+    [
+        (8.0, 0.03, 0.5, 3),
+        (5.0, 0.03, -1.0, 4),
+        # Fixed by the move's fast load-torque gain and the integral that
+        # holds its estimate in moves (main: 1.2e-3 rad at the end; 0.75 s,
+        # 2.2 %, 4.9e-3 rad).
+        (8.0, 0.03, 1.0, 1),
+        (30.0, 0.03, 0.5, 2),
+        # The widest gap: the first contact 30 mrad later than predicted.
+        (8.0, 0.06, 0.5, 1),
+    ],
 )  # fmt: skip
-def test_pressed_load_settles_on_the_motor_encoder(motor_design, Td, theta_r, seed):
-    """The paper's load torque and a heavy one the other way: the load,
-    pressed on a flank, is observable through the shaft's twist."""
-    _pressed_targets_hold(_run(motor_design, Td, 0.03, theta_r, T=2.0, seed=seed))
+def test_pressed_load_settles_on_the_motor_encoder(
+    motor_design, Td, alpha, theta_r, seed
+):
+    """Load torques from the paper's to a heavy one, both ways, a long move
+    and the widest gap: the load, pressed on a flank, is observable through
+    the shaft's twist."""
+    m = _run(motor_design, Td, alpha, theta_r, T=2.0, seed=seed)
+    _pressed_targets_hold(m)
+    assert m["torque_std"] <= 3.0, m
+
+
+def test_move_integral_is_the_rests_load_torque(motor_design):
+    """The integral the law settles to at rest with Td = 8 Nm (simulated on
+    the exact plant) is the one `integral_holding` hands to the load-torque
+    estimate in moves."""
+    params = twomass.Parameters()
+    res = sampled_response(
+        twomass.plant(params, alpha=0.03), motor_design.controller(), 1.5,
+        inputs={"Td": 8.0, "theta_r": 0.5}, delay=1,
+        sensors={"theta_m": Encoder(2**20, 0.5)}, seed=1,
+    )  # fmt: skip
+    c = res.controller
+    xi = c.states[c.state_labels.index("int_e_l")][-1]
+    k1, k5 = motor_design.tuning.gain[0], motor_design.tuning.gain[4]
+    est = motor_design.sampling.estimator
+    assert est.integral_holding(8.0, k1, k5) == pytest.approx(xi, rel=0.02)
+
+
+def test_first_contact_learns_a_wide_gap_without_a_load_torque(motor_design):
+    """Td = 0 with the widest half-gap (0.06, estimate started at 0.03): the
+    first contact comes 30 mrad later than predicted; the half-gap learns
+    until the reading agrees with the model, and the move does not
+    overshoot (main: 3.6 %; with the fast load-torque gain alone the
+    estimate read the gap as a load torque of -37 Nm and hunted, 125 Nm)."""
+    m = _run(motor_design, 0.0, 0.06, 0.5, T=2.0, seed=1)
+    assert m["overshoot"] <= 1.0, m
+    assert m["torque_std"] <= 3.0, m
+    assert m["rest_error"] <= 0.06, m
 
 
 def test_light_load_holds_when_the_design_has_its_inertia():
@@ -225,14 +278,14 @@ def test_light_load_holds_when_the_design_has_its_inertia():
     assert m["torque_std"] <= 3.0, m
 
 
-# Known limits of the motor-encoder estimator (see `motor_estimator`): a
-# load inertia off the model's by 10 % or more (the load's free flight
-# across the gap is predicted with the model's Jl, so the half-gap learnt
-# at a crossing is off, and the rest hunts), steps small against the gap,
-# which end in a crossing whose half-gap error is a large part of the 2 %
-# band, a heavy load or a long move (Td 30 Nm, 1 rad: the half-gap learnt
-# with a lagging Td_hat, 1.2e-3 to 6e-3 rad off at rest), and the gap that
-# steps at rest.
+# Known limits of the motor-encoder estimator (see `motor_estimator` and
+# docs/servo.rst): a load inertia off the model's by 10 % or more (the
+# load's free flight across the gap is predicted with the model's Jl, so
+# the half-gap learnt at a crossing is off, and the rest hunts), steps
+# small against the gap (0.05 rad: the 1 mrad band against the load torque
+# unknown at the first move and the swings to the other flank at rest), and
+# the gap that steps at rest. Td 30 Nm and the 1 rad step hold since the
+# move's fast load-torque gain (seeds 1-6).
 _LIMIT = pytest.mark.xfail(reason="limit of the motor-encoder estimator", strict=False)
 
 
@@ -244,12 +297,12 @@ _LIMIT = pytest.mark.xfail(reason="limit of the motor-encoder estimator", strict
         (8.0, 0.03, 1.0, 0.5),
         (8.0, 0.06, 1.0, 0.5),
         (8.0, 0.03, 1.0, -0.5),
-        # Light loads hunt at rest on some seeds (Td 2 seed 4, Td 5 seed 6:
-        # 1.9e-2 and 4.1e-2 rad, the mode at rest, see `motor_estimator`).
+        # A light load hunts at rest on seed 4 (3.4e-2 rad, 2.3 Nm: the
+        # mode at rest, see `motor_estimator`).
         pytest.param(2.0, 0.03, 1.0, 0.5, marks=_LIMIT),
-        pytest.param(5.0, 0.03, 1.0, 0.5, marks=_LIMIT),
-        pytest.param(30.0, 0.03, 1.0, 0.5, marks=_LIMIT),
-        pytest.param(8.0, 0.03, 1.0, 1.0, marks=_LIMIT),
+        (5.0, 0.03, 1.0, 0.5),
+        (30.0, 0.03, 1.0, 0.5),
+        (8.0, 0.03, 1.0, 1.0),
         (8.0, 0.03, 1.0, -1.0),
         pytest.param(8.0, None, 1.0, 0.5, marks=_LIMIT),
         pytest.param(8.0, 0.03, 1.0, 0.05, marks=_LIMIT),

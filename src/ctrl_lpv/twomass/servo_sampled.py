@@ -295,12 +295,15 @@ def sampled_servo(
         else:
             # Motor encoder alone: the dead-zone model, the half-gap
             # estimated with it (`motor_estimator`).
-            # The half-gap learns for a few samples after the prediction
-            # makes or loses a contact (`MotorEstimator.learning_window`).
-            filtered, sens, dP, gap = motor.correct(
-                xhat, x[_NS : _NS + 5], x[_NS + 5], a0 + dah, y[0], x[_NS + 6] > 0.0
-            )
+            # The half-gap learns near the prediction's contact changes and
+            # where a move's reading breaks with the model; in a move the
+            # load torque is learnt fast (`MotorEstimator.learns`, `correct`).
             resting = plan[5] <= hmin * (1.0 + 1e-9) and abs(plan[0] - plan[4]) < 1e-6
+            learning = motor.learns(x[_NS + 6], y[0] - xhat[0], resting)
+            filtered, sens, dP, gap = motor.correct(
+                xhat, x[_NS : _NS + 5], x[_NS + 5], a0 + dah, y[0], learning,
+                moving=not resting,
+            )  # fmt: skip
             ahead, sens_ahead, dP_ahead = motor.predict(
                 filtered, sens, u_prev, gap, dP, resting
             )
@@ -440,6 +443,12 @@ def sampled_servo(
                 filtered, sens, u, gap, dP, resting
             )
         xi_next = xi + dt * dxi
+        if motor is not None and not at_rest:
+            # Motor encoder alone: in a move the integral holds the load
+            # torque estimated now, not the last rest's (`motor_estimator`).
+            xi_next += motor.integral_share(v, hold) * (
+                motor.integral_holding(at[5], k1, k5) - xi_next
+            )
         if not at_rest:
             # The gap estimate learnt in a move moves the flank offset by
             # psi d(alpha_hat): the integral gives back what it held of the
