@@ -141,6 +141,28 @@ def test_modes_nine_decades_apart_get_a_design(seed, index):
     assert record["check_ok"], record["hard"]
 
 
+def test_an_optimum_far_above_the_data_gets_a_design():
+    # Fuzz 7373:15: LTI H-infinity, a mode at 0 reached through B of 1e-6.
+    # The prescaled data are of order one but the optimum is about 3e4 (a
+    # -g I block of 1e9 to 1e10): the solvers called the LMIs infeasible
+    # at every prescaling. Posed again with z scaled for a bound far above
+    # the data's, the optimal stage solves.
+    case = generate_case(7373, 15)
+    assert case.N == 1 and any("weak B" in tag for tag in case.tags)
+    record = run_case(case, lpv, probe_budget=PROBE_BUDGET)
+    assert record["outcome"] == "design", record["message"][:300]
+    assert record["check_ok"], record["hard"]
+    design = case.call(lpv)
+    A, B1, B2, C, D1, D2 = case.vertices[0]
+    K = design.gains[0]
+    norm = ct.linfnorm(ct.ss(A - B2 @ K, B1, C - D2 @ K, D1))[0]
+    assert norm <= design.gamma
+    # Within the default back-off of the Riccati bisection's optimum (an
+    # upper bound of the true one).
+    riccati = hinf_riccati(A, B1, B2, C, D2)[0]
+    assert 1e4 < design.gamma <= 1.2 * riccati
+
+
 def test_a_gain_bound_beyond_the_backoff_gets_a_design():
     # Fuzz 8484:6: H-infinity with gain_bound 7.38 at the default back-off.
     # At gamma <= 1.2 gamma* the convex-concave steps converge at a gain
