@@ -251,6 +251,7 @@ class _StateFeedback(Ladder):
     def attempt(self, rung, until, found):
         problem, frame = self.problem, rung.frame
         with self._checkout(frame) as (compiled, _):
+            refuting = compiled.lmi.dual_seconds
             one = self._rung(frame, compiled, problem.margin * rung.factor,
                              rung.solvers, until)  # fmt: skip
             one.carried = self.refuted.last
@@ -266,6 +267,8 @@ class _StateFeedback(Ladder):
                 point = None
                 self.refuted.add(frame.name, exc)  # raises once every prescaling is
                 one.notes.append(f"refuted: {self.refuted.brief(frame.name)}")
+            finally:
+                self.refuting += compiled.lmi.dual_seconds - refuting
         self.compiling += one.compiling
         self.verifying += one.verifying
         self.short = self.short or one.gain_short
