@@ -141,6 +141,34 @@ def test_modes_nine_decades_apart_get_a_design(seed, index):
     assert record["check_ok"], record["hard"]
 
 
+@pytest.mark.slow
+def test_the_family_of_modes_sixteen_decades_apart_gets_designs():
+    # 60 draws of the family of 9595:21 (N = 4, A = diag(a f_j, -1e-9..-1e-6),
+    # B = [1; 1e-9..1e-6], a in 1e6..1e9): main at 8fb4359 refused 1 (draw
+    # 51), every one a design here, each passing the independent check.
+    failed = []
+    for s in range(60):
+        rng = np.random.default_rng(1000 + s)
+        a, vertices = 10.0 ** rng.uniform(6, 9), []
+        for j in range(4):
+            A = np.diag([a * (1 + 0.1 * j), -(10.0 ** -rng.uniform(6, 9))])
+            B = np.array([[1.0], [10.0 ** -rng.uniform(6, 9)]])
+            C = np.array([[1.0, 0.0], [0.0, 0.0]])
+            vertices.append((A, np.full((2, 1), 0.5), B, C, np.zeros((2, 1)),
+                             np.array([[0.0], [1.0]])))  # fmt: skip
+        function = "hinf_state_feedback" if s % 2 else "gain_scheduled_hinf"
+        case = Case(9, s, function, vertices)
+        try:
+            design = case.call(lpv)
+        except lpv.SynthesisError as exc:
+            failed.append((s, str(exc).splitlines()[0]))
+            continue
+        result = check_design(case, design.gains, design.P, design.gamma)
+        if not result.ok:
+            failed.append((s, str(result)))
+    assert not failed, failed
+
+
 def test_an_optimum_far_above_the_data_gets_a_design():
     # Fuzz 7373:15: LTI H-infinity, a mode at 0 reached through B of 1e-6.
     # The prescaled data are of order one but the optimum is about 3e4 (a
