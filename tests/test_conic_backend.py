@@ -1,5 +1,7 @@
 """The direct conic backend against independent facts and against cvxpy."""
 
+import time
+
 import control as ct
 import cvxpy as cp
 import numpy as np
@@ -8,9 +10,9 @@ import pytest
 import ctrl_lpv as lpv
 from ctrl_lpv.lmi import LMIProblem
 from ctrl_lpv.lmi.blocks import assemble, columns, unit_points
-from ctrl_lpv.lmi.conic import ConicData, conic_data
+from ctrl_lpv.lmi.conic import CHORDAL, LIFTED, ConicData, conic_data
 from ctrl_lpv.lmi.cvxpy_backend import solve_cvxpy
-from ctrl_lpv.lmi.solvers import solver_chain
+from ctrl_lpv.lmi.solvers import solver_chain, with_time_limit
 
 
 def stable_system(seed, n=4):
@@ -58,6 +60,20 @@ def test_hinf_norm_of_a_stable_system(seed, solver):
     norm = ct.linfnorm(ct.ss(A, B, C, D))[0]
     assert sol.g[0, 0] >= norm * (1 - 1e-9)
     assert sol.g[0, 0] == pytest.approx(norm, rel=1e-4)
+
+
+@pytest.mark.parametrize("form", [LIFTED, CHORDAL])
+def test_clarabels_last_resort_forms_solve_the_same_problem(form):
+    # The ladder's last rungs: Clarabel's lifted and chordal forms pose the
+    # same LMIs (checked against control's norm) and take Clarabel's time
+    # limit.
+    A, B, C, D = stable_system(0)
+    lmi = bounded_real(A, B, C, D)
+    sol = lmi.solve(lambda v: v.g[0, 0], solvers=[(form, {})])
+    assert sol.certified and sol.attempts[-1].solver == form
+    norm = ct.linfnorm(ct.ss(A, B, C, D))[0]
+    assert sol.g[0, 0] == pytest.approx(norm, rel=1e-4)
+    assert with_time_limit(form, {}, time.perf_counter() + 5.0)["time_limit"] <= 5.0
 
 
 def test_cvxpy_poses_the_same_problem():

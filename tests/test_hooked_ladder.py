@@ -190,7 +190,8 @@ def test_ladder_takes_the_first_rung_that_certifies_and_refuses_with_every_note(
     assert first == ("scripted: no certified solution found, best point reached: "
                      "estimate 1.5")  # fmt: skip
     assert failed == "what failed: first refused at 0.0005; second refused at 0.0005"
-    assert tried == "tried: rungs ['first', 'second']"
+    # Where the time went (no solver attempts or certificates here).
+    assert re.fullmatch(r"tried: rungs \['first', 'second'\]; time [0-9.e-]+ s", tried)
 
 
 def test_a_rung_without_an_optimum_gives_no_estimate():
@@ -224,6 +225,11 @@ def test_a_rung_after_the_deadline_is_not_tried(monkeypatch):
 # became one (`tests/_ladder_corpus.py`): the same solves, so the same
 # verdicts, the same bits of every bound and gain, the same ladder notes
 # and solver attempts. Cases over ~3 s of CPU run with ``-m slow``.
+# Recorded again (trust3) with the same verdicts, bounds and gains, where
+# only the attempts and notes grew: 2026:6 (a refusal) by the chordal
+# rungs, 2026:14 (a design from the unscaled rung) by three failed solves
+# of the optimal stage posed for a bound far above the data's; and every
+# refusal by its time line (where the ladder's time went).
 _CORPUS_SLOW = {"fuzz 2026:6 (small) quadratic_stabilization", "hinf_of 2-vertex",
                 "h2_of 2 raw"}  # fmt: skip
 

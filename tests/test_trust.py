@@ -4,6 +4,8 @@ Independent facts: closed-loop eigenvalues, ``control.linfnorm`` of frozen
 closed loops, and plants whose stabilizability is known by construction.
 """
 
+import re
+
 import control as ct
 import numpy as np
 import pytest
@@ -117,6 +119,12 @@ def test_gain_bound_miss_is_not_called_infeasible(plant):
     message = str(info.value)
     assert "no certified solution found" in message.splitlines()[0]
     assert message.splitlines()[-1].startswith("widened: with the back-off up to 1.07")
+    # Where the ladder's time went: each solver of its attempts, by name.
+    tried = next(line for line in message.splitlines() if line.startswith("tried:"))
+    spent = tried.split("; time ", 1)[1]
+    assert re.match(r"[0-9.e+-]+ s: ", spent), spent
+    for solver in {a.solver for a in info.value.attempts}:
+        assert re.search(rf"{re.escape(solver)} [0-9.e+-]+ s", spent), (solver, spent)
 
 
 def test_huge_bounds_are_accepted(plant):

@@ -8,6 +8,8 @@ assume them.
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from .. import _farkas
@@ -48,6 +50,13 @@ class DualCertificates:
         `FarkasCertificate` or None
             None if no variant gives a positive trace.
         """
+        started = time.perf_counter()
+        try:
+            return self._farkas(duals, stage)
+        finally:
+            self.dual_seconds += time.perf_counter() - started
+
+    def _farkas(self, duals, stage):
         active = self._active(stage)
         if len(duals) != len(active):
             raise ValueError(

@@ -133,6 +133,9 @@ class LMIProblem(ConicReading, DualCertificates):
         self._reads: dict[str, frozenset] = {}
         # The names given to `add` as read (kept over new declarations).
         self._given_reads: dict[str, frozenset] = {}
+        # Seconds spent verifying dual certificates (`farkas`), all told:
+        # a refusal says where its time went.
+        self.dual_seconds = 0.0
         self._stacked: dict[str, tuple] = {}
         self._trusted_groups: set[str] = set()
         # The inequalities whose batched reading passed its random-point

@@ -12,7 +12,7 @@ import numpy as np
 
 from .. import budget
 from . import cvxpy_backend
-from .conic import DIRECT, LIFTED, ConicResult, conic_data, solve_direct
+from .conic import CHORDAL, DIRECT, LIFTED, ConicResult, conic_data, solve_direct
 
 __all__ = ["SolveAttempt", "default_solvers", "solver_chain", "run"]
 
@@ -114,7 +114,8 @@ def with_time_limit(solver, options, deadline):
     The time left is that of `deadline` or of the call's budget
     (`ctrl_lpv.budget`), whichever ends first.
     """
-    key = _TIME_LIMIT_OPTIONS.get(solver.upper())
+    # Clarabel's lifted and chordal forms ("CLARABEL (...)") take its limit.
+    key = _TIME_LIMIT_OPTIONS.get(solver.upper().split(" (")[0])
     ends = [d for d in (deadline, budget.deadline()) if d is not None]
     if not ends or key is None:
         return options
@@ -124,7 +125,7 @@ def with_time_limit(solver, options, deadline):
 
 def run(solver: str, c, data_of, margin: float, options) -> ConicResult:
     """Solve with `solver`; ``data_of(upper)`` gives the conic data."""
-    if solver == LIFTED:
+    if solver in (LIFTED, CHORDAL):
         return solve_direct(solver, c, data_of(True), margin, options)
     solver = solver.upper()
     if solver in DIRECT:

@@ -30,7 +30,7 @@ import numpy as np
 
 from .. import budget
 from ..exceptions import InfeasibleError
-from ..lmi.conic import LIFTED
+from ..lmi.conic import CHORDAL, LIFTED
 from ..problem_cache import synthesis_cache
 from .channels import Partition
 from .hooked import Climbed, Ladder, climb
@@ -159,7 +159,7 @@ class _StateFeedback(Ladder):
 
     Its rungs: the first solver at every prescaling and margin, the slower
     solvers at the first prescaling and the nominal margin, Clarabel's
-    lifted form last (module docstring). Its own capabilities: a
+    lifted and chordal forms last (module docstring). Its own capabilities: a
     prescaling refuted by one rung is not tried again (and the rungs tried
     before a late refutation are judged without a solve once every rung
     failed, `Refutations.complete`); a design whose optimum did not
@@ -193,12 +193,15 @@ class _StateFeedback(Ladder):
         plan += [
             (one, self.prescalings[0], MARGIN_FACTORS[0]) for one in self.solvers[1:]
         ]
-        # Last, Clarabel's lifted form at every prescaling (`LIFTED`): it
-        # solves LMIs whose entries span too many decades for the direct
-        # form (modes 1e18 apart), where every rung above fails; only then,
-        # so that no design found above changes.
-        plan += [([(LIFTED, options)], f, MARGIN_FACTORS[0])
+        # Last, Clarabel's lifted form at every prescaling (`LIFTED`), then
+        # its chordal form (`CHORDAL`): they solve LMIs whose entries span
+        # too many decades for the direct form (modes 1e16-1e18 apart),
+        # where every rung above fails, each where the other does not
+        # (fuzz 4242:47 lifted, 9595:21 chordal); only then, so that no
+        # design found above changes.
+        plan += [([(form, options)], f, MARGIN_FACTORS[0])
                  for name, options in first[:1] if name.upper() == "CLARABEL"
+                 for form in (LIFTED, CHORDAL)
                  for f in self.prescalings]  # fmt: skip
         self._rungs = [
             _Rung(one, f, factor,
@@ -248,6 +251,7 @@ class _StateFeedback(Ladder):
     def attempt(self, rung, until, found):
         problem, frame = self.problem, rung.frame
         with self._checkout(frame) as (compiled, _):
+            refuting = compiled.lmi.dual_seconds
             one = self._rung(frame, compiled, problem.margin * rung.factor,
                              rung.solvers, until)  # fmt: skip
             one.carried = self.refuted.last
@@ -263,6 +267,8 @@ class _StateFeedback(Ladder):
                 point = None
                 self.refuted.add(frame.name, exc)  # raises once every prescaling is
                 one.notes.append(f"refuted: {self.refuted.brief(frame.name)}")
+            finally:
+                self.refuting += compiled.lmi.dual_seconds - refuting
         self.compiling += one.compiling
         self.verifying += one.verifying
         self.short = self.short or one.gain_short

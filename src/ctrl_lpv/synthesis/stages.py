@@ -73,6 +73,10 @@ ILL_CONDITIONED = 50.0
 # (1e-2 of the margin: the shift is linear in the margin, and a point at
 # 1e-4 of it missed its LMIs and cost a retry every time.)
 _ESTIMATE_MARGIN = 1e-2
+# Where the optimal stage gives no point, it is posed once more with z
+# scaled by this (the squared bound by its square, 2^-20): for an optimum far
+# above the data's scale (`Rung._solve_far_above`).
+FAR_ABOVE = 2.0**10
 # An optimum within this of an earlier rung's estimate confirms it.
 CONFIRM_RTOL = 1e-5
 
@@ -317,6 +321,27 @@ class Rung(GainSteps):
             return None, 0.0
         return raw, g_opt
 
+    def _solve_far_above(self):
+        """The optimal stage posed again for a bound far above the data's.
+
+        The prescalings bring the data to order one, not the optimum: a
+        weakly controllable mode sets a bound of 1e4 to 1e5 beside data
+        of order one (fuzz 7373:15, a mode at 0 reached through 1e-6), a
+        ``-g I`` block of 1e10 where the solvers called the LMIs
+        infeasible at every prescaling. Posed again with z scaled by
+        `FAR_ABOVE` (exact, a power of two, and ``W`` and ``Z`` unchanged),
+        it solves; `_optimal` then rescales the bound to order one as for
+        any optimum. ``(None, 0)`` and the frame as it was where it does not.
+        Only where a solver called the LMIs infeasible: with the bound free
+        they are feasible wherever any design exists.
+        """
+        frame = self.frame
+        self._load(frame.with_sz(0, frame.sz(0) * FAR_ABOVE))
+        raw, g_opt = self._solve_optimal()
+        if raw is None:
+            self._load(frame)
+        return raw, g_opt
+
     def _normalise(self, g, grow_only=False) -> bool:
         """Rescale z so that the objective's squared bound is about 1.
 
@@ -335,7 +360,10 @@ class Rung(GainSteps):
         return True
 
     def _optimal(self):
+        start = len(self.attempts)
         raw, g_opt = self._solve_optimal()
+        if raw is None and _called_infeasible(self.attempts[start:]):
+            raw, g_opt = self._solve_far_above()
         if raw is None:
             return None
         points = [(raw, self.frame)]
@@ -495,3 +523,8 @@ def _g0(v):
 
 def _minus_t(v):
     return -v.t[0, 0]
+
+
+def _called_infeasible(attempts) -> bool:
+    """Whether a solver called a stage's LMIs infeasible (verified or not)."""
+    return any(a.status.startswith("infeasible") for a in attempts)
