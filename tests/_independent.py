@@ -1031,6 +1031,16 @@ def _solver_options(solver, time_limit):
     return {"time_limit": time_limit}
 
 
+# A probe's single solve never runs longer than this (s): an SCS call
+# without a limit sat 8 minutes on one fuzz case (5757:26).
+_PROBE_SOLVE_LIMIT = 30.0
+
+
+def _time_limit(solver):
+    key = "time_limit_secs" if solver == "SCS" else "time_limit"
+    return {key: _PROBE_SOLVE_LIMIT}
+
+
 def lmi_design(case, mode="balanced", margin=1e-6, solver="CLARABEL", gamma_factor=1.2,
                time_limit=60.0):  # fmt: skip
     """Plain cvxpy LMI synthesis in the given coordinates; returns candidates.
@@ -1213,7 +1223,7 @@ def _gain_iterate(case, mode, start, solver="CLARABEL", iterations=6, margin=1e-
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                prob.solve(solver=solver)
+                prob.solve(solver=solver, **_time_limit(solver))
         except Exception:  # noqa: BLE001
             break
         if W.value is None:
@@ -1309,7 +1319,7 @@ def _analysis_P(case, gains, solver="CLARABEL"):
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            prob.solve(solver=solver)
+            prob.solve(solver=solver, **_time_limit(solver))
     except Exception:  # noqa: BLE001
         return None
     if Q.value is None:
