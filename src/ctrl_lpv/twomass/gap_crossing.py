@@ -188,7 +188,9 @@ def crossing_offset(side, changes, duration):
     side : float
         The flank of the planned shaft torque now (`torque_sign_changes`).
     changes : list of float
-        Times of its sign changes from now, s.
+        Times of its sign changes from now, s; a negative first one (a
+        change up to half a crossing ago, `streamed_sign_changes`) puts the
+        offset on the crossing's second half.
     duration : float
         Duration ``T_x`` of the crossing centred on the next sign change, s:
         the offset leaves `side` ``T_x / 2`` before it and is mid-gap at it.
