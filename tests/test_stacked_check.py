@@ -84,13 +84,18 @@ def test_stacked_matrices_are_the_block_functions_own(compared, call):
         np.testing.assert_array_equal(stacked, alone, err_msg=name)
 
 
+def _run_fuzz_case(index):
+    """Fuzz case 2026:`index` (small) through the library; a refusal reads
+    and checks points too."""
+    try:
+        generate_case(2026, index, small=True).call(lpv)
+    except lpv.InfeasibleError:
+        pass
+
+
 @pytest.mark.parametrize("index", [1, 2, 3, 4, 5, 7])
 def test_stacked_matrices_on_the_fuzz_corpus(compared, index):
-    case = generate_case(2026, index, small=True)
-    try:
-        case.call(lpv)
-    except lpv.InfeasibleError:
-        pass  # a refusal checks points too
+    _run_fuzz_case(index)
     for name, stacked, alone in compared:
         np.testing.assert_array_equal(stacked, alone, err_msg=f"{index}: {name}")
 
@@ -198,11 +203,7 @@ def test_grouped_reading_gives_the_same_conic_data(problems, call, caplog):
 
 @pytest.mark.parametrize("index", [1, 2, 3, 4, 5, 7])
 def test_grouped_reading_on_the_fuzz_corpus(problems, index):
-    case = generate_case(2026, index, small=True)
-    try:
-        case.call(lpv)
-    except lpv.InfeasibleError:
-        pass
+    _run_fuzz_case(index)
     for lmi, stage in problems:
         new = _conic(lmi, stage, groups=True)
         _assert_same_conic(new, _conic(lmi, stage, groups=False), f"{index} {stage}")

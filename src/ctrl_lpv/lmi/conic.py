@@ -316,6 +316,17 @@ def _settings_key(options: dict) -> str:
     return repr(sorted((k, v) for k, v in options.items() if k != "time_limit"))
 
 
+def _clarabel_cones(data: ConicData) -> list:
+    """Clarabel's cones of `data`: a scalar as a nonnegative cone, a matrix
+    as a PSD triangle."""
+    import clarabel
+
+    return [
+        clarabel.NonnegativeConeT(1) if d == 1 else clarabel.PSDTriangleConeT(d)
+        for d in data.sizes
+    ]
+
+
 def _kept_clarabel(c, data: ConicData, b, options):
     """Clarabel's solver for `data` (`_Kept`): the one kept from a solve
     with the same ``c``, ``b`` and options (the time limit may differ: it
@@ -352,10 +363,7 @@ def _kept_clarabel(c, data: ConicData, b, options):
         kept.solver.update(settings=settings)  # the time limit left
         return kept
     setup = time.process_time()
-    cones = [
-        clarabel.NonnegativeConeT(1) if d == 1 else clarabel.PSDTriangleConeT(d)
-        for d in data.sizes
-    ]
+    cones = _clarabel_cones(data)
     n = data.A.shape[1]
     P = sp.csc_matrix((n, n))
     solver = clarabel.DefaultSolver(P, c, sp.csc_matrix(data.A), b, cones, settings)
@@ -419,10 +427,7 @@ def _clarabel_lifted(c, data: ConicData, b, options) -> ConicResult:
         sp.hstack([data.A, sp.identity(m)]),
         sp.hstack([sp.csc_matrix((m, n)), -sp.identity(m)]),
     ]).tocsc()  # fmt: skip
-    cones = [clarabel.ZeroConeT(m)] + [
-        clarabel.NonnegativeConeT(1) if d == 1 else clarabel.PSDTriangleConeT(d)
-        for d in data.sizes
-    ]
+    cones = [clarabel.ZeroConeT(m), *_clarabel_cones(data)]
     solver = clarabel.DefaultSolver(
         sp.csc_matrix((n + m, n + m)), np.concatenate([c, np.zeros(m)]), A,
         np.concatenate([b, np.zeros(m)]), cones, clarabel_settings(options),
@@ -451,10 +456,7 @@ def _clarabel_chordal(c, data: ConicData, b, options) -> ConicResult:
     import clarabel
 
     start = time.perf_counter()
-    cones = [
-        clarabel.NonnegativeConeT(1) if d == 1 else clarabel.PSDTriangleConeT(d)
-        for d in data.sizes
-    ]
+    cones = _clarabel_cones(data)
     n = data.A.shape[1]
     settings = clarabel_settings({**options, "chordal_decomposition_enable": True})
     solver = clarabel.DefaultSolver(

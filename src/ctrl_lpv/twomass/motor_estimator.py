@@ -33,7 +33,8 @@ move is planned the contact is corrected with a second certified gain
 whose load torque random walk is ten times faster
 (`MOVE_LOAD_TORQUE_RATE`; at rest it would read the reading's noise as
 torque and hunt), and the law's integral holds the estimated load torque
-in moves (`integral_holding`, the law's equilibrium) instead of the last
+in moves (`ctrl_lpv.twomass.servo_sampled.integral_holding`, the law's
+equilibrium) instead of the last
 rest's. A contact predicted where the gap is 30 mrad wider (alpha 0.06,
 the estimate started at 0.03) is not over when the ten samples of
 learning close: the model then breaks with the reading by up to 1.2e-2
@@ -142,7 +143,6 @@ from ..synthesis import H2
 from ..systems import PolytopicStateSpace
 from .drive_observer import _encoder_steps
 from .parameters import Parameters
-from .servo_kernel import _smoothstep
 
 __all__ = [
     "MODE_STATES", "MotorObserver", "MotorEstimator", "mode_model",
@@ -468,22 +468,6 @@ class MotorEstimator:
         samples after the predicted contact, would leave to the load
         torque's estimate)."""
         return window > 0.0 or (not resting and abs(innovation) > self.model_break)
-
-    def integral_holding(self, load_torque, k1, k5):
-        """The servo's load-angle integral that holds `load_torque` at
-        rest on a flank (the law's equilibrium: ``Tm = -k1 Td / ks - k5
-        xi = Td``), for the law's gains `k1` (motor angle) and `k5`
-        (integral)."""
-        return -load_torque * (1.0 + k1 / self.ks) / k5
-
-    @staticmethod
-    def integral_share(speed, hold):
-        """The share of the servo's integral handed to the load-torque
-        estimate per sample in a move: 1 at the plan's speed `hold` and
-        beyond (where the law holds its integral), 0 at rest."""
-        if hold <= 0.0:
-            return 0.0
-        return 1.0 - _smoothstep(1.0 - abs(speed) / hold)
 
     def shaft_torque(self, tm, wm, tl, wl, alpha):
         """The dead zone's shaft torque (0 inside the gap)."""

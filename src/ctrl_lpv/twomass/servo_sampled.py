@@ -66,6 +66,7 @@ __all__ = [
     "sampled_servo",
     "plan_stepper",
     "flat_feedforward",
+    "integral_holding",
     "SAMPLED_STATES",
     "SAMPLED_INPUTS",
 ]
@@ -92,6 +93,23 @@ _STREAM_REST_ACCEL = 1e-3  # rad/s^2
 # where a streamed move stops, the tracker's acceleration rings (1.5 rad/s^2
 # after a quintic's end, 4e-3 rad/s) and would plan a crossing to nowhere.
 _STREAM_CROSSING_SPEED = 0.05
+
+
+def integral_holding(load_torque, k1, k5, ks):
+    """The law's load-angle integral that holds `load_torque` at rest on a
+    flank (its equilibrium, ``Tm = -k1 Td / ks - k5 xi = Td``), for the
+    motor-angle gain `k1`, the integral gain `k5` and the shaft stiffness
+    `ks`."""
+    return -load_torque * (1.0 + k1 / ks) / k5
+
+
+def _integral_share(speed, hold):
+    """The share of the integral handed to the load-torque estimate per
+    sample in a move (motor encoder alone): 1 at the plan's speed `hold`
+    and beyond (where the law holds its integral), 0 at rest."""
+    if hold <= 0.0:
+        return 0.0
+    return 1.0 - _smoothstep(1.0 - abs(speed) / hold)
 
 
 @dataclass(frozen=True)
@@ -446,8 +464,8 @@ def sampled_servo(
         if motor is not None and not at_rest:
             # Motor encoder alone: in a move the integral holds the load
             # torque estimated now, not the last rest's (`motor_estimator`).
-            xi_next += motor.integral_share(v, hold) * (
-                motor.integral_holding(at[5], k1, k5) - xi_next
+            xi_next += _integral_share(v, hold) * (
+                integral_holding(at[5], k1, k5, ks) - xi_next
             )
         if not at_rest:
             # The gap estimate learnt in a move moves the flank offset by
