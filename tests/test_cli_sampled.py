@@ -31,7 +31,16 @@ def test_sampled_servo_on_encoders_writes_one_row_per_sample(tmp_path, capsys):
     assert np.max(np.abs(torque)) <= 500.0 + 1e-9
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["settling_time"] <= 0.3
-    assert "settling time 2 %" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "settling time 2 %" in printed
+    # The rest over the last half of this 1.5 s run, from the samples written.
+    rest = t >= 0.75
+    assert metrics["rest_torque_std"] == pytest.approx(np.std(torque[rest]))
+    error = 0.5 - theta_l[rest]
+    assert metrics["rest_error_peak_to_peak"] == pytest.approx(np.ptp(error))
+    assert metrics["rest_max_error"] == pytest.approx(np.abs(error).max())
+    assert metrics["units"]["rest_torque_std"] == "Nm"
+    assert "at rest: Tm standard deviation" in printed
 
 
 @pytest.mark.parametrize(

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from ctrl_lpv.metrics import step_metrics
+from ctrl_lpv.metrics import rest_metrics, step_metrics
 
 T = np.linspace(0.0, 20.0, 200001)
 
@@ -53,3 +53,30 @@ def test_bad_input():
         step_metrics(T[::-1], T, 1.0)
     with pytest.raises(ValueError, match="u:"):
         step_metrics(T, T, 1.0, u=T[:5])
+
+
+def test_rest_metrics_of_an_analytic_limit_cycle():
+    """A sine of amplitude a about the reference over whole periods: error
+    peak-to-peak 2a, largest error a; a torque sine of amplitude b: standard
+    deviation b / sqrt(2), ripple b. Only the last `window` s count."""
+    t = np.linspace(0.0, 3.0, 30001)
+    a, b = 2e-4, 30.0
+    y = 0.5 + np.where(t >= 2.0, a * np.sin(2 * np.pi * 10 * t), 0.1)
+    u = 5.0 + np.where(t >= 2.0, b * np.sin(2 * np.pi * 10 * t), 400.0)
+    m = rest_metrics(t, y, 0.5, u)
+    assert m.window == 1.0
+    assert m.error_peak_to_peak == pytest.approx(2 * a, rel=1e-6)
+    assert m.max_error == pytest.approx(a, rel=1e-6)
+    assert m.input_std == pytest.approx(b / np.sqrt(2), rel=1e-3)
+    assert m.input_ripple == pytest.approx(b, rel=1e-6)
+    assert np.isnan(rest_metrics(t, y, 0.5).input_std)
+
+
+@pytest.mark.parametrize(
+    "kwargs, named",
+    [({"window": 0.0}, "window"), ({"window": 5.0}, "window"), ({"u": [1.0]}, "u")],
+)
+def test_rest_metrics_refuses_bad_input(kwargs, named):
+    t = np.linspace(0.0, 3.0, 31)
+    with pytest.raises(ValueError, match=named):
+        rest_metrics(t, np.ones_like(t), 1.0, **kwargs)

@@ -162,7 +162,16 @@ METRIC_UNITS = {
     "ise": ("ISE of the error", "rad^2 s"),
     "peak_input": ("peak |Tm|", "Nm"),
     "energy": ("energy, integral of Tm^2", "Nm^2 s"),
+    "rest_error_peak_to_peak": ("at rest: error peak-to-peak", "rad"),
+    "rest_max_error": ("at rest: largest |error|", "rad"),
+    "rest_torque_std": ("at rest: Tm standard deviation", "Nm"),
 }
+
+
+def _rest_window(T: float) -> float:
+    """The end of a run measured as its rest: the last second, or the last
+    half of a run shorter than two."""
+    return min(1.0, T / 2)
 
 
 def _metric_text(value: float, unit: str) -> str:
@@ -176,7 +185,8 @@ def _metric_text(value: float, unit: str) -> str:
 def _print_metrics(args, values: dict[str, float]) -> None:
     print(
         f"controller {args.controller}, theta_r = {args.theta_r:g} rad, "
-        f"Td = {args.Td:g} Nm, {args.T:g} s:"
+        f"Td = {args.Td:g} Nm, {args.T:g} s (at rest: the last "
+        f"{_rest_window(args.T):g} s):"
     )
     width = max(len(label) for label, _ in METRIC_UNITS.values())
     for key, (label, unit) in METRIC_UNITS.items():
@@ -267,11 +277,29 @@ def _run_simulate(args) -> int:
             engine=args.engine,
         )
     values = metrics(response, args.theta_r).as_dict()
+    values.update(_rest_values(response, args.theta_r, _rest_window(args.T)))
     _print_metrics(args, values)
     if args.out:
         written = _write_response(args, response, values)
         print(f"wrote {', '.join(written)} to {args.out}")
     return 0
+
+
+def _rest_values(response, theta_r: float, window: float) -> dict[str, float]:
+    """The rest metrics of the load angle and motor torque (`METRIC_UNITS`)."""
+    from .metrics import rest_metrics
+
+    labels = list(response.output_labels)
+    out = response.outputs
+    rest = rest_metrics(
+        response.time, out[labels.index("theta_l")], theta_r,
+        out[labels.index("Tm")], window=window,
+    )  # fmt: skip
+    return {
+        "rest_error_peak_to_peak": rest.error_peak_to_peak,
+        "rest_max_error": rest.max_error,
+        "rest_torque_std": rest.input_std,
+    }
 
 
 def _sampled_servo_response(args, alpha):

@@ -1,4 +1,4 @@
-"""Step-response metrics of any simulated response."""
+"""Step-response and rest metrics of any simulated response."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-__all__ = ["StepMetrics", "step_metrics"]
+__all__ = ["RestMetrics", "StepMetrics", "rest_metrics", "step_metrics"]
 
 
 @dataclass(frozen=True)
@@ -157,4 +157,102 @@ def step_metrics(
         ise=_integral(dt, error**2),
         peak_input=peak,
         energy=energy,
+    )
+
+
+@dataclass(frozen=True)
+class RestMetrics:
+    """Metrics of the rest at the end of a response (its last `window` s).
+
+    Attributes
+    ----------
+    window : float
+        Length of the end of the response measured, s.
+    error_peak_to_peak : float
+        Peak-to-peak of ``r - y`` over the window (a limit cycle's size).
+    max_error : float
+        Largest ``|r - y|`` over the window.
+    input_std : float
+        Standard deviation of ``u`` over the window (the torque chatter of
+        a drive at rest; nan without an input signal).
+    input_ripple : float
+        Largest ``|u - mean(u)|`` over the window (nan without an input).
+    """
+
+    window: float
+    error_peak_to_peak: float
+    max_error: float
+    input_std: float
+    input_ripple: float
+
+    def as_dict(self) -> dict[str, float]:
+        """The metrics as a plain dictionary (for tables and JSON)."""
+        return {f.name: float(getattr(self, f.name)) for f in fields(self)}
+
+
+def rest_metrics(t, y, reference: float, u=None, *, window: float = 1.0) -> RestMetrics:
+    """Compute the metrics of the rest over the last `window` s of a response.
+
+    What a drive engineer reads off a servo at rest: whether the output
+    still moves (a limit cycle, hunting) and how much the input chatters.
+    The samples at or after ``t[-1] - window`` are measured, as given (a
+    sampled controller's response: its samples; no interpolation).
+
+    Parameters
+    ----------
+    t : array_like
+        Time points, increasing.
+    y : array_like
+        Controlled output at `t`.
+    reference : float
+        The reference the output rests at.
+    u : array_like, optional
+        Control input at `t`.
+    window : float, optional
+        Length of the end of the response measured, s (default 1).
+
+    Returns
+    -------
+    `RestMetrics`
+
+    Raises
+    ------
+    ValueError
+        If the arrays do not match, `t` is not increasing, or `window` is
+        not positive or longer than the response.
+
+    Examples
+    --------
+    >>> t = np.linspace(0, 2, 2001)
+    >>> m = rest_metrics(t, 1 + 1e-3 * np.sin(2 * np.pi * 5 * t), 1.0)
+    >>> round(m.error_peak_to_peak, 6)
+    0.002
+    """
+    t = np.asarray(t, float).reshape(-1)
+    y = np.asarray(y, float).reshape(-1)
+    if t.shape != y.shape or t.size < 2:
+        raise ValueError(f"t, y: expected equal lengths >= 2, got {t.size}, {y.size}")
+    if np.any(np.diff(t) <= 0):
+        raise ValueError("t: time points must be increasing")
+    window = float(window)
+    if not 0.0 < window <= t[-1] - t[0]:
+        raise ValueError(
+            f"window: expected a length in (0, {t[-1] - t[0]:g}] s, got {window:g}"
+        )
+    last = t >= t[-1] - window
+    error = float(reference) - y[last]
+    if u is None:
+        std, ripple = np.nan, np.nan
+    else:
+        u = np.asarray(u, float).reshape(-1)
+        if u.shape != t.shape:
+            raise ValueError(f"u: expected {t.size} samples, got {u.size}")
+        rest = u[last]
+        std, ripple = float(np.std(rest)), float(np.abs(rest - rest.mean()).max())
+    return RestMetrics(
+        window=window,
+        error_peak_to_peak=float(np.ptp(error)),
+        max_error=float(np.abs(error).max()),
+        input_std=std,
+        input_ripple=ripple,
     )

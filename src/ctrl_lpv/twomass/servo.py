@@ -312,7 +312,8 @@ def servo_design(
         (unused with `gain`).
     anti_hunting : `ServoAntiHunting`, optional
         The flank choice and the integral action: on or off, flank width,
-        integral leak and hold.
+        integral leak and hold, the latch at rest (default with `dt`: the
+        latch of `ctrl_lpv.twomass.sampled_tuning.sampled_tuning` for it).
     estimator : `ServoEstimator`, optional
         The shaft-torque observer and the gap estimate: on or off, contact
         torque, rates, observer bandwidth.
@@ -389,10 +390,12 @@ def servo_design(
     lo, hi = positive_range(Jl_range, "Jl_range")
     planner = _settings(planner, ServoPlanner, "planner")
     synthesis = _settings(synthesis, ServoSynthesis, "synthesis")
-    anti_hunting = _settings(anti_hunting, ServoAntiHunting, "anti_hunting")
     estimator = _settings(estimator, ServoEstimator, "estimator")
     certify = flag(certify, "certify")
     dt, delay = _sampling(dt, delay, sensors)
+    if anti_hunting is None and dt is not None:
+        anti_hunting = ServoAntiHunting(rest_flank=sampled_tuning(dt).rest_flank)
+    anti_hunting = _settings(anti_hunting, ServoAntiHunting, "anti_hunting")
     stream = _settings(stream, ServoStream, "stream")
     if inertia is None and dt is not None:
         tuning = sampled_tuning(dt)
