@@ -295,17 +295,16 @@ _MOVES = [(0.5, 0.0), (-0.3, 0.05), (0.0, 1.0), (1.0, 0.0)]
 #: 0.05 rad steps from rest and the 0.1 rad reversal.
 _SMALL = [(0.05, -0.05), (0.0, -0.05), (0.0, 0.05)]
 #: The runs of `_SMALL` that miss the targets (measured; docs/servo.rst,
-#: "Small moves across the gap"; 86 of 108 pass, 61 before the planned
-#: crossing). A 0.05 rad move in 0.2 s brakes with 53 Nm (63 at Jl x1.2)
-#: and the load torque gives 3-8, so the motor crosses the gap mid-move;
-#: the crossing now starts half a crossing before the planned shaft
-#: torque changes sign (`ctrl_lpv.twomass.gap_crossing`), and the gap
-#: estimate learnt in the move no longer kicks the load through the
-#: integral. Left: 0 -> -0.05 at alpha 0.06 with Td 3 (the planned torque
-#: changes flank 7 ms into the move, too soon for a crossing planned from
-#: rest: 0.34-0.36 s, 0.1 % overshoot), Td 0 at Jl x0.8 (1.7-2.1 %) and
-#: Jl x1.2 with alpha 0.06 (Td 0: 4.1-5.4 %; 0 -> +0.05 against Td 3 and
-#: 8: 2.1 % and 0.33 s), 0 -> +0.05 at Jl x0.8, Td 3, seed 6 (1.8 %).
+#: "Small moves across the gap"; 92 of 108 pass, 86 before the gap was
+#: learnt at rest under a load torque and the crossings' narrow readings
+#: were kept out of it, 61 before the planned crossing). A 0.05 rad move
+#: in 0.2 s brakes with 53 Nm (63 at Jl x1.2) and the load torque gives
+#: 3-8, so the motor crosses the gap mid-move; the crossing starts half a
+#: crossing before the planned shaft torque changes sign
+#: (`ctrl_lpv.twomass.gap_crossing`). Left: Td 0 at Jl x0.8 (1.7-2.0 %:
+#: the first move's inertia error) and Jl x1.2 with alpha 0.06 (Td 0:
+#: 4.1-5.3 %; 0 -> +0.05 against Td 3 and 8: 1.9-2.8 %), 0 -> +0.05 at Jl
+#: x1.2, Td 3, alpha 0.03 (1.6-1.7 %; seed 5 passed at 1.2 % before).
 #: Strict: a run that starts meeting them fails here, so that the list
 #: is kept true.
 _SMALL_MISSES = {
@@ -315,18 +314,12 @@ _SMALL_MISSES = {
     (0.8, 0.0, 0.06, (0.0, -0.05), 6),
     (0.8, 0.0, 0.06, (0.0, 0.05), 5),
     (0.8, 0.0, 0.06, (0.0, 0.05), 6),
-    (0.8, 3.0, 0.06, (0.0, -0.05), 5),
-    (0.8, 3.0, 0.06, (0.0, -0.05), 6),
-    (0.8, 3.0, 0.06, (0.0, 0.05), 6),
-    (1.0, 3.0, 0.06, (0.0, -0.05), 5),
-    (1.0, 3.0, 0.06, (0.0, -0.05), 6),
     (1.2, 0.0, 0.06, (0.0, -0.05), 5),
     (1.2, 0.0, 0.06, (0.0, -0.05), 6),
     (1.2, 0.0, 0.06, (0.0, 0.05), 5),
     (1.2, 0.0, 0.06, (0.0, 0.05), 6),
+    (1.2, 3.0, 0.03, (0.0, 0.05), 5),
     (1.2, 3.0, 0.03, (0.0, 0.05), 6),
-    (1.2, 3.0, 0.06, (0.0, -0.05), 5),
-    (1.2, 3.0, 0.06, (0.0, -0.05), 6),
     (1.2, 3.0, 0.06, (0.0, 0.05), 5),
     (1.2, 3.0, 0.06, (0.0, 0.05), 6),
     (1.2, 8.0, 0.06, (0.0, 0.05), 5),
@@ -367,3 +360,52 @@ def test_grid_of_moves_and_reversals(design, Jl, Td, alpha, move, seed):
 def test_grid_of_small_moves(design, Jl, Td, alpha, move, seed):
     """The same targets on 0.05 rad steps and the 0.1 rad reversal."""
     _targets(design, Jl, Td, alpha, move, seed)
+
+
+def _gap_estimate(design, res):
+    """The controller's half-gap estimate along `res`: times, values."""
+    c = res.controller
+    dev = c.states[c.state_labels.index("alpha_hat_dev")]
+    return c.time, design.tuning.alpha_initial + dev
+
+
+def test_gap_learnt_at_rest_under_a_load_torque(design):
+    """Td 3, alpha 0.06: at rest before the move the load leans on a flank
+    and the gap estimate learns the plant's half-gap there (it starts at
+    0.03); the 0.05 rad step the load torque helps then meets issue 22's
+    targets (main 2bf04ca: 0.336 s, the integral holding the old estimate's
+    error on the other flank and unwinding after the move)."""
+    m = _move(design, start=0.0, target=-0.05, Jl=1.0, Td=3.0, alpha=0.06, seed=5)
+    t, alpha_hat = _gap_estimate(design, m["res"])
+    assert abs(alpha_hat[np.searchsorted(t, SWITCH)] - 0.06) <= 1e-3
+    assert m["settling"] <= 0.3
+    assert m["overshoot"] <= 1.5
+
+
+def test_first_move_learns_the_gap(design):
+    """Td 0, alpha 0.06, Jl x0.8: nothing is learnt at rest (no load
+    torque), and the first 0.05 rad move's contacts teach the estimate the
+    plant's half-gap by the end of the plan (0.2 s): the flank readings in
+    contact are dynamic (the shaft torque changes along the move), and only
+    the crossings' readings, narrower than the gap, are kept out (learning
+    from static readings only left it at 0.033 and the load 16 % past the
+    target)."""
+    m = _move(design, start=0.0, target=-0.05, Jl=0.8, Td=0.0, alpha=0.06, seed=5)
+    t, alpha_hat = _gap_estimate(design, m["res"])
+    assert alpha_hat[np.searchsorted(t, SWITCH)] == pytest.approx(0.03)
+    assert abs(alpha_hat[np.searchsorted(t, SWITCH + 0.2)] - 0.06) <= 1e-3
+    assert m["overshoot"] <= 3.0  # the inertia error of a first move: 1.9 %
+
+
+@pytest.mark.parametrize(
+    "kwargs, error, name",
+    [
+        (dict(static_speed=0.0), ValueError, "ServoEstimator.static_speed"),
+        (dict(narrowing_band=-1e-3), ValueError, "ServoEstimator.narrowing_band"),
+        (dict(rest_estimate_rate=-1.0), ValueError, "rest_estimate_rate"),
+        (dict(rest_estimate_rate="5"), TypeError, "rest_estimate_rate"),
+    ],
+)
+def test_gap_settings_are_checked(kwargs, error, name):
+    with pytest.raises(error, match=name):
+        twomass.ServoEstimator(**kwargs)

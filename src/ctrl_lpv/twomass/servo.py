@@ -461,6 +461,13 @@ def servo_design(
         anti_hunting=anti_hunting.enabled,
         gap_estimate=estimator.gap_estimate and sensors != "motor",
         learn_torque=estimator.learn_torque, probe_error=estimator.probe_error,
+        static_speed=estimator.static_speed,
+        narrowing_band=(
+            estimator.narrowing_band
+            if dt is not None and sampled_tuning(dt).narrowing_gate
+            else math.inf
+        ),
+        rest_estimate_rate=estimator.rest_estimate_rate,
         # On the motor encoder alone the motor waits mid-gap at rest (the
         # flank dead band): no flank to latch.
         rest_flank=None if sensors == "motor" else anti_hunting.rest_flank,

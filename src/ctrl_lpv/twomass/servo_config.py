@@ -243,6 +243,22 @@ class ServoEstimator:
         load encoder). A contact asked for and made but read as the gap
         (the shaft-torque estimate's noise at a small load torque) then
         does not widen it.
+    static_speed : float, optional
+        Sampled servo: a flank reading counts as static below this
+        ``|omega_m - omega_l|``, rad/s (default 0.1: in contact the shaft
+        torque's rate over the stiffness, 1 rad/s along a 0.05 rad move).
+    narrowing_band : float, optional
+        Sampled servo: in a move a flank reading more than this below the
+        estimate, rad, teaches it only where static (default 2e-3). The
+        observer reads the motor's landing on a flank as a contact 10-20 ms
+        early, the motor still in the gap: a reading narrower than the gap.
+    rest_estimate_rate : float, optional
+        Sampled servo: rate of the gap estimate at rest, 1/s, where it
+        learns only from static readings while the load leans on the flank
+        (an observed load torque beyond ``contact_torque`` of the shaft
+        torque's sign; default 5, a tenth of `estimate_rate`: the reading's
+        noise moves the motor, and the load, with the estimate). 0 learns
+        only in moves.
     shaft_torque_rate, load_torque_rate : float or None, optional
         Sampled servo on encoders: the intensities, Nm/s, of the random
         walks of the shaft torque and the load torque in the drive
@@ -266,14 +282,28 @@ class ServoEstimator:
     observer_bandwidth: float = 1000.0
     learn_torque: float = 15.0
     probe_error: float = 2e-4
+    static_speed: float = 0.1
+    narrowing_band: float = 2e-3
+    rest_estimate_rate: float = 5.0
     shaft_torque_rate: float | None = None
     load_torque_rate: float | None = None
 
     def __post_init__(self):
         _check(
             self,
-            positive=("contact_torque", "observer_bandwidth"),
-            nonnegative=("estimate_rate", "probe_rate", "learn_torque", "probe_error"),
+            positive=(
+                "contact_torque",
+                "observer_bandwidth",
+                "static_speed",
+                "narrowing_band",
+            ),
+            nonnegative=(
+                "estimate_rate",
+                "probe_rate",
+                "learn_torque",
+                "probe_error",
+                "rest_estimate_rate",
+            ),
             flags=("gap_estimate",),
         )
         for name in ("shaft_torque_rate", "load_torque_rate"):

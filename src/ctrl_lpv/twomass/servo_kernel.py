@@ -70,6 +70,10 @@ class ServoTuning:
     gap_estimate: bool = True
     learn_torque: float = 0.0
     probe_error: float = 0.0
+    # The sampled law's gap estimate (`ServoEstimator`).
+    static_speed: float = 0.1
+    narrowing_band: float = 2e-3
+    rest_estimate_rate: float = 5.0
     rest_flank: RestFlank | None = None
 
 

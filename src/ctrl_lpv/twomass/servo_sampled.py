@@ -26,16 +26,21 @@ rarely rests, and the integral is held while it moves); the feedback, the
 flank offset and the observer are unchanged, and nothing is re-planned.
 
 Changes of the continuous law make it robust to sampling and to the
-encoders' quantization: the gap estimate learns from contacts during moves
-only (at rest the shaft-torque estimate is of the order of the quantization
-noise, and a wandering estimate moves the motor against the flank), and
-there only while the move asks for a shaft torque beyond ``learn_torque``
+encoders' quantization: the gap estimate learns from contacts during moves,
+and at rest only from static readings while the load leans on a flank (a
+load torque beyond the contact torque; without one the shaft-torque
+estimate is of the order of the quantization noise, and a wandering
+estimate moves the motor against the flank), slowly. In a move it learns
+only while the move asks for a shaft torque beyond ``learn_torque``
 on the flank the estimate is on (at the end of a move the motor may swing
 across the gap, and a streamed set-point's reversal crosses it twice a
 period; the observer, scheduled on its own estimate, reads a crossing as a
 contact for a few samples: learning from it halved the gap estimate at
 alpha = 0.06 and left a 2e-2 rad limit cycle, or stopped the motor
-mid-gap on a streamed sine).
+mid-gap on a streamed sine), and a reading well below the estimate teaches
+it only where static (``narrowing_band``, up to 1.5 ms of sample time:
+the observer reads a landing on a flank as a contact 10-20 ms early, the
+motor still in the gap).
 
 A contact asked for and not made probes a wider gap from the contact
 torque on (not twice it), so that the load is not left in a dead band of
@@ -250,6 +255,8 @@ def sampled_servo(
         c.integral_hold,
     )
     learn, probe_error, rest = c.learn_torque, c.probe_error, c.rest_flank
+    static_speed, narrowing = c.static_speed, c.narrowing_band
+    rest_rate = c.rest_estimate_rate
     ratio = ks / k1
     deadband = c.flank_deadband
     Phi, Gam, M = (np.asarray(m) for m in (s.Phi, s.Gamma, s.M))
@@ -423,26 +430,43 @@ def sampled_servo(
         # Latched near the target the integral fades with the proportional
         # term (a free load is not pushed), unless the load leans.
         dxi *= max(band, leaning)
-        # Gap estimate: the flank at contacts during moves, probing at rest.
-        ddah = 0.0
+        # Gap estimate: the flank read at contacts, probing at rest.
+        ddah = learnt_gap = 0.0
         if c.gap_estimate:
-            if not at_rest:
-                flank = math.copysign(1.0, tsh) * (
-                    (tm - tl) - (tsh - cs * (wm - wl)) / ks
-                )
+            flank = math.copysign(1.0, tsh) * ((tm - tl) - (tsh - cs * (wm - wl)) / ks)
+            flank = min(max(flank, 0.0), amax)
+            # A static reading: the shaft not twisting (in contact ``omega_m
+            # - omega_l`` is the shaft torque's rate over ``ks``: 1 rad/s
+            # along a 0.05 rad move, below 0.1 only at its torque peaks).
+            static = _smoothstep(1.0 - abs(wm - wl) / static_speed)
+            if at_rest:
+                # At rest only while the load leans on the flank the shaft
+                # torque is on (a load torque beyond the contact torque):
+                # without it the shaft-torque estimate is of the order of
+                # the quantization noise and the contact flickers. Slowly:
+                # the reading's noise moves the motor, and the load, with
+                # the estimate.
+                lean = _smoothstep(abs(at[5]) / tc - 1.0) * (at[5] * tsh > 0.0)
+                learnt_gap = rest_rate * static * lean * contact * (flank - ah)
+            else:
                 # Only where the move asks for torque on the flank the
                 # estimate is on: not in a gap crossing (at the end of a
                 # move, or a streamed set-point's reversal), where the
                 # estimate runs on the contact model for a few samples and
-                # would read the crossing as a narrower gap. (A condition
-                # on the shaft not slipping, |omega_m - omega_l| < 1 rad/s,
-                # on top of this or instead of it, measured worse: the
-                # 0.05 rad step at Td 3 overshot 1.9 %, alpha 0.06 at Td 0
-                # chattered at 146 Nm or alpha 0.03 hunted in 3.8e-4 rad.)
+                # would read the crossing as a narrower gap.
                 learning = 1.0
                 if learn > 0.0:
                     learning = _smoothstep(abs(F) / learn - 1.0) * (F * tsh > 0.0)
-                ddah = gam * learning * contact * (min(max(flank, 0.0), amax) - ah)
+                # The same within a move: the observer reads the motor's
+                # landing on a flank as a contact 10-20 ms early, the motor
+                # still in the gap (readings of 0.012-0.04 against 0.06).
+                # Such a reading is narrower than the gap: a reading more
+                # than `narrowing` below the estimate teaches it only where
+                # static. (Gating every reading on a static one taught the
+                # estimate 3.6 of the 30 mrad it missed in a 0.05 rad move.)
+                trusted = max(static, _smoothstep(1.0 - (ah - flank) / narrowing))
+                learnt_gap = gam * trusted * learning * contact * (flank - ah)
+            ddah = learnt_gap
             asked = _smoothstep(abs(tstar) / tc - 1.0)
             # A contact asked for and not made leaves a load error: without
             # one, "no contact" is the shaft-torque estimate's noise.
@@ -467,13 +491,14 @@ def sampled_servo(
             xi_next += _integral_share(v, hold) * (
                 integral_holding(at[5], k1, k5, ks) - xi_next
             )
-        if not at_rest:
-            # The gap estimate learnt in a move moves the flank offset by
-            # psi d(alpha_hat): the integral gives back what it held of the
-            # old estimate's error (bumpless, as for a gain change).
-            # Only what it holds: an integral that did not hold the old
-            # error (no contact at rest) has nothing to give back.
-            give = k1 * psi * dt * ddah / k5
+        if learnt_gap != 0.0:
+            # The gap estimate learnt from a flank reading moves the flank
+            # offset by psi d(alpha_hat): the integral gives back what it
+            # held of the old estimate's error (bumpless, as for a gain
+            # change). Only what it holds: an integral that did not hold the
+            # old error (no contact at rest) has nothing to give back, nor
+            # has probing.
+            give = k1 * psi * dt * learnt_gap / k5
             if give * xi_next < 0.0:
                 xi_next = math.copysign(max(abs(xi_next) - abs(give), 0.0), xi_next)
         state = [*next_plan, *predicted, xi_next, dah + dt * ddah, u, side]
