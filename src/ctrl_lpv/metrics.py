@@ -9,8 +9,16 @@ import numpy as np
 __all__ = ["RestMetrics", "StepMetrics", "rest_metrics", "step_metrics"]
 
 
+class _Metrics:
+    """`as_dict` of the metrics dataclasses."""
+
+    def as_dict(self) -> dict[str, float]:
+        """The metrics as a plain dictionary (for tables and JSON)."""
+        return {f.name: float(getattr(self, f.name)) for f in fields(self)}
+
+
 @dataclass(frozen=True)
-class StepMetrics:
+class StepMetrics(_Metrics):
     """Metrics of a step response towards a constant reference.
 
     Attributes
@@ -40,10 +48,6 @@ class StepMetrics:
     ise: float
     peak_input: float
     energy: float
-
-    def as_dict(self) -> dict[str, float]:
-        """The metrics as a plain dictionary (for tables and JSON)."""
-        return {f.name: float(getattr(self, f.name)) for f in fields(self)}
 
 
 def _crossing(t, y, level, rising):
@@ -161,7 +165,7 @@ def step_metrics(
 
 
 @dataclass(frozen=True)
-class RestMetrics:
+class RestMetrics(_Metrics):
     """Metrics of the rest at the end of a response (its last `window` s).
 
     Attributes
@@ -184,10 +188,6 @@ class RestMetrics:
     max_error: float
     input_std: float
     input_ripple: float
-
-    def as_dict(self) -> dict[str, float]:
-        """The metrics as a plain dictionary (for tables and JSON)."""
-        return {f.name: float(getattr(self, f.name)) for f in fields(self)}
 
 
 def rest_metrics(t, y, reference: float, u=None, *, window: float = 1.0) -> RestMetrics:
