@@ -67,6 +67,23 @@ def _integral(dt, values):
     return float(np.sum(0.5 * (values[1:] + values[:-1]) * dt))
 
 
+def _signals(t, y, reference, u):
+    """`t`, `y` and `u` (or None) as checked float arrays of one length."""
+    t = np.asarray(t, float).reshape(-1)
+    y = np.asarray(y, float).reshape(-1)
+    if t.shape != y.shape or t.size < 2:
+        raise ValueError(f"t, y: expected equal lengths >= 2, got {t.size}, {y.size}")
+    if np.any(np.diff(t) <= 0):
+        raise ValueError("t: time points must be increasing")
+    if not (np.all(np.isfinite(y)) and np.isfinite(reference)):
+        raise ValueError("y, reference: values must be finite")
+    if u is not None:
+        u = np.asarray(u, float).reshape(-1)
+        if u.shape != t.shape:
+            raise ValueError(f"u: expected {t.size} samples, got {u.size}")
+    return t, y, u
+
+
 def step_metrics(
     t,
     y,
@@ -111,15 +128,8 @@ def step_metrics(
     >>> round(m.rise_time, 3)   # ln 9
     2.197
     """
-    t = np.asarray(t, float).reshape(-1)
-    y = np.asarray(y, float).reshape(-1)
-    if t.shape != y.shape or t.size < 2:
-        raise ValueError(f"t, y: expected equal lengths >= 2, got {t.size}, {y.size}")
+    t, y, u = _signals(t, y, reference, u)
     dt = np.diff(t)
-    if np.any(dt <= 0):
-        raise ValueError("t: time points must be increasing")
-    if not (np.all(np.isfinite(y)) and np.isfinite(reference)):
-        raise ValueError("y, reference: values must be finite")
     y0 = float(y[0]) if initial is None else float(initial)
     step = float(reference) - y0
     if step == 0:
@@ -148,9 +158,6 @@ def step_metrics(
     if u is None:
         peak, energy = np.nan, np.nan
     else:
-        u = np.asarray(u, float).reshape(-1)
-        if u.shape != t.shape:
-            raise ValueError(f"u: expected {t.size} samples, got {u.size}")
         peak, energy = float(np.abs(u).max()), _integral(dt, u**2)
     return StepMetrics(
         rise_time=float(rise),
@@ -218,8 +225,8 @@ def rest_metrics(t, y, reference: float, u=None, *, window: float = 1.0) -> Rest
     Raises
     ------
     ValueError
-        If the arrays do not match, `t` is not increasing, or `window` is
-        not positive or longer than the response.
+        If the arrays do not match, `t` is not increasing, a value is not
+        finite, or `window` is not positive or longer than the response.
 
     Examples
     --------
@@ -228,12 +235,7 @@ def rest_metrics(t, y, reference: float, u=None, *, window: float = 1.0) -> Rest
     >>> round(m.error_peak_to_peak, 6)
     0.002
     """
-    t = np.asarray(t, float).reshape(-1)
-    y = np.asarray(y, float).reshape(-1)
-    if t.shape != y.shape or t.size < 2:
-        raise ValueError(f"t, y: expected equal lengths >= 2, got {t.size}, {y.size}")
-    if np.any(np.diff(t) <= 0):
-        raise ValueError("t: time points must be increasing")
+    t, y, u = _signals(t, y, reference, u)
     window = float(window)
     if not 0.0 < window <= t[-1] - t[0]:
         raise ValueError(
@@ -244,9 +246,6 @@ def rest_metrics(t, y, reference: float, u=None, *, window: float = 1.0) -> Rest
     if u is None:
         std, ripple = np.nan, np.nan
     else:
-        u = np.asarray(u, float).reshape(-1)
-        if u.shape != t.shape:
-            raise ValueError(f"u: expected {t.size} samples, got {u.size}")
         rest = u[last]
         std, ripple = float(np.std(rest)), float(np.abs(rest - rest.mean()).max())
     return RestMetrics(
