@@ -61,7 +61,7 @@ import numpy as np
 from . import gap_crossing as _gx
 from .drive_observer import DRIVE_STATES
 from .inertia import INERTIA_STATES
-from .rest_flank import rest_flank_step
+from .rest_flank import flank_offset, rest_flank_step
 from .servo_kernel import ServoTuning, _smoothstep
 from .stream import jerk_model
 from .trajectory import planner_functions, replan_duration
@@ -80,10 +80,10 @@ SAMPLED_STATES = [
     "r", "v_r", "a_r", "j_r", "goal", "time_to_go",
     "theta_m_hat", "omega_m_hat", "Ts_hat", "theta_l_hat", "omega_l_hat",
     "Td_hat", "int_e_l", "alpha_hat_dev", "Tm_prev", "flank_side",
-    "flank_evidence", "Td_rest",
+    "flank_evidence", "Td_rest", "flank_crossing",
 ]  # fmt: skip
 #: The motor-encoder estimator's states, or the inertia estimate, follow these.
-_NS = 18
+_NS = 19
 SAMPLED_INPUTS = ["theta_m", "theta_l", "theta_r"]
 #: The motor-encoder estimator's extra states: the sensitivity of the
 #: prediction to the half-gap and the half-gap variance (less its initial).
@@ -93,6 +93,9 @@ MOTOR_STATES = [
 ]  # fmt: skip
 
 _PLAN_SUBSTEPS = 4
+#: The observer counts a contact only where the twist estimate is beyond this
+#: share of the half-gap estimate on the side of its shaft torque.
+_CONTACT_TWIST = 0.3
 _STREAM_REST_ACCEL = 1e-3  # rad/s^2
 # A streamed set-point's gap crossings are planned above this speed (rad/s):
 # where a streamed move stops, the tracker's acceleration rings (1.5 rad/s^2
@@ -301,6 +304,12 @@ def sampled_servo(
         xi, dah, u_prev, side, evidence = x[12], x[13], x[14], x[15], x[16]
         contact = _smoothstep(abs(xhat[2]) / tc - 1.0)
         if motor is None:
+            # A contact needs the twist on the side of the shaft torque: a
+            # motor crossing the gap at rest read as a contact (the estimate
+            # integrating the motor's speed as twist, -45 Nm with the shaft
+            # free), and the latch flipped on the misread, back and forth.
+            side_twist = math.copysign(1.0, xhat[2]) * (xhat[0] - xhat[3])
+            contact *= _smoothstep(side_twist / (_CONTACT_TWIST * (a0 + x[13])))
             Ph, Gh = blend(Phi, contact), blend(Gam, contact)
             gain = blend(M, contact)
             innovation = np.asarray(y[:nread]) - xhat[rows]
@@ -381,14 +390,19 @@ def sampled_servo(
                 )
             if sgn != 0.0:
                 psi, dpsi, ddpsi = _gx.crossing_offset(sgn, changes, dur)
+        crossing = 0.0
         if rest is not None and c.anti_hunting:
-            side, evidence = rest_flank_step(
-                rest, dt, side, evidence, resting=at_rest, error=el, speed=dl,
-                load_torque=at[5], tstar=tstar, psi=psi,
-            )  # fmt: skip
+            previous, left = side, x[18]
+            # No flip test while the motor crosses the gap to the new flank.
+            if left <= 0.0 or not at_rest:
+                side, evidence = rest_flank_step(
+                    rest, dt, side, evidence, resting=at_rest, error=el, speed=dl,
+                    load_torque=at[5], tstar=tstar, psi=psi,
+                )  # fmt: skip
             if side != 0.0:
-                psi = side * max(0.0, 1.0 - rest.clearance / ah)
-                dpsi = ddpsi = 0.0
+                psi, dpsi, ddpsi, crossing = flank_offset(
+                    rest, dt, side, previous, left, alpha_hat=ah, speed=dl
+                )
         thm = r + F / ks + ah * psi
         wmf, tff = wmf + ah * dpsi, tff + c.Jm * ah * ddpsi + c.cm * ah * dpsi
         # In the gap the load feedback cannot reach the load: while a planned
@@ -502,7 +516,7 @@ def sampled_servo(
             if give * xi_next < 0.0:
                 xi_next = math.copysign(max(abs(xi_next) - abs(give), 0.0), xi_next)
         state = [*next_plan, *predicted, xi_next, dah + dt * ddah, u, side]
-        state += [evidence, td_rest]
+        state += [evidence, td_rest, crossing]
         if inertia is not None:
             state += list(learnt)
         if motor is not None:
