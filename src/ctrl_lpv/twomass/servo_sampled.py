@@ -93,9 +93,6 @@ MOTOR_STATES = [
 ]  # fmt: skip
 
 _PLAN_SUBSTEPS = 4
-#: The observer counts a contact only where the twist estimate is beyond this
-#: share of the half-gap estimate on the side of its shaft torque.
-_CONTACT_TWIST = 0.3
 _STREAM_REST_ACCEL = 1e-3  # rad/s^2
 # A streamed set-point's gap crossings are planned above this speed (rad/s):
 # where a streamed move stops, the tracker's acceleration rings (1.5 rad/s^2
@@ -159,6 +156,11 @@ class SampledServo:
         set-point's reversals, are planned (`ctrl_lpv.twomass.gap_crossing`,
         both encoders only;
         `ctrl_lpv.twomass.sampled_tuning.SampledTuning.plan_crossings`).
+    contact_twist : float
+        The drive observer counts a contact only where its twist estimate
+        is beyond this share of the half-gap estimate on the side of its
+        shaft torque (0: on the shaft torque alone;
+        `ctrl_lpv.twomass.sampled_tuning.SampledTuning.contact_twist`).
     """
 
     dt: float
@@ -172,6 +174,7 @@ class SampledServo:
     estimator: object = None
     inertia: object = None
     plan_crossings: bool = True
+    contact_twist: float = 0.0
 
 
 def plan_stepper(c: ServoTuning, dt: float):
@@ -276,6 +279,7 @@ def sampled_servo(
 
     streamed = s.reference == "stream"
     crossings = s.plan_crossings and motor is None
+    contact_twist = s.contact_twist if motor is None else 0.0
     if streamed:
         Lz, Pz = np.asarray(s.stream_gain, float), jerk_model(dt)
         # The set-point where the command computed now acts: `delay` samples
@@ -303,13 +307,15 @@ def sampled_servo(
         plan, xhat = list(x[0:6]), np.asarray(x[6:12])
         xi, dah, u_prev, side, evidence = x[12], x[13], x[14], x[15], x[16]
         contact = _smoothstep(abs(xhat[2]) / tc - 1.0)
-        if motor is None:
+        if contact_twist > 0.0:
             # A contact needs the twist on the side of the shaft torque: a
-            # motor crossing the gap at rest read as a contact (the estimate
-            # integrating the motor's speed as twist, -45 Nm with the shaft
-            # free), and the latch flipped on the misread, back and forth.
+            # motor crossing the gap at rest was read as a contact (the
+            # estimate integrating the motor's speed as twist, -45 Nm with
+            # the shaft free), and the latch flipped on the misread, back
+            # and forth within 10 ms.
             side_twist = math.copysign(1.0, xhat[2]) * (xhat[0] - xhat[3])
-            contact *= _smoothstep(side_twist / (_CONTACT_TWIST * (a0 + x[13])))
+            contact *= _smoothstep(side_twist / (contact_twist * (a0 + x[13])))
+        if motor is None:
             Ph, Gh = blend(Phi, contact), blend(Gam, contact)
             gain = blend(M, contact)
             innovation = np.asarray(y[:nread]) - xhat[rows]
@@ -487,7 +493,12 @@ def sampled_servo(
             if probe_error > 0.0:
                 asked *= _smoothstep(abs(el) / probe_error - 1.0)
             still = _smoothstep(1.0 - (abs(v) + abs(wl)) / c.rest_speed)
-            ddah += probe * (1.0 - contact) * asked * still * (ah < amax)
+            # Latched, the motor parks short of the flank on purpose: the
+            # contact not made there is the clearance, not a wider gap.
+            # (Probed, the estimate grew 2 mrad past the gap at rest, the
+            # parked motor then pressed on the load and pushed it around.)
+            if side == 0.0:
+                ddah += probe * (1.0 - contact) * asked * still * (ah < amax)
         if delayed:
             predicted = ahead
         elif motor is None and inertia is not None:
