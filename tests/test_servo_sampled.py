@@ -423,7 +423,8 @@ def test_rest_without_load_torque_crosses_the_gap_without_a_slam(design):
     res = _simulate(design, Td=0.0, alpha=0.03)
     c, t = res.controller, res.plant.time
     side = c.states[c.state_labels.index("flank_side")]
-    alpha_hat = design.tuning.alpha_initial + c.states[c.state_labels.index("alpha_hat_dev")]
+    dev = c.states[c.state_labels.index("alpha_hat_dev")]
+    alpha_hat = design.tuning.alpha_initial + dev
     torque = res.plant.inputs[0]
     rest = t >= 1.0
     assert np.all(side[rest] != 0.0) and np.count_nonzero(np.diff(side[rest])) >= 1
