@@ -314,7 +314,7 @@ def sampled_servo(
             # the shaft free), and the latch flipped on the misread, back
             # and forth within 10 ms.
             side_twist = math.copysign(1.0, xhat[2]) * (xhat[0] - xhat[3])
-            contact *= _smoothstep(side_twist / (contact_twist * (a0 + x[13])))
+            contact *= _smoothstep(side_twist / (contact_twist * (a0 + dah)))
         if motor is None:
             Ph, Gh = blend(Phi, contact), blend(Gam, contact)
             gain = blend(M, contact)
