@@ -35,6 +35,15 @@ free mass).
   `flip_torque` long enough, a CUSUM test ``q <- max(0, q + dt (-side T* -
   flip_torque))`` against `flip_evidence` (a load torque of the other sign
   or a load drifting the other way: sustained; the noise: not);
+* **cross, do not slam**: a flip takes the parked motor across the gap along
+  a quintic at a peak acceleration of `crossing_accel` (`flank_offset`),
+  with no flip test on the way, where the load is slower than
+  `crossing_speed`. A step of the motor reference across the gap was a
+  motor slamming at the torque limit (22 Nm of the last second's torque
+  standard deviation per flip at alpha 0.03, 38 at 0.06) whose arrival
+  overshot the clearance and hit the load, speeding it up (7e-4 rad/s in,
+  1.6e-3 out): one flip begot the next. A load moving faster (the hunt
+  after a short move with the wrong inertia) is caught at once, by a step;
 * **release**: a load error beyond `release_error` (a new load torque, a
   knock) returns the flank to the continuous law.
 
@@ -48,7 +57,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-__all__ = ["RestFlank", "rest_flank_step"]
+from .gap_crossing import crossing_duration, crossing_offset
+
+__all__ = ["RestFlank", "rest_flank_step", "flank_offset"]
 
 
 @dataclass(frozen=True)
@@ -75,6 +86,11 @@ class RestFlank:
     band_torque : float
         ... and while the integral holds less than this load torque, Nm (a
         load held on its flank keeps the integral that holds it).
+    crossing_accel : float
+        Peak motor acceleration of a flip's crossing of the gap, rad/s^2
+        (50: 20 Nm of motor torque at the peak; 0 crosses by a step).
+    crossing_speed : float
+        A flip crosses by a step where the load is at least this fast, rad/s.
     lean_torque, lean_time : float
         Load torque estimate, Nm, filtered over `lean_time` s, on the latched
         flank's side beyond which the load leans on that flank: the
@@ -95,6 +111,8 @@ class RestFlank:
     band_torque: float = 5.0
     lean_torque: float = 0.2
     lean_time: float = 0.2
+    crossing_accel: float = 50.0
+    crossing_speed: float = 5e-3
 
 
 def rest_flank_step(
@@ -137,3 +155,34 @@ def rest_flank_step(
     if evidence > f.flip_evidence:
         return -side, 0.0
     return side, evidence
+
+
+def flank_offset(
+    f: RestFlank,
+    dt: float,
+    side: float,
+    previous: float,
+    left: float,
+    *,
+    alpha_hat: float,
+    speed: float,
+) -> tuple[float, float, float, float]:
+    """The latched flank offset: ``(psi, dpsi/dt, d2psi/dt2, left)``.
+
+    The motor parks `clearance` short of the latched flank ``side``; a flip
+    (`previous` the other side) starts a crossing of the gap from the old
+    parking point, which has `left` seconds to run (returned for the next
+    sample, 0 when parked). `speed` is the load's speed, rad/s;
+    `alpha_hat` the half-gap estimate.
+    """
+    park = max(0.0, 1.0 - f.clearance / alpha_hat)
+    gap = 2.0 * alpha_hat * park
+    if f.crossing_accel <= 0.0 or gap <= 0.0:
+        return side * park, 0.0, 0.0, 0.0
+    duration = crossing_duration(gap, f.crossing_accel)
+    if previous == -side:
+        left = duration if abs(speed) < f.crossing_speed else 0.0
+    if left <= 0.0:
+        return side * park, 0.0, 0.0, 0.0
+    psi, dpsi, ddpsi = crossing_offset(-side, [left - 0.5 * duration], duration)
+    return park * psi, park * dpsi, park * ddpsi, max(0.0, left - dt)

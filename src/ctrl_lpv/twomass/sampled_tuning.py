@@ -109,6 +109,15 @@ class SampledTuning:
         the flank 7 mrad wide (the slow observer's shaft torque lagging the
         load torque not yet learnt) and the gate kept the true, narrower
         readings out until the rest: 0.302 s against 0.222 s.
+    contact_twist : float
+        The drive observer's contact needs the twist estimate beyond this
+        share of the half-gap estimate on the side of its shaft torque
+        (`ctrl_lpv.twomass.servo_sampled.SampledServo.contact_twist`): 0.3
+        up to `FAST_SAMPLING`, 0 (the shaft torque alone) above. At 1 ms a
+        motor crossing the gap at rest was read as a contact, and the latch
+        flipped back on the misread, bursts of flips at 500 Nm; at 2 ms the
+        slow observer's twist lags the cold start against Td = 30 Nm and
+        the check delayed its first contact (settling 0.318 s against 0.222).
     rest_flank : `ctrl_lpv.twomass.rest_flank.RestFlank`
         The latch at rest, the default of `ServoAntiHunting.rest_flank`
         at this sample time (`SLOW_REST_FLANK` above `FAST_SAMPLING`).
@@ -122,6 +131,7 @@ class SampledTuning:
     fit_cold_start: bool = True
     plan_crossings: bool = False
     narrowing_gate: bool = False
+    contact_twist: float = 0.0
     rest_flank: RestFlank = RestFlank()
 
 
@@ -145,5 +155,6 @@ def sampled_tuning(dt: float) -> SampledTuning:
             fit_cold_start=False,
             plan_crossings=True,
             narrowing_gate=True,
+            contact_twist=0.3,
         )
     return SampledTuning(SLOW_TORQUE_WEIGHT, SLOW_RATES, rest_flank=SLOW_REST_FLANK)

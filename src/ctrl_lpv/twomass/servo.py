@@ -487,6 +487,7 @@ def servo_design(
                     if sensors == "encoders" else None
                 ),
                 plan_crossings=sampled_tuning(dt).plan_crossings,
+                contact_twist=sampled_tuning(dt).contact_twist,
             )  # fmt: skip
 
         if sensors == "motor":

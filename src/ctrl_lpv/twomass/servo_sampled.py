@@ -61,7 +61,7 @@ import numpy as np
 from . import gap_crossing as _gx
 from .drive_observer import DRIVE_STATES
 from .inertia import INERTIA_STATES
-from .rest_flank import rest_flank_step
+from .rest_flank import flank_offset, rest_flank_step
 from .servo_kernel import ServoTuning, _smoothstep
 from .stream import jerk_model
 from .trajectory import planner_functions, replan_duration
@@ -80,10 +80,10 @@ SAMPLED_STATES = [
     "r", "v_r", "a_r", "j_r", "goal", "time_to_go",
     "theta_m_hat", "omega_m_hat", "Ts_hat", "theta_l_hat", "omega_l_hat",
     "Td_hat", "int_e_l", "alpha_hat_dev", "Tm_prev", "flank_side",
-    "flank_evidence", "Td_rest",
+    "flank_evidence", "Td_rest", "flank_crossing",
 ]  # fmt: skip
 #: The motor-encoder estimator's states, or the inertia estimate, follow these.
-_NS = 18
+_NS = 19
 SAMPLED_INPUTS = ["theta_m", "theta_l", "theta_r"]
 #: The motor-encoder estimator's extra states: the sensitivity of the
 #: prediction to the half-gap and the half-gap variance (less its initial).
@@ -156,6 +156,11 @@ class SampledServo:
         set-point's reversals, are planned (`ctrl_lpv.twomass.gap_crossing`,
         both encoders only;
         `ctrl_lpv.twomass.sampled_tuning.SampledTuning.plan_crossings`).
+    contact_twist : float
+        The drive observer counts a contact only where its twist estimate
+        is beyond this share of the half-gap estimate on the side of its
+        shaft torque (0: on the shaft torque alone;
+        `ctrl_lpv.twomass.sampled_tuning.SampledTuning.contact_twist`).
     """
 
     dt: float
@@ -169,6 +174,7 @@ class SampledServo:
     estimator: object = None
     inertia: object = None
     plan_crossings: bool = True
+    contact_twist: float = 0.0
 
 
 def plan_stepper(c: ServoTuning, dt: float):
@@ -273,6 +279,7 @@ def sampled_servo(
 
     streamed = s.reference == "stream"
     crossings = s.plan_crossings and motor is None
+    contact_twist = s.contact_twist if motor is None else 0.0
     if streamed:
         Lz, Pz = np.asarray(s.stream_gain, float), jerk_model(dt)
         # The set-point where the command computed now acts: `delay` samples
@@ -300,6 +307,14 @@ def sampled_servo(
         plan, xhat = list(x[0:6]), np.asarray(x[6:12])
         xi, dah, u_prev, side, evidence = x[12], x[13], x[14], x[15], x[16]
         contact = _smoothstep(abs(xhat[2]) / tc - 1.0)
+        if contact_twist > 0.0:
+            # A contact needs the twist on the side of the shaft torque: a
+            # motor crossing the gap at rest was read as a contact (the
+            # estimate integrating the motor's speed as twist, -45 Nm with
+            # the shaft free), and the latch flipped on the misread, back
+            # and forth within 10 ms.
+            side_twist = math.copysign(1.0, xhat[2]) * (xhat[0] - xhat[3])
+            contact *= _smoothstep(side_twist / (contact_twist * (a0 + dah)))
         if motor is None:
             Ph, Gh = blend(Phi, contact), blend(Gam, contact)
             gain = blend(M, contact)
@@ -381,14 +396,19 @@ def sampled_servo(
                 )
             if sgn != 0.0:
                 psi, dpsi, ddpsi = _gx.crossing_offset(sgn, changes, dur)
+        crossing = 0.0
         if rest is not None and c.anti_hunting:
-            side, evidence = rest_flank_step(
-                rest, dt, side, evidence, resting=at_rest, error=el, speed=dl,
-                load_torque=at[5], tstar=tstar, psi=psi,
-            )  # fmt: skip
+            previous, left = side, x[18]
+            # No flip test while the motor crosses the gap to the new flank.
+            if left <= 0.0 or not at_rest:
+                side, evidence = rest_flank_step(
+                    rest, dt, side, evidence, resting=at_rest, error=el, speed=dl,
+                    load_torque=at[5], tstar=tstar, psi=psi,
+                )  # fmt: skip
             if side != 0.0:
-                psi = side * max(0.0, 1.0 - rest.clearance / ah)
-                dpsi = ddpsi = 0.0
+                psi, dpsi, ddpsi, crossing = flank_offset(
+                    rest, dt, side, previous, left, alpha_hat=ah, speed=dl
+                )
         thm = r + F / ks + ah * psi
         wmf, tff = wmf + ah * dpsi, tff + c.Jm * ah * ddpsi + c.cm * ah * dpsi
         # In the gap the load feedback cannot reach the load: while a planned
@@ -473,7 +493,12 @@ def sampled_servo(
             if probe_error > 0.0:
                 asked *= _smoothstep(abs(el) / probe_error - 1.0)
             still = _smoothstep(1.0 - (abs(v) + abs(wl)) / c.rest_speed)
-            ddah += probe * (1.0 - contact) * asked * still * (ah < amax)
+            # Latched, the motor parks short of the flank on purpose: the
+            # contact not made there is the clearance, not a wider gap.
+            # (Probed, the estimate grew 2 mrad past the gap at rest, the
+            # parked motor then pressed on the load and pushed it around.)
+            if side == 0.0:
+                ddah += probe * (1.0 - contact) * asked * still * (ah < amax)
         if delayed:
             predicted = ahead
         elif motor is None and inertia is not None:
@@ -502,7 +527,7 @@ def sampled_servo(
             if give * xi_next < 0.0:
                 xi_next = math.copysign(max(abs(xi_next) - abs(give), 0.0), xi_next)
         state = [*next_plan, *predicted, xi_next, dah + dt * ddah, u, side]
-        state += [evidence, td_rest]
+        state += [evidence, td_rest, crossing]
         if inertia is not None:
             state += list(learnt)
         if motor is not None:
