@@ -393,14 +393,15 @@ def servo_design(
     estimator = _settings(estimator, ServoEstimator, "estimator")
     certify = flag(certify, "certify")
     dt, delay = _sampling(dt, delay, sensors)
-    if anti_hunting is None and dt is not None:
-        anti_hunting = ServoAntiHunting(rest_flank=sampled_tuning(dt).rest_flank)
+    # The sample time's tuning rule (`sampled_tuning`), read once.
+    rule = None if dt is None else sampled_tuning(dt)
+    if anti_hunting is None and rule is not None:
+        anti_hunting = ServoAntiHunting(rest_flank=rule.rest_flank)
     anti_hunting = _settings(anti_hunting, ServoAntiHunting, "anti_hunting")
     stream = _settings(stream, ServoStream, "stream")
-    if inertia is None and dt is not None:
-        tuning = sampled_tuning(dt)
+    if inertia is None and rule is not None:
         inertia = ServoInertia(
-            enabled=tuning.learn_inertia, cold_start=tuning.fit_cold_start
+            enabled=rule.learn_inertia, cold_start=rule.fit_cold_start
         )
     inertia = _settings(inertia, ServoInertia, "inertia")
     if reference not in ("plan", "stream"):
@@ -427,9 +428,7 @@ def servo_design(
     if gain is None:
         weight = synthesis.torque_weight
         if weight is None:
-            weight = (
-                FAST_TORQUE_WEIGHT if dt is None else sampled_tuning(dt).torque_weight
-            )
+            weight = FAST_TORQUE_WEIGHT if rule is None else rule.torque_weight
         model = servo_polytope(
             params, p_bounds=synthesis.p_bounds, Jl_range=(lo, hi),
             torque_weight=weight,
@@ -464,7 +463,7 @@ def servo_design(
         static_speed=estimator.static_speed,
         narrowing_band=(
             estimator.narrowing_band
-            if dt is not None and sampled_tuning(dt).narrowing_gate
+            if rule is not None and rule.narrowing_gate
             else math.inf
         ),
         rest_estimate_rate=estimator.rest_estimate_rate,
@@ -486,8 +485,8 @@ def servo_design(
                     inertia_adaptation(inertia, params.Jl, (lo, hi), dt)
                     if sensors == "encoders" else None
                 ),
-                plan_crossings=sampled_tuning(dt).plan_crossings,
-                contact_twist=sampled_tuning(dt).contact_twist,
+                plan_crossings=rule.plan_crossings,
+                contact_twist=rule.contact_twist,
             )  # fmt: skip
 
         if sensors == "motor":
