@@ -177,6 +177,11 @@ class ConicResult:
         an "optimal" status, or an "optimal_inaccurate" one whose duality
         gap and residuals are within `NEAR_OPTIMAL` (Clarabel's
         "AlmostSolved" ends so when only its last step fell short).
+    iterate : ndarray or None
+        The point a solver stopped at without converging (Clarabel's
+        `UNCONVERGED` statuses: its last interior iterate), for a caller
+        that only wants a point to check in float64 (see
+        `ctrl_lpv.lmi.LMIProblem.solve`, ``unconverged``); None otherwise.
     """
 
     status: str
@@ -186,6 +191,7 @@ class ConicResult:
     seconds: float
     setup_seconds: float = 0.0
     converged: bool = False
+    iterate: np.ndarray | None = None
 
 
 # Relative duality gap and residuals of an "optimal_inaccurate" point that
@@ -205,6 +211,14 @@ _CLARABEL_STATUS = {
     "MaxIterations": "user_limit",
     "MaxTime": "user_limit",
 }
+
+# Clarabel's statuses that end a solve without converging, at an interior
+# iterate (its primal residual often far below its tolerance, its gap
+# not): a stiff problem (the LPVTools spinning disks' back-off stage, a
+# weight's pole at -0.04 beside ones at -4e4) stops so after 15-21
+# iterations, with a point as good as a converged one for a stage that
+# only chooses a point.
+UNCONVERGED = ("NumericalError", "InsufficientProgress", "MaxIterations", "MaxTime")
 
 # SCS's status_val.
 _SCS_STATUS = {
@@ -403,8 +417,15 @@ def _result(solution, data: ConicData, start: float, lifted: int = 0) -> ConicRe
         status == OPTIMAL_INACCURATE
         and max(gap, solution.r_prim, solution.r_dual) <= NEAR_OPTIMAL
     )
+    iterate = None
+    if str(solution.status) in UNCONVERGED:
+        iterate = np.array(solution.x, float)[:n]
+        if not np.all(np.isfinite(iterate)):
+            iterate = None
     seconds = time.perf_counter() - start
-    return ConicResult(status, x, duals, objective, seconds, converged=converged)
+    return ConicResult(
+        status, x, duals, objective, seconds, converged=converged, iterate=iterate
+    )
 
 
 def _clarabel_lifted(c, data: ConicData, b, options) -> ConicResult:

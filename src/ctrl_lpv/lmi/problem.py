@@ -350,7 +350,8 @@ class LMIProblem(ConicReading, DualCertificates):
         self._conic_data(stage, DIRECT.get(solver.upper(), (None, True))[1])
         return self._reading - before
 
-    def _attempt(self, stage, solver, options, objective, factor=1.0):
+    def _attempt(self, stage, solver, options, objective, factor=1.0,
+                 unconverged=False):  # fmt: skip
         start, before = time.perf_counter(), self._reading
         c = self._objective_vector(objective)
         result = run(
@@ -365,8 +366,11 @@ class LMIProblem(ConicReading, DualCertificates):
         values, checks, duals = {}, (), None
         if status in PROVED_INFEASIBLE:
             duals = result.duals  # the solver's Farkas point, judged by `farkas`
-        if status in SOLVED and result.x is not None:
-            values = self._values(result.x)
+        x = result.x if status in SOLVED else None
+        if x is None and unconverged and result.iterate is not None:
+            x = result.iterate  # checked as any point (`solve`, unconverged)
+        if x is not None:
+            values = self._values(x)
             checks = self.check(values, stage)
             failed = [c for c in checks if not c.passed]
             if failed:
@@ -436,6 +440,7 @@ class LMIProblem(ConicReading, DualCertificates):
         solvers: Sequence[tuple[str, dict]] | None = None,
         certify: bool = True,
         deadline: float | None = None,
+        unconverged: bool = False,
     ) -> LMISolution:
         """Solve, trying each solver in turn until a point certifies.
 
@@ -460,6 +465,11 @@ class LMIProblem(ConicReading, DualCertificates):
             started; solvers get the time left as their own limit. The
             call's budget (`ctrl_lpv.budget`) applies too, whichever ends
             first.
+        unconverged : bool, optional
+            Also read the point a solver stopped at without converging
+            (`ctrl_lpv.lmi.conic.ConicResult.iterate`; its status is kept):
+            checked in float64 as any point, certified if it passes. For a
+            stage that only chooses a point whose use is certified later.
 
         Returns
         -------
@@ -485,7 +495,8 @@ class LMIProblem(ConicReading, DualCertificates):
         attempts: list[SolveAttempt] = []
         budget.progress("stage '%s'", stage, level=logging.DEBUG, stage=stage)
         try:
-            return self._solve(objective, stage, chain, certify, deadline, attempts)
+            return self._solve(objective, stage, chain, certify, deadline, attempts,
+                               unconverged)  # fmt: skip
         except budget.TimeLimitReached as exc:
             exc.attempts = tuple(attempts)
             raise
@@ -498,7 +509,8 @@ class LMIProblem(ConicReading, DualCertificates):
                     len(attempts), sum(a.seconds for a in attempts),
                 )  # fmt: skip
 
-    def _solve(self, objective, stage, chain, certify, deadline, attempts):
+    def _solve(self, objective, stage, chain, certify, deadline, attempts,
+               unconverged=False):  # fmt: skip
         """`solve`, recording its attempts in `attempts` as they are made."""
 
         def check(where):
@@ -511,8 +523,9 @@ class LMIProblem(ConicReading, DualCertificates):
         estimate = None
         for solver, options in chain:
             check(f"stage '{stage}' with {solver}")
+            timed = with_time_limit(solver, options, deadline)
             attempt, values, checks, duals, value = self._attempt(
-                stage, solver, with_time_limit(solver, options, deadline), objective
+                stage, solver, timed, objective, unconverged=unconverged
             )
             attempts.append(attempt)
             if duals is not None:
@@ -538,7 +551,7 @@ class LMIProblem(ConicReading, DualCertificates):
                 # The time left now, not at the first attempt.
                 timed = with_time_limit(solver, options, deadline)
                 attempt, values, checks, duals, value = self._attempt(
-                    stage, solver, timed, objective, factor
+                    stage, solver, timed, objective, factor, unconverged
                 )
                 attempts.append(attempt)
                 if duals is not None:  # judged without the margin: as good

@@ -9,7 +9,9 @@ Lyapunov pair ``[[X, I], [I, Y]] > 0``, the controller variables after the
 change of variables, and the back-off stage's conditioning of ``I - X Y``.
 `rebuild` turns a point into vertex controllers (`ctrl_lpv.output_feedback.
 reconstruct`) and `certified` certifies them on the closed loop
-(`ctrl_lpv.output_feedback.checks`). The stages that call them are the
+(`ctrl_lpv.output_feedback.checks`): with the rebuilt Lyapunov matrix, or
+where that fails or certifies more than the limit, with the closed loop's
+own least bound found from it (`closed_loop_analysis`). The stages that call them are the
 hook output feedback supplies to the engine's ladder
 (`ctrl_lpv.output_feedback.stages`).
 """
@@ -145,12 +147,23 @@ def certified(plant, objective, controllers, P, values, bound_opt, limit,
                analysis, condition, attempts=()):  # fmt: skip
     """`OutputFeedbackDesign` if the closed loop certifies within `limit`."""
     certificate = closed_loop_certificate(plant, objective, controllers, P, values)
-    if not certificate.verified:
-        # The rebuilt P is exact but ill-conditioned (its slack scales with
-        # 1 / ||Pi1||^2): the closed loop's own Lyapunov matrix instead.
-        P, values = closed_loop_analysis(plant, objective, controllers, *analysis)
-        certificate = closed_loop_certificate(plant, objective, controllers, P, values)
     bound = objective.bound(values["level"])
+    if not certificate.verified or bound > limit:
+        # The rebuilt P is exact but ill-conditioned (its slack scales with
+        # 1 / ||Pi1||^2), or it certifies the point's own level, above the
+        # limit (a back-off stage's point that did not converge): the closed
+        # loop's own Lyapunov matrix instead, from the rebuilt one.
+        try:
+            found = closed_loop_analysis(plant, objective, controllers, *analysis, P=P)
+        except CertificationError:
+            if not certificate.verified:
+                raise
+            found = None
+        if found is not None:
+            other = closed_loop_certificate(plant, objective, controllers, *found)
+            better = objective.bound(found[1]["level"])
+            if not certificate.verified or (other.verified and better < bound):
+                (P, values), certificate, bound = found, other, better
     if bound > limit:
         # The point's own bound (certified at a margin above the nominal
         # one), or what the rebuilt controller keeps of it after rounding
