@@ -11,8 +11,8 @@ change of variables, and the back-off stage's conditioning of ``I - X Y``.
 reconstruct`) and `certified` certifies them on the closed loop
 (`ctrl_lpv.output_feedback.checks`): with the rebuilt Lyapunov matrix, or
 where that fails or certifies more than the limit, with the closed loop's
-own least bound found from it (`closed_loop_analysis`). The stages that call them are the
-hook output feedback supplies to the engine's ladder
+own least bound found from it (`closed_loop_analysis`). The stages that
+call them are the hook output feedback supplies to the engine's ladder
 (`ctrl_lpv.output_feedback.stages`).
 """
 
