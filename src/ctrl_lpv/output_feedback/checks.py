@@ -118,14 +118,10 @@ def _least_level(plant, objective, loops, margin, chain):
 def _analysis_in_p_coordinates(plant, objective, loops, P, margin, chain):
     """`closed_loop_analysis` in the coordinates where `P` is ``I``:
     ``(P, values)`` whose LMI checks pass, or None."""
-    P = 0.5 * (P + P.T)
-    if not np.all(np.isfinite(P)):
+    factors = _normalising(P)
+    if factors is None:
         return None
-    s, V = np.linalg.eigh(P)
-    if not s.min() > 0:
-        return None
-    R = np.sqrt(s)[:, None] * V.T
-    T = V / np.sqrt(s)[None, :]
+    R, T = factors
     moved = {part: [(R @ A @ T, R @ B, C @ T, D) for A, B, C, D in its]
              for part, its in loops.items()}  # fmt: skip
     for _ in range(_ANALYSIS_SOLVES):
@@ -177,15 +173,11 @@ def _normalised_checks(plant, objective, loops, P, values):
     are checked with that perturbation as their margin (``2 (dA + dB +
     dC)`` bounds its effect on every inequality with ``P~ = I``).
     """
-    P = 0.5 * (P + P.T)
-    if not np.all(np.isfinite(P)):
+    factors = _normalising(P)
+    if factors is None:
         return None
-    s, V = np.linalg.eigh(P)
-    if not s.min() > 0:
-        return None
+    R, T = factors
     n = P.shape[0]
-    R = np.sqrt(s)[:, None] * V.T
-    T = V / np.sqrt(s)[None, :]
     E = R @ T - np.eye(n)
     e = _norm2(E) + rounding_bound(n, _norm2(np.abs(R) @ np.abs(T)))
     if not e < 0.5:
@@ -212,6 +204,18 @@ def _normalised_checks(plant, objective, loops, P, values):
                 what=", P-normalised",
             )  # fmt: skip
     return checks
+
+
+def _normalising(P):
+    """``(R, T)`` with ``R' R ~ P`` and ``T ~ R^-1`` (float64, from the
+    eigenvectors of `P`), or None if `P` is not positive definite."""
+    P = 0.5 * (P + P.T)
+    if not np.all(np.isfinite(P)):
+        return None
+    s, V = np.linalg.eigh(P)
+    if not s.min() > 0:
+        return None
+    return np.sqrt(s)[:, None] * V.T, V / np.sqrt(s)[None, :]
 
 
 def _norm2(M):
