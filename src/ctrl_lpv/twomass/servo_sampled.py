@@ -336,14 +336,13 @@ def sampled_servo(
             # Motor encoder alone: the dead-zone model, the half-gap
             # estimated with it (`motor_estimator`).
             # The half-gap learns near the prediction's contact changes and
-            # where a move's reading breaks with the model; in a move the
-            # load torque is learnt fast (`MotorEstimator.learns`, `correct`).
+            # where a move's reading breaks with the model
+            # (`MotorEstimator.learns`).
             resting = plan[5] <= hmin * (1.0 + 1e-9) and abs(plan[0] - plan[4]) < 1e-6
             learning = motor.learns(x[_NS + 6], y[0] - xhat[0], resting)
             filtered, sens, dP, gap = motor.correct(
-                xhat, x[_NS : _NS + 5], x[_NS + 5], a0 + dah, y[0], learning,
-                moving=not resting,
-            )  # fmt: skip
+                xhat, x[_NS : _NS + 5], x[_NS + 5], a0 + dah, y[0], learning
+            )
             ahead, sens_ahead, dP_ahead = motor.predict(
                 filtered, sens, u_prev, gap, dP, resting
             )
