@@ -485,7 +485,14 @@ class Rung(GainSteps):
         # coordinates reached gains of 3e10 whose certified bound was 1.6e-6
         # below the closed loop's norm (tests/test_riccati_hinf.py, problem
         # 13); nor a region's or a peak's bound, which read W's own scale.
-        if not (problem.lyap.constant and isinstance(objective, H2)):
+        # Only for the raw optimum itself (no back-off): the back-off's
+        # steps from a shaped optimum land on other gains (the two-mass
+        # drive observer's 40 % smaller, its torque estimate in the backlash
+        # simulation twice as far off), and from the better bound in the
+        # rung's own frame they did not certify; both await their own study.
+        if not (
+            problem.lyap.constant and isinstance(objective, H2) and not problem.backoff
+        ):
             return raw, raw_design, g_opt
         # Bounds compared across frames in the model's units.
         model = objective.to_model(g_opt, self.frame, 0)
