@@ -76,11 +76,16 @@ class Spec(ABC):
         Within the paper's Lemmas 1-2 and Theorems 1-2 (with a constant
         Lyapunov matrix in continuous time, a design of such specs only is
         named after them).
+    shapeable : bool
+        As the objective, its optimum is attained by a finite gain whose
+        ``W`` alone sets the bound, so the raw optimum may be posed again
+        where its ``W`` is the identity (`ctrl_lpv.synthesis.stages`).
     """
 
     channel = False
     unique = False
     paper_case = False
+    shapeable = False
 
     # -- boundary checks ----------------------------------------------------
     def validate(self, context: DesignContext) -> None:

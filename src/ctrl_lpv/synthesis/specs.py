@@ -225,6 +225,9 @@ class H2(_Performance):
     """
 
     inequality = "H2 (Gramian)"
+    # Attained (a Riccati solution); not H-infinity (often an infimum of
+    # gains tending to infinity) nor a peak bound (which reads W's scale).
+    shapeable = True
 
     def variables(self, declare) -> None:
         """``Y``, the bound on ``C_cl W C_cl'``."""

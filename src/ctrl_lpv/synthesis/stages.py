@@ -48,7 +48,6 @@ from .points import check_point
 from .problem import load, set_eps
 from .refutation import carry, meets_lmis, reached_optimum, solve_stage
 from .scaling import pow2, shaped_frame
-from .specs import H2
 
 # Squared bounds ||Z|| <= sqrt(z_max) of the stabilization stage, in turn:
 # the LMIs are homogeneous, so a larger bound admits a smaller decay.
@@ -485,20 +484,16 @@ class Rung(GainSteps):
         that frame's units; the points solved are appended to `points`.
         """
         problem, objective = self.problem, self.problem.objective
-        # One constant W and an H2 objective, whose optimum is attained by
-        # a finite gain (Riccati). Not H-infinity: its optimum is often an
-        # infimum that gains tending to infinity approach, and shaped
-        # coordinates reached gains of 3e10 whose certified bound was 1.6e-6
-        # below the closed loop's norm (tests/test_riccati_hinf.py, problem
-        # 13); nor a region's or a peak's bound, which read W's own scale.
+        # One constant W and an objective whose optimum a finite gain
+        # attains (`shapeable`: H2). Not H-infinity: shaped coordinates
+        # reached gains of 3e10 whose certified bound was 1.6e-6 below the
+        # closed loop's norm (tests/test_riccati_hinf.py, problem 13).
         # Only for the raw optimum itself (no back-off): the back-off's
         # steps from a shaped optimum land on other gains (the two-mass
         # drive observer's 40 % smaller, its torque estimate in the backlash
         # simulation twice as far off), and from the better bound in the
         # rung's own frame they did not certify; both await their own study.
-        if not (
-            problem.lyap.constant and isinstance(objective, H2) and not problem.backoff
-        ):
+        if not (problem.lyap.constant and objective.shapeable and not problem.backoff):
             return raw, raw_design, g_opt
         # Bounds compared across frames in the model's units.
         model = objective.to_model(g_opt, self.frame, 0)
