@@ -161,16 +161,21 @@ _PREDICT_SUBSTEPS = 4
 #: per sample, far above the 20-bit encoder's 1.7e-6: the dead zone's
 #: contact, the substep prediction and the delay are not exact), the
 #: torque on the motor it misses, Nm per unit of white noise, and the
-#: random walk of ``Td``, Nm/s. Measured on the motor table (exact plant,
-#: 1 ms, delay 1, 20-bit motor encoder, seeds 1-6, see
-#: `tests/test_servo_motor.py`): these hold every row of the table, the
-#: widest gap included (alpha 0.06 with the estimate started at 0.03: 0.2-0.5 %,
-#: no hunting with Td = 0); the neighbours each break some row: reading
-#: 1.5e-3 or a ``Td`` walk of 10 hunt with Td = 2 Nm, the motor torque 1.5
-#: or 4 or a reading of 5e-3 break the widest gap or Td = 30 Nm (2.2-2.6 %).
-#: The gains they give are a knife edge of the estimator's nonlinear logic,
-#: not a robust optimum: changed, the whole table is rerun
-#: (``benchmarks/bench_sampled_servo.py --tables motor``).
+#: random walk of ``Td``, Nm/s. Measured on the grid of
+#: `tests/test_servo_motor.py` (exact plant, 1 ms, delay 1, 20-bit motor
+#: encoder, seeds 1-6): every row with the drive's own inertia and a fixed
+#: gap holds but one run, Td = 0 at alpha 0.06 on seed 5 (a hunt at 259
+#: Nm), Td = 2 Nm included (it hunted on seeds 5-6 before); the widest gap
+#: with Td = 8 Nm overshoots <= 0.92 %. The 0.05 rad steps (2.3-5.7 %), a
+#: wrong inertia and the gap step do not. The neighbours each break some
+#: row: a ``Td`` walk of 10 Nm/s misses Td = 2 Nm on all six seeds (up
+#: to 3.5e-2 rad, or hunting at 33-71 Nm), a reading of 1.5e-3 (walk 30)
+#: too, and Td = 0 at the widest gap on seeds 1-2; a motor torque of 1.5
+#: (walk 100) Td = 0 at the widest gap on seeds 1-3. A ``Td`` walk of
+#: 100 Nm/s at rest and 300 in moves (two contact gains) held all six.
+#: The gains are a knife edge of the estimator's nonlinear logic, not a
+#: robust optimum: changed, the whole grid is rerun (``-m slow``, and
+#: ``benchmarks/bench_sampled_servo.py --tables motor``).
 READING_NOISE = 2e-3
 MOTOR_TORQUE_RATE = 2.0
 LOAD_TORQUE_RATE = 300.0
