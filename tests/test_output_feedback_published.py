@@ -166,6 +166,28 @@ def test_slow_fixed_modes_are_found_and_named():
     assert np.sum(np.abs(np.linalg.eigvals(loop.A) + 1e-6) < 1e-12) == 2
 
 
+def test_decay_limit_is_the_fixed_modes_rate():
+    """The back-off's decay margin ``d`` asks every closed-loop eigenvalue
+    for ``Re lambda < -d / 2``: the fixed pole of Wp (-1e-6, in every closed
+    loop: see above) caps it at 2e-6, which a closed loop of the same plant
+    (a static controller, computed by python-control) shows: its eigenvalues
+    include -1e-6. Sampled, the cap is ``1 - |exp(-1e-6 dt)|^2``."""
+    from ctrl_lpv.output_feedback.fixed_modes import decay_limit
+    from ctrl_lpv.output_feedback.plant import OutputFeedbackPlant
+
+    plant = OutputFeedbackPlant.of(lpv.pss([dk_plant()]), W, U, Z, Y)
+    loop = ct.interconnect([dk_plant(), ct.ss(-np.eye(2), np.eye(2), np.eye(2),
+                                              0 * np.eye(2), inputs=Y, outputs=U)],
+                           inplist=W, outlist=Z)  # fmt: skip
+    fixed = np.linalg.eigvals(loop.A)
+    fixed = fixed[np.abs(fixed + 1e-6) < 1e-12]
+    assert fixed.size == 2
+    assert decay_limit(plant) == pytest.approx(-2.0 * fixed.real.max(), rel=1e-6)
+    dt = 0.01
+    sampled = OutputFeedbackPlant.of(lpv.pss([dk_plant().sample(dt)]), W, U, Z, Y)
+    assert decay_limit(sampled) == pytest.approx(1.0 - np.exp(-2e-6 * dt), rel=1e-6)
+
+
 def test_raw_refusal_names_the_slow_mode():
     """backoff=None at the default margin: refused (I - X Y nearly singular
     at the optimum, the certificate's slack along the slow mode at the

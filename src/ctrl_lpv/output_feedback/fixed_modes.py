@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import matrix_balance
 
-__all__ = ["FixedMode", "slow_fixed_modes", "describe"]
+__all__ = ["FixedMode", "decay_limit", "describe", "fixed_modes", "slow_fixed_modes"]
 
 #: A mode is slow when ``|Re lambda|`` is below this fraction of ``||A||``.
 SLOW = 1e-4
@@ -63,14 +63,10 @@ def describe(modes) -> str:
     )
 
 
-def slow_fixed_modes(plant, slow=SLOW):
-    """The `FixedMode` of each vertex of an `OutputFeedbackPlant`.
-
-    Continuous time only (the rates compared are ``Re lambda``); an empty
-    list in discrete time.
-    """
-    if not plant.continuous:
-        return []
+def fixed_modes(plant):
+    """Every `FixedMode` of each vertex of an `OutputFeedbackPlant`: the
+    eigenvalues of ``A_j`` that fail the PBH test of ``(C2, A_j)`` or
+    ``(A_j, B2)`` (in balanced coordinates, relative to ``||A_j||``)."""
     labels = list(plant.system.state_labels)
     found = []
     for j, A in enumerate(plant.A):
@@ -81,9 +77,6 @@ def slow_fixed_modes(plant, slow=SLOW):
         B2 = plant.B2 / t[:, None]
         seen = []
         for lam in np.linalg.eigvals(At):
-            ratio = abs(lam.real) / scale
-            if lam.real >= 0 or ratio > slow:
-                continue
             if any(abs(lam - mu) <= 1e-9 * max(abs(mu), scale * 1e-12) for mu in seen):
                 continue
             seen.append(lam)
@@ -103,8 +96,37 @@ def slow_fixed_modes(plant, slow=SLOW):
                 weight = np.linalg.norm(basis, axis=1)
                 names = tuple(n for n, w in zip(labels, weight)
                               if w > 1e-6 * weight.max())  # fmt: skip
-                found.append(FixedMode(j, complex(lam), why, names, ratio))
+                found.append(
+                    FixedMode(j, complex(lam), why, names, abs(lam.real) / scale)
+                )
     return found
+
+
+def slow_fixed_modes(plant, slow=SLOW):
+    """The stable `fixed_modes` slower than `slow` of the data's rate.
+
+    Continuous time only (the rates compared are ``Re lambda``); an empty
+    list in discrete time.
+    """
+    if not plant.continuous:
+        return []
+    return [
+        m for m in fixed_modes(plant) if m.eigenvalue.real < 0 and m.ratio <= slow
+    ]  # fmt: skip
+
+
+def decay_limit(plant) -> float:
+    """The decay margin no closed loop reaches: its fixed modes stay in it.
+
+    The output-feedback LMIs with a decay margin ``d`` (`~.lmis`) ask every
+    closed-loop eigenvalue for ``Re lambda < -d / 2`` (continuous time) or
+    ``|lambda|^2 < 1 - d`` (discrete time); a fixed mode caps ``d`` below
+    ``-2 Re lambda`` or ``1 - |lambda|^2`` (infinity without fixed modes).
+    """
+    modes = fixed_modes(plant)
+    if plant.continuous:
+        return min((-2.0 * m.eigenvalue.real for m in modes), default=np.inf)
+    return min((1.0 - abs(m.eigenvalue) ** 2 for m in modes), default=np.inf)
 
 
 def _rows(M, scale):

@@ -39,7 +39,7 @@ import numpy as np
 
 from ..exceptions import CertificationError, InfeasibleError
 from ..synthesis.hooked import Posed, StageHook
-from .fixed_modes import describe, slow_fixed_modes
+from .fixed_modes import decay_limit, describe, slow_fixed_modes
 from .prescale import Prescaling
 from .problem import build, certified
 
@@ -162,7 +162,7 @@ class _Posed(Posed):
         self.scaled = self.prescaling.apply(plant)
         norms = [np.linalg.norm(A, 2) for A in self.scaled.A]
         self.rate = max(norms) if plant.continuous else 1.0
-        self.lmi = self.hats = None
+        self.lmi = self.hats = self.decay_limit = None
 
     def optimal(self):
         hook = self.hook
@@ -196,10 +196,13 @@ class _Posed(Posed):
             return [lambda: optimal]
         # The decay margin is relative to the data's fastest rate: too much
         # for a stiff plant, then the back-off stage is tried without it.
-        return [
-            lambda d=decay: self._center(b, estimate, d)
-            for decay in (_DECAY * b * self.rate, 0.0)
-        ]
+        # Where a fixed mode is slower than the margin, no closed loop has it
+        # (`decay_limit`): its stage, infeasible, is not posed.
+        decay = _DECAY * b * self.rate
+        if self.decay_limit is None:
+            self.decay_limit = decay_limit(self.plant)
+        decays = (decay, 0.0) if decay < self.decay_limit else (0.0,)
+        return [lambda d=d: self._center(b, estimate, d) for d in decays]
 
     def _center(self, b, estimate, decay):
         """The back-off stage's point.
