@@ -163,10 +163,13 @@ _PREDICT_SUBSTEPS = 4
 #: torque on the motor it misses, Nm per unit of white noise, and the
 #: random walk of ``Td``, Nm/s. Measured on the grid of
 #: `tests/test_servo_motor.py` (exact plant, 1 ms, delay 1, 20-bit motor
-#: encoder, seeds 1-6): every row with the drive's own inertia and a fixed
-#: gap holds but one run, Td = 0 at alpha 0.06 on seed 5 (a hunt at 259
-#: Nm), Td = 2 Nm included (it hunted on seeds 5-6 before); the widest gap
-#: with Td = 8 Nm overshoots <= 0.92 %. The 0.05 rad steps (2.3-5.7 %), a
+#: encoder): every row with the drive's own inertia and a fixed gap holds
+#: on seeds 1-6 (Td = 0, 2, 5, 8 and 30 Nm, +-0.5 and +-1 rad, the widest
+#: gap with Td = 8 Nm at <= 0.92 %), and the same rows on seeds 7-12 (Td =
+#: 0 and 8 Nm at both gaps, -0.5 rad); Td = 2 Nm hunted on seeds 5-6 with the
+#: back-off gains. How narrow the edge is: the same intensities without the
+#: encoder's quantization in the reading noise (gains 4e-7 apart) hunt at
+#: 259 Nm with Td = 0 at alpha 0.06 on seed 5. The 0.05 rad steps (2.3-5.7 %), a
 #: wrong inertia and the gap step do not. The neighbours each break some
 #: row: a ``Td`` walk of 10 Nm/s misses Td = 2 Nm on all six seeds (up
 #: to 3.5e-2 rad, or hunting at 33-71 Nm), a reading of 1.5e-3 (walk 30)
