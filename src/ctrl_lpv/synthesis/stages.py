@@ -485,9 +485,12 @@ class Rung(GainSteps):
         """
         problem, objective = self.problem, self.problem.objective
         # One constant W and an objective whose optimum a finite gain
-        # attains (`shapeable`: H2). Not H-infinity: shaped coordinates
-        # reached gains of 3e10 whose certified bound was 1.6e-6 below the
-        # closed loop's norm (tests/test_riccati_hinf.py, problem 13).
+        # attains (`shapeable`: H2). Not H-infinity, whose optimum is often
+        # an infimum approached by unbounded gains: shaped, the raw optimum
+        # of tests/test_riccati_hinf.py's problem 13 had gains of 3e10 (a
+        # pole at -1.2e9) and a certified bound 34.3994419 that float64
+        # references cannot confirm (python-control's linfnorm: 34.3994956;
+        # the peak evaluated with 60 digits: 34.3994095, below the bound).
         # Only for the raw optimum itself (no back-off): the back-off's
         # steps from a shaped optimum land on other gains (the two-mass
         # drive observer's 40 % smaller, its torque estimate in the backlash
