@@ -44,9 +44,11 @@ CASES = [
 
 
 def _model(counts, mode, rate, dt):
+    # The encoder's quantization alone on the reading (no model error).
     return me.mode_model(
-        twomass.Parameters(), mode, dt=dt, motor_counts=counts, load_torque_rate=rate
-    )
+        twomass.Parameters(), mode, dt=dt, motor_counts=counts, reading_noise=0.0,
+        load_torque_rate=rate, motor_torque_rate=20.0,
+    )  # fmt: skip
 
 
 def _parts(sys):
