@@ -334,8 +334,9 @@ def servo_design(
         speeds and torques estimated by `ctrl_lpv.twomass.drive_observer`;
         ``"motor"`` (needs `dt`): the motor encoder alone, read by
         `ctrl_lpv.twomass.motor_estimator` (the backlash's dead zone in
-        the prediction, one certified H2 gain per mode, the half-gap
-        learnt from contacts made earlier or later than predicted). The
+        the prediction, one Kalman gain per mode with a certified H2
+        bound, the half-gap learnt from contacts made earlier or later
+        than predicted). The
         load is not observable in the gap: at rest with a load torque
         below about twice `MOTOR_FLANK_DEADBAND` the motor waits mid-gap
         and the load error is bounded by the gap, not corrected; no rest
