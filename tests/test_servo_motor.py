@@ -188,13 +188,18 @@ def motor_design():
     return twomass.servo_design(dt=DT, delay=1, sensors="motor", certify=False)
 
 
-def _run(design, Td, alpha, theta_r, *, Jl=1.0, T=5.0, seed=1):
+def _response(design, Td, alpha, theta_r, *, Jl=1.0, T=5.0, seed=1):
+    """The servo on the exact plant, read by the motor encoder."""
     params = twomass.Parameters()
     plant = twomass.plant(params.replace(Jl=Jl * params.Jl), alpha=alpha)
-    res = sampled_response(
+    return sampled_response(
         plant, design.controller(), T, inputs={"Td": Td, "theta_r": theta_r},
         delay=design.delay, sensors={"theta_m": Encoder(2**20, 0.5)}, seed=seed,
     )  # fmt: skip
+
+
+def _run(design, Td, alpha, theta_r, *, Jl=1.0, T=5.0, seed=1):
+    res = _response(design, Td, alpha, theta_r, Jl=Jl, T=T, seed=seed)
     return _metrics(res.plant, theta_r, T)
 
 
@@ -258,12 +263,7 @@ def test_move_integral_is_the_rests_load_torque(motor_design):
     the exact plant) is the one `servo_sampled.integral_holding` hands to
     the load-torque estimate in moves."""
     params = twomass.Parameters()
-    res = sampled_response(
-        twomass.plant(params, alpha=0.03), motor_design.controller(), 1.5,
-        inputs={"Td": 8.0, "theta_r": 0.5}, delay=1,
-        sensors={"theta_m": Encoder(2**20, 0.5)}, seed=1,
-    )  # fmt: skip
-    c = res.controller
+    c = _response(motor_design, 8.0, 0.03, 0.5, T=1.5).controller
     xi = c.states[c.state_labels.index("int_e_l")][-1]
     k1, k5 = motor_design.tuning.gain[0], motor_design.tuning.gain[4]
     assert integral_holding(8.0, k1, k5, params.ks) == pytest.approx(xi, rel=0.02)
@@ -278,14 +278,9 @@ def test_first_contact_learns_a_wide_gap_without_a_load_torque(motor_design):
     observable in the gap): the load coasts on after the move (3.5 % at 2 s
     here, 10 % at 5 s), where the pushes of before caught it on this run
     but hunted at 200-259 Nm with alpha 0.045 over 0.25 rad."""
-    params = twomass.Parameters()
-    res = sampled_response(
-        twomass.plant(params, alpha=0.06), motor_design.controller(), 2.0,
-        inputs={"Td": 0.0, "theta_r": 0.5}, delay=1,
-        sensors={"theta_m": Encoder(2**20, 0.5)}, seed=1,
-    )  # fmt: skip
+    res = _response(motor_design, 0.0, 0.06, 0.5, T=2.0)
     c = res.controller
-    learnt = params.alpha + c.states[c.state_labels.index("alpha_hat_dev")][-1]
+    learnt = P.alpha + c.states[c.state_labels.index("alpha_hat_dev")][-1]
     assert learnt == pytest.approx(0.06, abs=1e-3)
     m = _metrics(res.plant, 0.5, 2.0)
     assert m["torque_std"] <= 3.0, m
