@@ -45,7 +45,12 @@ free mass).
   1.6e-3 out): one flip begot the next. A load moving faster (the hunt
   after a short move with the wrong inertia) is caught at once, by a step;
 * **release**: a load error beyond `release_error` (a new load torque, a
-  knock) returns the flank to the continuous law.
+  knock) returns the flank to the continuous law;
+* **quiet estimates**: while latched the drive observer runs on gains of
+  lower intensities (`ctrl_lpv.twomass.servo_sampled.SampledServo.M_rest`):
+  the parked motor moves with the speed estimates' noise, and a parked
+  motor that jitters at 6e-3 rad/s kicks a load drifting onto it at 2e-4
+  rad/s back at 1.4e-3.
 
 While latched the rest loop is not the certified linear loop; the latch
 engages only with ``|Td_hat| < latch_torque``, which the rest certificate's
@@ -88,7 +93,12 @@ class RestFlank:
         load held on its flank keeps the integral that holds it).
     crossing_accel : float
         Peak motor acceleration of a flip's crossing of the gap, rad/s^2
-        (50: 20 Nm of motor torque at the peak; 0 crosses by a step).
+        (12: 4.8 Nm of motor torque at the peak, 0.17 s across the 0.06 rad
+        gap of alpha = 0.03; 0 crosses by a step). The torque standard
+        deviation of a flip over a second goes as ``accel^(3/4)``: at 50 a
+        flip in the last second was 4-5 Nm of it alone, at 12 about 1.5;
+        slower (8: a 22-38 Nm run in each of three 30-run sets at Td = 0)
+        the motor arrives after the load it is to catch.
     crossing_speed : float
         A flip crosses by a step where the load is at least this fast, rad/s.
     lean_torque, lean_time : float
@@ -111,7 +121,7 @@ class RestFlank:
     band_torque: float = 5.0
     lean_torque: float = 0.2
     lean_time: float = 0.2
-    crossing_accel: float = 50.0
+    crossing_accel: float = 12.0
     crossing_speed: float = 5e-3
 
 

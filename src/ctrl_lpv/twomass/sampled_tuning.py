@@ -30,7 +30,9 @@ from dataclasses import dataclass
 from .._checks import real_number
 from .rest_flank import RestFlank
 
-__all__ = ["SampledTuning", "sampled_tuning", "FAST_SAMPLING", "FLOOR_TARGET"]
+__all__ = [
+    "SampledTuning", "sampled_tuning", "FAST_SAMPLING", "FLOOR_TARGET", "REST_RATES",
+]  # fmt: skip
 
 #: Largest sample time, s, of the fast observer tuning.
 FAST_SAMPLING = 1.5e-3
@@ -60,6 +62,16 @@ SLOW_RATES = (
 #: motor is thrown toward the other flank, every 70 ms; 92 Nm of torque
 #: standard deviation), which a 3e-4 rad latch never catches.
 SLOW_REST_FLANK = RestFlank(latch_error=8e-4)
+#: ``(shaft_torque_rate, load_torque_rate)``, Nm/s, of the drive observer's
+#: gains while the flank is latched at rest, up to `FAST_SAMPLING`. There the
+#: load is free in the gap or leans on the latched flank: the moving
+#: observer's estimates (3000 and 20 Nm/s) are what moves the parked motor
+#: (at 1 ms, encoders: motor speed 3.8e-3 rad/s, load speed 5.6e-4 rad/s and
+#: shaft torque 0.92 Nm of noise in the gap, through the motor- and
+#: load-speed gains 0.35 + 0.70 Nm of torque noise on the motor, which
+#: then touched the load at 6e-3 rad/s: 1.4e-3 rad/s kicks); these give
+#: 1.4e-3 rad/s, 1.4e-4 rad/s and 0.03 Nm.
+REST_RATES = (300.0, 2.0)
 
 
 @dataclass(frozen=True)
@@ -121,6 +133,10 @@ class SampledTuning:
     rest_flank : `ctrl_lpv.twomass.rest_flank.RestFlank`
         The latch at rest, the default of `ServoAntiHunting.rest_flank`
         at this sample time (`SLOW_REST_FLANK` above `FAST_SAMPLING`).
+    rest_rates : (float, float) or None
+        Drive-observer intensities ``(shaft_torque_rate, load_torque_rate)``,
+        Nm/s, of the gains the observer runs on while the flank is latched
+        at rest (`REST_RATES`), or None for the moving observer's gains.
     """
 
     torque_weight: float
@@ -133,6 +149,7 @@ class SampledTuning:
     narrowing_gate: bool = False
     contact_twist: float = 0.0
     rest_flank: RestFlank = RestFlank()
+    rest_rates: tuple | None = None
 
 
 def sampled_tuning(dt: float) -> SampledTuning:
@@ -156,5 +173,6 @@ def sampled_tuning(dt: float) -> SampledTuning:
             plan_crossings=True,
             narrowing_gate=True,
             contact_twist=0.3,
+            rest_rates=REST_RATES,
         )
     return SampledTuning(SLOW_TORQUE_WEIGHT, SLOW_RATES, rest_flank=SLOW_REST_FLANK)

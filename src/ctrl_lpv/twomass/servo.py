@@ -478,9 +478,10 @@ def servo_design(
         if reference == "stream":
             tracker = tuple(float(v) for v in stream_gain(dt, stream.bandwidth))
 
-        def sampled(Phi=None, Gamma=None, M=None, motor=None):
+        def sampled(Phi=None, Gamma=None, M=None, motor=None, M_rest=None):
             return SampledServo(
-                dt=dt, delay=delay, Phi=Phi, Gamma=Gamma, M=M, reference=reference,
+                dt=dt, delay=delay, Phi=Phi, Gamma=Gamma, M=M, M_rest=M_rest,
+                reference=reference,
                 stream_gain=tracker, measured=tuple(_READ[sensors]), estimator=motor,
                 inertia=(
                     inertia_adaptation(inertia, params.Jl, (lo, hi), dt)
@@ -586,6 +587,16 @@ def _encoder_observer(
         0.0 if tuning.rest_flank is None or not tuning.anti_hunting
         else tuning.rest_flank.latch_torque
     )  # fmt: skip
+    M_rest = None
+    if rule.rest_rates is not None:
+        # The latched rest's quieter gains (`SampledTuning.rest_rates`).
+        M_rest = observer_matrices(
+            drive_observer(
+                params, dt=dt, sensors=sensors, encoder_counts=encoder_counts,
+                shaft_torque_rate=rule.rest_rates[0],
+                load_torque_rate=rule.rest_rates[1],
+            )
+        )[2]  # fmt: skip
     best, refusal = None, None
     for shaft, load in candidates:
         observer = drive_observer(
@@ -593,7 +604,7 @@ def _encoder_observer(
             shaft_torque_rate=shaft, load_torque_rate=load,
         )  # fmt: skip
         Phi, Gamma, M = observer_matrices(observer)
-        sampling = sampled(Phi, Gamma, M)
+        sampling = sampled(Phi, Gamma, M, M_rest=M_rest)
         if not certify:
             return observer, sampling, None
         try:

@@ -161,6 +161,13 @@ class SampledServo:
         is beyond this share of the half-gap estimate on the side of its
         shaft torque (0: on the shaft torque alone;
         `ctrl_lpv.twomass.sampled_tuning.SampledTuning.contact_twist`).
+    M_rest : tuple of ndarray or None
+        The observer's filter gains at the gap and in contact while the
+        flank is latched at rest (`rest_flank`), from quieter intensities
+        (`ctrl_lpv.twomass.sampled_tuning.SampledTuning.rest_rates`); None:
+        `M` throughout. The switch is not covered by the observer's
+        certificate (each gain set is certified on its own), as the latch
+        is not by the rest's.
     """
 
     dt: float
@@ -175,6 +182,7 @@ class SampledServo:
     inertia: object = None
     plan_crossings: bool = True
     contact_twist: float = 0.0
+    M_rest: tuple | None = None
 
 
 def plan_stepper(c: ServoTuning, dt: float):
@@ -266,6 +274,7 @@ def sampled_servo(
     ratio = ks / k1
     deadband = c.flank_deadband
     Phi, Gam, M = (np.asarray(m) for m in (s.Phi, s.Gamma, s.M))
+    M_rest = None if s.M_rest is None else np.asarray(s.M_rest)
     rows = [DRIVE_STATES.index(name) for name in s.measured]
     nread = len(rows)
     motor = s.estimator
@@ -317,7 +326,10 @@ def sampled_servo(
             contact *= _smoothstep(side_twist / (contact_twist * (a0 + dah)))
         if motor is None:
             Ph, Gh = blend(Phi, contact), blend(Gam, contact)
-            gain = blend(M, contact)
+            # Latched at rest (the flank of the last sample), and not on a
+            # flip's crossing of the gap: the quieter gains (`M_rest`).
+            latched = x[15] != 0.0 and x[18] <= 0.0
+            gain = blend(M if M_rest is None or not latched else M_rest, contact)
             innovation = np.asarray(y[:nread]) - xhat[rows]
             # With delay=1 the command computed now acts from the next
             # sample, on the state the command already on its way leads to.
