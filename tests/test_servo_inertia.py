@@ -295,7 +295,11 @@ _MOVES = [(0.5, 0.0), (-0.3, 0.05), (0.0, 1.0), (1.0, 0.0)]
 #: 0.05 rad steps from rest and the 0.1 rad reversal.
 _SMALL = [(0.05, -0.05), (0.0, -0.05), (0.0, 0.05)]
 #: The runs of `_SMALL` that miss the targets (measured; docs/servo.rst,
-#: "Small moves across the gap"; 93 of 108 pass, 92 before the latched
+#: "Small moves across the gap"; 94 of 108 pass, 93 before the latched
+#: rest's quiet observer gains and slow flips (which moved Td 0, Jl x0.8,
+#: alpha 0.03 from 0 -> +0.05 on seed 6 to seed 5, 1.85 %, and the
+#: reversal on seed 5, 2.38 %, and brought 0 -> +0.05 at Jl x1.2, Td 3,
+#: alpha 0.03 in), 92 before the latched
 #: flank's crossings at rest, 86 before the gap was learnt at rest under a
 #: load torque and the crossings' narrow readings were kept out of it, 61
 #: before the planned crossing). A 0.05 rad move
@@ -304,12 +308,12 @@ _SMALL = [(0.05, -0.05), (0.0, -0.05), (0.0, 0.05)]
 #: crossing before the planned shaft torque changes sign
 #: (`ctrl_lpv.twomass.gap_crossing`). Left: Td 0 at Jl x0.8 (1.7-2.0 %:
 #: the first move's inertia error) and Jl x1.2 with alpha 0.06 (Td 0:
-#: 4.1-5.3 %; 0 -> +0.05 against Td 3 and 8: 1.9-2.8 %), 0 -> +0.05 at Jl
-#: x1.2, Td 3, alpha 0.03 (1.6-1.7 %; seed 5 passed at 1.2 % before).
+#: 4.1-5.3 %; 0 -> +0.05 against Td 3 and 8: 1.9-2.8 %).
 #: Strict: a run that starts meeting them fails here, so that the list
 #: is kept true.
 _SMALL_MISSES = {
-    (0.8, 0.0, 0.03, (0.0, 0.05), 6),
+    (0.8, 0.0, 0.03, (0.05, -0.05), 5),
+    (0.8, 0.0, 0.03, (0.0, 0.05), 5),
     (0.8, 0.0, 0.06, (0.0, -0.05), 5),
     (0.8, 0.0, 0.06, (0.0, -0.05), 6),
     (0.8, 0.0, 0.06, (0.0, 0.05), 5),
@@ -318,8 +322,6 @@ _SMALL_MISSES = {
     (1.2, 0.0, 0.06, (0.0, -0.05), 6),
     (1.2, 0.0, 0.06, (0.0, 0.05), 5),
     (1.2, 0.0, 0.06, (0.0, 0.05), 6),
-    (1.2, 3.0, 0.03, (0.0, 0.05), 5),
-    (1.2, 3.0, 0.03, (0.0, 0.05), 6),
     (1.2, 3.0, 0.06, (0.0, 0.05), 5),
     (1.2, 3.0, 0.06, (0.0, 0.05), 6),
     (1.2, 8.0, 0.06, (0.0, 0.05), 5),
