@@ -9,6 +9,8 @@ and the simulated torque at rest say so).
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -16,6 +18,7 @@ from ctrl_lpv import twomass
 from ctrl_lpv.twomass.sampled_tuning import (
     FAST_SAMPLING,
     FLOOR_TARGET,
+    QUIET_REST_SAMPLING,
     SampledTuning,
     sampled_tuning,
 )
@@ -53,7 +56,9 @@ def test_rule_by_sample_time():
     fast, slow = sampled_tuning(1e-3), sampled_tuning(2e-3)
     assert isinstance(fast, SampledTuning)
     assert sampled_tuning(FAST_SAMPLING) == fast
-    assert sampled_tuning(1.25e-4) == fast
+    assert sampled_tuning(QUIET_REST_SAMPLING) == fast
+    # Faster, the moving observer's gains at rest too (quiet enough there).
+    assert sampled_tuning(1.25e-4) == replace(fast, rest_rates=None)
     # The continuous servo's weight and the 3000 / 20 Nm/s observer at 1 ms.
     assert fast.torque_weight == 5e-4
     assert fast.rates == ((3000.0, 20.0),)
@@ -170,8 +175,10 @@ def test_1ms_tuning_at_2ms_rings(design_2ms):
         (2e-3, dict(Td=8.0, alpha=0.03, Jl=0.8), 0.3),
         (2e-3, dict(Td=30.0, alpha=0.03), 0.3),
         (2e-3, dict(Td=-10.0, alpha=0.045, Jl=1.2, theta_r=-0.5), 0.3),
-        # 125 us keeps the 1 ms tuning: its floor is 28.2 Nm.
-        (1.25e-4, dict(Td=30.0, alpha=0.03), 0.3),
+        # 125 us keeps the 1 ms tuning: its floor is 28-32 Nm (28.2 on one
+        # machine, 31.9 on another: the back-off H2 observer's gains are
+        # where the solver stops), so 40 Nm.
+        (1.25e-4, dict(Td=40.0, alpha=0.03), 0.3),
     ],
 )
 def test_certified_rest_holds_along_runs(dt, case, settling):

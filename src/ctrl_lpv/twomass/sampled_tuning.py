@@ -32,6 +32,7 @@ from .rest_flank import RestFlank
 
 __all__ = [
     "SampledTuning", "sampled_tuning", "FAST_SAMPLING", "FLOOR_TARGET", "REST_RATES",
+    "QUIET_REST_SAMPLING",
 ]  # fmt: skip
 
 #: Largest sample time, s, of the fast observer tuning.
@@ -72,6 +73,13 @@ SLOW_REST_FLANK = RestFlank(latch_error=8e-4)
 #: then touched the load at 6e-3 rad/s: 1.4e-3 rad/s kicks); these give
 #: 1.4e-3 rad/s, 1.4e-4 rad/s and 0.03 Nm.
 REST_RATES = (300.0, 2.0)
+#: Shortest sample time, s, of `REST_RATES`. At 125 us the moving observer
+#: is quieter per sample (1.9e-3 rad/s on the motor speed, 2.4e-4 on the
+#: load's) and the Td 0 rest meets 3 Nm without them (1.4-1.7 Nm, seeds
+#: 1-3), while with them the 0.05 rad step at Jl x0.8 settled in 2.9-3.2 s
+#: (0.17 s without; a 58 Nm hunt on one seed). Measured at 0.25 ms: both
+#: quiet (at most 1.4 Nm); at 0.5 ms without them 5.9 Nm at alpha 0.03.
+QUIET_REST_SAMPLING = 2.5e-4
 
 
 @dataclass(frozen=True)
@@ -136,7 +144,8 @@ class SampledTuning:
     rest_rates : (float, float) or None
         Drive-observer intensities ``(shaft_torque_rate, load_torque_rate)``,
         Nm/s, of the gains the observer runs on while the flank is latched
-        at rest (`REST_RATES`), or None for the moving observer's gains.
+        at rest (`REST_RATES` from `QUIET_REST_SAMPLING` up to
+        `FAST_SAMPLING`), or None for the moving observer's gains.
     """
 
     torque_weight: float
@@ -173,6 +182,6 @@ def sampled_tuning(dt: float) -> SampledTuning:
             plan_crossings=True,
             narrowing_gate=True,
             contact_twist=0.3,
-            rest_rates=REST_RATES,
+            rest_rates=REST_RATES if dt >= QUIET_REST_SAMPLING else None,
         )
     return SampledTuning(SLOW_TORQUE_WEIGHT, SLOW_RATES, rest_flank=SLOW_REST_FLANK)
