@@ -66,7 +66,11 @@ SLOW_RATES = (
 #: -1 rad move overshot 5 mrad and each contact on the way back pushed at
 #: 15 Nm against the 5 that hold it, the load-speed term turned the flank,
 #: a 55 ms relay (63-83 Nm on four of six seeds with 8e-4 rad and 2 Nm);
-#: latched, 0.65 Nm on all six. The certified floor at 2 ms (7.76 Nm)
+#: latched, 0.65 Nm on all six (within 9e-4 rad up to 6 Nm: 82 Nm on seed
+#: 1). The release stays at 1e-3 rad, so that a latch tried between 1e-3
+#: and 2e-3 is released at the next sample and tried again: released beyond
+#: 2.1e-3 or 3e-3 the 0.05 rad step at Jl x0.8 without load torque left
+#: the 2 % band at 1.3-2.0 s (0.16-0.72 s so). The certified floor at 2 ms (7.76 Nm)
 #: still keeps the estimate above 6 Nm: the certified rest never latches.
 SLOW_REST_FLANK = RestFlank(latch_error=2e-3, latch_torque=6.0)
 #: ``(shaft_torque_rate, load_torque_rate)``, Nm/s, of the drive observer's
