@@ -55,8 +55,8 @@ SLOW_TORQUE_WEIGHT = 2e-3
 SLOW_RATES = (
     (300.0, 50.0), (300.0, 20.0), (100.0, 5.0), (300.0, 5.0), (1000.0, 2.0),
 )  # fmt: skip
-#: The latch at rest above `FAST_SAMPLING`: within 8e-4 rad of the target
-#: (3e-4 up to it). At 2 ms with one sample of delay the unlatched flank
+#: The latch at rest above `FAST_SAMPLING` (3e-4 rad and 2 Nm up to it).
+#: Within 8e-4 rad: at 2 ms with one sample of delay the unlatched flank
 #: choice holds a load with a small load torque 4-6e-4 rad short of the
 #: target in a relay cycle (Td 1 Nm, alpha 0.06: each contact speeds the
 #: load up, the load-speed term turns the asked shaft torque negative, the
@@ -70,8 +70,9 @@ SLOW_RATES = (
 #: 1). The release stays at 1e-3 rad, so that a latch tried between 1e-3
 #: and 2e-3 is released at the next sample and tried again: released beyond
 #: 2.1e-3 or 3e-3 the 0.05 rad step at Jl x0.8 without load torque left
-#: the 2 % band at 1.3-2.0 s (0.16-0.72 s so). The certified floor at 2 ms (7.76 Nm)
-#: still keeps the estimate above 6 Nm: the certified rest never latches.
+#: the 2 % band at 1.3-2.0 s (0.16-0.72 s so). The certified floor at 2 ms
+#: (7.76 Nm) still keeps the estimate above 6 Nm: the certified rest never
+#: latches.
 SLOW_REST_FLANK = RestFlank(latch_error=2e-3, latch_torque=6.0)
 #: ``(shaft_torque_rate, load_torque_rate)``, Nm/s, of the drive observer's
 #: gains while the flank is latched at rest, up to `FAST_SAMPLING`. There the
