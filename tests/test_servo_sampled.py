@@ -222,9 +222,9 @@ def test_latched_rest_runs_on_quieter_observer_gains(design):
     intensities (`SampledTuning.rest_rates`): each gain set is a stable
     filter at the gap and in contact, and under the encoders' reading noise
     the rest gains' speed and shaft-torque estimates are several times
-    quieter (what moved the parked motor: Td = 0 chattered at 4-7 Nm over
-    the last second with the moving gains on 8 of 30 runs, at most 1.8 Nm
-    on 60 runs with these, docs/servo.rst)."""
+    quieter (what moved the parked motor: Td = 0 chattered at 3.4-7.2 Nm
+    over the last second with the moving gains on 12 of 30 runs, at most
+    1.8 Nm on 60 runs with these, docs/servo.rst)."""
     s = design.sampling
     assert s.M_rest is not None
     steps = 2.0 * np.pi / np.array([2.0**20, 2.0**17])
@@ -248,10 +248,10 @@ def test_latched_rest_runs_on_quieter_observer_gains(design):
 )  # fmt: skip
 def test_no_load_torque_rest_is_quiet_on_every_seed(design, alpha, theta_r, Jl, seed):
     """Issue 22, no hunting sampled, Td = 0: torque standard deviation over
-    the last second <= 3 Nm on every noise seed (4-7 Nm on 8 of these 30
-    runs with the moving observer's gains at rest and flips at 50 rad/s^2).
-    The load's peak-to-peak there is not yet the issue's 2e-4 rad on every
-    seed (up to 3.6e-4 over seeds 1-12; docs/servo.rst)."""
+    the last second <= 3 Nm on every noise seed (3.4-7.2 Nm on 12 of these
+    30 runs with the moving observer's gains at rest and flips at 50
+    rad/s^2). The load's peak-to-peak there is not yet the issue's 2e-4 rad
+    on every seed (up to 3.3e-4; docs/servo.rst)."""
     m = _run(design, Td=0.0, alpha=alpha, theta_r=theta_r, Jl=Jl, seed=seed)
     assert m["settling"] <= 0.3
     assert m["overshoot"] <= 1.5
