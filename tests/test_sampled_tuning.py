@@ -218,7 +218,19 @@ _ROWS_2MS = [
     ("Td 0, alpha 0.03", 0.0, 0.03, 1.0, 0.5),
     ("Td 0, alpha 0.06", 0.0, 0.06, 1.0, 0.5),
     ("Td 1, alpha 0.03", 1.0, 0.03, 1.0, 0.5),
-    ("Td 0, alpha 0.03, Jl x0.8, 0.05 rad", 0.0, 0.03, 0.8, 0.05),
+    pytest.param(
+        "Td 0, alpha 0.03, Jl x0.8, 0.05 rad",
+        0.0,
+        0.03,
+        0.8,
+        0.05,
+        marks=pytest.mark.xfail(
+            strict=True,
+            reason="issue 22: the short move's hunt with the wrong inertia "
+            "(0.53 s on seed 1 since the reference is the plan where the "
+            "command acts; 54-56 Nm on other seeds before and since)",
+        ),
+    ),  # fmt: skip
     ("Td 0, alpha 0.03, Jl x1.2, 1 rad", 0.0, 0.03, 1.2, 1.0),
     ("Td 30, alpha 0.03", 30.0, 0.03, 1.0, 0.5),
 ]

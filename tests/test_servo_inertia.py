@@ -295,7 +295,9 @@ _MOVES = [(0.5, 0.0), (-0.3, 0.05), (0.0, 1.0), (1.0, 0.0)]
 #: 0.05 rad steps from rest and the 0.1 rad reversal.
 _SMALL = [(0.05, -0.05), (0.0, -0.05), (0.0, 0.05)]
 #: The runs of `_SMALL` that miss the targets (measured; docs/servo.rst,
-#: "Small moves across the gap"; 94 of 108 pass, 93 before the latched
+#: "Small moves across the gap"; 95 of 108 pass, 94 before the reference
+#: was the plan where the command acts (the Td 0 runs at Jl x0.8 moved
+#: between seeds 5 and 6 again: 1.6-2.4 %), 93 before the latched
 #: rest's quiet observer gains and slow flips (which moved Td 0, Jl x0.8,
 #: alpha 0.03 from 0 -> +0.05 on seed 6 to seed 5, 1.85 %, and the
 #: reversal on seed 5, 2.38 %, and brought 0 -> +0.05 at Jl x1.2, Td 3,
@@ -312,11 +314,10 @@ _SMALL = [(0.05, -0.05), (0.0, -0.05), (0.0, 0.05)]
 #: Strict: a run that starts meeting them fails here, so that the list
 #: is kept true.
 _SMALL_MISSES = {
-    (0.8, 0.0, 0.03, (0.05, -0.05), 5),
-    (0.8, 0.0, 0.03, (0.0, 0.05), 5),
+    (0.8, 0.0, 0.03, (0.0, -0.05), 5),
+    (0.8, 0.0, 0.03, (0.0, 0.05), 6),
     (0.8, 0.0, 0.06, (0.0, -0.05), 5),
     (0.8, 0.0, 0.06, (0.0, -0.05), 6),
-    (0.8, 0.0, 0.06, (0.0, 0.05), 5),
     (0.8, 0.0, 0.06, (0.0, 0.05), 6),
     (1.2, 0.0, 0.06, (0.0, -0.05), 5),
     (1.2, 0.0, 0.06, (0.0, -0.05), 6),
