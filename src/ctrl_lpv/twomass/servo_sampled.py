@@ -86,10 +86,13 @@ SAMPLED_STATES = [
 _NS = 19
 SAMPLED_INPUTS = ["theta_m", "theta_l", "theta_r"]
 #: The motor-encoder estimator's extra states: the sensitivity of the
-#: prediction to the half-gap and the half-gap variance (less its initial).
+#: prediction to the half-gap and the half-gap variance (less its initial),
+#: the samples left in which the half-gap learns, whether the half-gap is
+#: known (`MotorEstimator.gap_check`) and the samples in contact since
+#: (`MotorEstimator.contact_clock`).
 MOTOR_STATES = [
     "S_theta_m", "S_omega_m", "S_theta_l", "S_omega_l", "S_Td", "P_alpha_dev",
-    "learn_window",
+    "learn_window", "gap_episode", "gap_shift", "gap_known", "contact_clock",
 ]  # fmt: skip
 
 _PLAN_SUBSTEPS = 4
@@ -356,9 +359,16 @@ def sampled_servo(
             # (`MotorEstimator.learns`).
             resting = plan[5] <= hmin * (1.0 + 1e-9) and abs(plan[0] - plan[4]) < 1e-6
             learning = motor.learns(x[_NS + 6], y[0] - xhat[0], resting)
+            # The load torque is unknown at the first contact: from the
+            # first at which the half-gap is known, the time-varying
+            # Kalman gains of an unknown load torque
+            # (`motor_estimator.first_contact_gains`); before, a contact's
+            # innovation is the gap's.
+            check, clock = list(x[_NS + 7 : _NS + 10]), x[_NS + 10]
             filtered, sens, dP, gap = motor.correct(
-                xhat, x[_NS : _NS + 5], x[_NS + 5], a0 + dah, y[0], learning
-            )
+                xhat, x[_NS : _NS + 5], x[_NS + 5], a0 + dah, y[0], learning,
+                clock if check[2] > 0.0 else None,
+            )  # fmt: skip
             ahead, sens_ahead, dP_ahead = motor.predict(
                 filtered, sens, u_prev, gap, dP, resting
             )
@@ -564,7 +574,9 @@ def sampled_servo(
         if motor is not None:
             window = motor.learning_window(filtered, predicted, gap, x[_NS + 6])
             state[13] = gap - a0
-            state += [*sens_ahead, dP_ahead, window]
+            check = motor.gap_check(check, a0 + dah, gap, learning)
+            clock = motor.contact_clock(clock, filtered, gap, check[2])
+            state += [*sens_ahead, dP_ahead, window, *check, clock]
         return u, np.asarray(state)
 
     states = SAMPLED_STATES if motor is None else SAMPLED_STATES + MOTOR_STATES
