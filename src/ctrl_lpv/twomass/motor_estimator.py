@@ -632,9 +632,11 @@ class MotorEstimator:
         included if `known` (the index into `M_first`; the clock stands in
         the gap, where nothing observes the load torque, and while the
         half-gap is unknown). Counted from the sample that confirms the
-        half-gap: counted from the next, the same gains left Td = 2 Nm
-        resting in the gap (3.5e-2 rad) on seeds 1 and 6 of 12, the light
-        load's rest being on an edge (main: none of 12, this: none)."""
+        half-gap: counted from the next, the same gains (a prior of 10 Nm,
+        before the law's reference was the plan where the command acts)
+        left Td = 2 Nm resting in the gap (3.5e-2 rad) on seeds 1 and 6 of
+        12 against none counted from it: the light load's rest is on an
+        edge."""
         if known > 0.0 and abs(filtered[0] - filtered[3]) > alpha:
             return clock + 1.0
         return clock
