@@ -63,8 +63,11 @@ faster one); the half-gap learns in a move while the innovation is
 beyond `MODEL_BREAK` (a load torque error gives far less).
 
 What the certificates cover: each mode's error dynamics with the mode held
-and ``alpha`` exact. Not covered: the switching between modes, the load's
-open-loop prediction in the gap (its error grows over a crossing, by
+and ``alpha`` exact, with the steady-state gains. Not covered: the
+first-contact gains (`first_contact_gains`, a transient of 285 samples at
+1 ms that ends at the certified contact gain), the switching between
+modes, the load's open-loop prediction in the gap (its error grows over a
+crossing, by
 ``|Td - Td_hat| t^2 / (2 Jl)`` from a load whose speed is known), and the
 half-gap itself: the motor encoder never sees ``alpha`` at rest, so the
 load angle estimated on a flank is off by the error of ``alpha_hat``.
