@@ -191,8 +191,9 @@ _PREDICT_SUBSTEPS = 4
 #: the edge is: the same intensities without the encoder's quantization in
 #: the reading noise (gains 4e-7 apart) hunted at 259 Nm with Td = 0 at
 #: alpha 0.06 on seed 5 (before the rest stopped pushing on the load without
-#: a load torque, `servo_sampled`). A wrong inertia and the gap step do
-#: not (the 0.05 rad steps hold with `first_contact_gains`). The
+#: a load torque, `servo_sampled`). A wrong inertia does not (the 0.05
+#: rad steps hold with `first_contact_gains`, the gap step with the rest
+#: mode left to loads without a load torque, `servo_sampled`). The
 #: neighbours each break some row: a
 #: ``Td`` walk of 10 Nm/s misses Td = 2 Nm on all six seeds (up to 3.5e-2
 #: rad, or hunting at 33-71 Nm), a reading of 1.5e-3 (walk 30) too, and Td =
@@ -604,11 +605,12 @@ class MotorEstimator:
     def learns(self, window, innovation, resting):
         """Whether the half-gap learns from this sample's reading: within
         the `window` after a predicted contact change
-        (`learning_window`), or in a move whose reading breaks with the
-        model (an `innovation` beyond `model_break`: a contact predicted
-        where the gap is wider or narrower, which the window, closed ten
-        samples after the predicted contact, would leave to the load
-        torque's estimate)."""
+        (`learning_window`), or, not `resting` (in a move, or at rest with
+        a load torque that presses the load onto a flank), where the
+        reading breaks with the model (an `innovation` beyond
+        `model_break`: a contact predicted where the gap is wider or
+        narrower, which the window, closed ten samples after the predicted
+        contact, would leave to the load torque's estimate)."""
         return window > 0.0 or (not resting and abs(innovation) > self.model_break)
 
     def gap_check(self, check, before, after, learning):
