@@ -191,9 +191,10 @@ _PREDICT_SUBSTEPS = 4
 #: the edge is: the same intensities without the encoder's quantization in
 #: the reading noise (gains 4e-7 apart) hunted at 259 Nm with Td = 0 at
 #: alpha 0.06 on seed 5 (before the rest stopped pushing on the load without
-#: a load torque, `servo_sampled`). A wrong inertia does not (the 0.05
-#: rad steps hold with `first_contact_gains`, the gap step with the rest
-#: mode left to loads without a load torque, `servo_sampled`). The
+#: a load torque, `servo_sampled`). A wrong inertia does not, nor the gap
+#: step under 2, 5 or 30 Nm (the 0.05 rad steps hold with
+#: `first_contact_gains`, the gap step under 8 Nm with the rest mode left
+#: to loads without a load torque, `servo_sampled`). The
 #: neighbours each break some row: a
 #: ``Td`` walk of 10 Nm/s misses Td = 2 Nm on all six seeds (up to 3.5e-2
 #: rad, or hunting at 33-71 Nm), a reading of 1.5e-3 (walk 30) too, and Td =
