@@ -14,6 +14,7 @@ from scipy.integrate import solve_ivp
 from ctrl_lpv.twomass.trajectory import (
     PEAK_ACCEL,
     move_duration,
+    one_flank_duration,
     planner_functions,
     replan_duration,
     rest_to_rest,
@@ -111,3 +112,34 @@ def test_the_planner_replans_with_replan_duration():
     want = replan_duration(target - r, v, alim, dmin)
     assert want == pytest.approx(math.sqrt(PEAK_ACCEL * 0.5 / alim))
     assert dh == pytest.approx(1e4 * (want - h), rel=1e-6)
+
+
+@pytest.mark.parametrize(
+    "start, goal",
+    [
+        # From rest: the peak deceleration PEAK_ACCEL d / D**2 is the bound.
+        ((0.0, 0.0, 0.0, 0.0), 0.02),
+        # From a load still falling away from the goal (the landing of
+        # `gap_fall`), and the mirror image on the other flank.
+        ((-0.014, -0.19, 0.0, 0.0), 0.0),
+        ((0.014, 0.19, 0.0, 0.0), 0.0),
+    ],
+)
+def test_one_flank_duration_is_the_shortest_on_its_grid(start, goal):
+    """Along the online law's move of the returned duration the shaft
+    torque ``Jl a + cl v`` stays above ``-spare`` on the flank of the push;
+    one grid step (5 %) shorter, it does not."""
+    Jl, cl, spare = 5.6, 1.0, 6.0
+    side = 1.0 if goal >= start[0] else -1.0
+    D = one_flank_duration(start, goal, 0.2, Jl, cl, side, spare)
+    assert 0.2 <= D < 1.0
+
+    def lowest(h):
+        _, y = _run_law(list(start), goal, h)
+        return np.min(side * (Jl * y[2] + cl * y[1]))
+
+    assert lowest(D) >= -spare * (1 + 1e-3)
+    if D > 0.2:
+        assert lowest(D / 1.05) < -spare
+    if start[1] == 0.0:
+        assert D == pytest.approx(math.sqrt(PEAK_ACCEL * goal * Jl / spare), rel=0.06)
