@@ -89,8 +89,9 @@ SAMPLED_INPUTS = ["theta_m", "theta_l", "theta_r"]
 #: The motor-encoder estimator's extra states: the sensitivity of the
 #: prediction to the half-gap and the half-gap variance (less its initial),
 #: the samples left in which the half-gap learns, whether the half-gap is
-#: known (`MotorEstimator.gap_check`) and the samples in contact since
-#: (`MotorEstimator.contact_clock`).
+#: known (`MotorEstimator.gap_check`), the samples in contact since
+#: (`MotorEstimator.contact_clock`), and the fall mode's
+#: (`gap_fall.FALL_STATES`).
 MOTOR_STATES = [
     "S_theta_m", "S_omega_m", "S_theta_l", "S_omega_l", "S_Td", "P_alpha_dev",
     "learn_window", "gap_episode", "gap_shift", "gap_known", "contact_clock",
@@ -367,7 +368,6 @@ def sampled_servo(
             # where a move's reading breaks with the model
             # (`MotorEstimator.learns`).
             plan_rest = plan[5] <= hmin * (1.0 + 1e-9) and abs(plan[0] - plan[4]) < 1e-6
-            resting = plan_rest
             # Unless a load torque presses the load onto a flank (its
             # estimate and the integral's, both beyond the contact torque):
             # a load in the gap then does not stop, and a reading that
@@ -375,7 +375,7 @@ def sampled_servo(
             # under 8 Nm, 0.045 -> 0.03, overshoots 7.0 %, 13.6 % without;
             # a gap widening is a fall, `gap_fall`).
             pressed = abs(xhat[5]) > tc and abs(_held_torque(xi, k1, k5, ks)) > tc
-            resting = resting and not pressed
+            resting = plan_rest and not pressed
             learning = motor.learns(x[_NS + 6], y[0] - xhat[0], resting)
             # The load torque is unknown at the first contact: from the
             # first at which the half-gap is known, the time-varying
