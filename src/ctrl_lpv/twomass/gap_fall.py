@@ -9,8 +9,9 @@ estimator read the motor's lurch as a load moving *forward* (the load 1e-3
 rad ahead of the target while it fell 27 mrad behind), and the law swung
 the motor across the gap and back (+-300 to 500 Nm) until the load was
 caught: 27-28 mrad of fall and a recovery overshooting the target by up to
-2.7 % (seeds 1-12, Td 8 Nm), 53-76 mrad off for good under 2 or 5 Nm of
-load torque and for a step of the half-gap to 0.06.
+2.7 % (seeds 1-12, Td 8 Nm); under 2 or 5 Nm of load torque, and for a
+step of the half-gap to 0.06, the load ended 46-76 mrad off for good (15
+mrad under 30 Nm).
 
 So a break of the contact at rest is handled as what it is (`watch`,
 `landing_gap`, and the sampled law's fall mode in `servo_sampled`):
@@ -42,8 +43,8 @@ So a break of the contact at rest is handled as what it is (`watch`,
    they ended 15-76 mrad off.
 
 A fall that never lands (a load torque that vanished, not a gap that
-widened) ends after the time a fall across twice the widest gap takes,
-and the law re-plans from the load's estimate.
+widened) ends after the time a fall across the widest gap (``2
+alpha_max``) takes, and the law re-plans from the load's estimate.
 """
 
 from __future__ import annotations
