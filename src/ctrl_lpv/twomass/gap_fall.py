@@ -122,7 +122,7 @@ def watch(fall, predicted, filtered, reading, leant, dt, tc, Jm, Jl):
     -------
     fall : list of float
         The states one sample on; with a break, in the fall mode.
-    predicted : ndarray or None
+    broke : list of float or None
         With a break, the prediction with the load restarted from its rest
         in free fall since the break; else None.
     """
@@ -130,7 +130,6 @@ def watch(fall, predicted, filtered, reading, leant, dt, tc, Jm, Jl):
     innovation = reading - predicted[0]
     push = math.copysign(1.0, filtered[5])
     growing = push * innovation > BREAK_READING and push * fall[4] > BREAK_READING / 3
-    broke = None
     if leant and growing and fall[2] > SETTLED_TIME:
         td = fall[6]
         since = math.sqrt(2.0 * Jm * abs(innovation) / max(abs(td), tc))
@@ -146,7 +145,7 @@ def watch(fall, predicted, filtered, reading, leant, dt, tc, Jm, Jl):
     else:
         fall[2] = 0.0
     fall[4] = innovation
-    return fall, broke
+    return fall, None
 
 
 def landing_gap(side, filtered, innovation, Jm, ks):
