@@ -146,7 +146,8 @@ motor table, and ``tests/test_servo_motor.py``):
   through the gap with Td = 0, and hunts there (62-205 Nm): the contact
   at rest wants a detector on the innovation's history (the motor holds a
   torque without the acceleration the gap predicts), not a change of the
-  fade.
+  fade: `ctrl_lpv.twomass.gap_fall.landing`, for a load torque that
+  appears at rest, with the gains of `LANDING_SPEED_SPREAD`.
 """
 
 from __future__ import annotations
@@ -248,6 +249,12 @@ GAP_CONFIRMED = 2e-3
 #: rad); 30 Nm 5.9-6.8 % (-). A prior is a knife edge like the intensities
 #: above.
 LOAD_TORQUE_SPREAD = 11.0
+#: Standard deviation of the load's speed, rad/s, when a load torque that
+#: appeared at rest has made the load fall through the gap onto a flank
+#: (`MotorEstimator.M_landing`; ``ctrl_lpv.twomass.gap_fall``): a fall of
+#: up to ``2 alpha`` under the load torque, 0.28 rad/s across 0.03 rad under
+#: 8 Nm.
+LANDING_SPEED_SPREAD = 0.3
 
 
 def mode_model(
@@ -489,15 +496,17 @@ def motor_observer(
     return MotorObserver(**modes, params=params, dt=dt)
 
 
-def first_contact_gains(contact: ModeObserver, load_torque_spread: float):
+def first_contact_gains(
+    contact: ModeObserver, load_torque_spread: float, load_speed_spread: float = 0.0
+):
     """The time-varying Kalman filter gains of a load torque unknown at the
     first contact.
 
     The Riccati recursion of the contact mode (its noise intensities)
-    started from the steady-state prediction covariance with the variance
-    ``load_torque_spread**2`` added on ``Td``, run until its gain is back
-    at the steady state's (`ModeObserver.filter_gain`, to 1e-4 of each
-    entry).
+    started from the steady-state prediction covariance with the variances
+    ``load_torque_spread**2`` added on ``Td`` and ``load_speed_spread**2``
+    on ``omega_l``, run until its gain is back at the steady state's
+    (`ModeObserver.filter_gain`, to 1e-4 of each entry).
 
     Parameters
     ----------
@@ -506,6 +515,9 @@ def first_contact_gains(contact: ModeObserver, load_torque_spread: float):
     load_torque_spread : float
         Standard deviation of the load torque when the first contact is
         made, Nm.
+    load_speed_spread : float, optional
+        Standard deviation of the load's speed then, rad/s (a load that
+        landed on the flank from a fall nothing observed, `LANDING_SPEED_SPREAD`).
 
     Returns
     -------
@@ -514,7 +526,7 @@ def first_contact_gains(contact: ModeObserver, load_torque_spread: float):
         first on, on the contact states (`MODE_STATES`); past the last,
         the steady-state gain.
     """
-    if load_torque_spread == 0.0:
+    if load_torque_spread == 0.0 and load_speed_spread == 0.0:
         return np.zeros((0, 5))
     model = contact.model
     w = [i for i, s in enumerate(model.input_labels) if s not in ("Tm", "n_m")]
@@ -523,6 +535,7 @@ def first_contact_gains(contact: ModeObserver, load_torque_spread: float):
     _, P, _ = ct.dlqe(Phi, G, C, np.eye(len(w)), [[R]])
     P = np.array(P, float)
     P[4, 4] += load_torque_spread**2
+    P[3, 3] += load_speed_spread**2
     steady = contact.filter_gain
     gains, last = [], 0
     # The prior reaches the reading through the twist (a double
@@ -572,8 +585,9 @@ class MotorEstimator:
     load_torque_spread : float or None
         Standard deviation of the load torque at the first contact, Nm
         (`LOAD_TORQUE_SPREAD`): the contact gains from then on are
-        `first_contact_gains`; None: the steady-state contact gain
-        throughout.
+        `first_contact_gains` (``M_first``; ``M_landing`` from a landing
+        at rest, the load's speed unknown too, `LANDING_SPEED_SPREAD`);
+        None: the steady-state contact gain throughout.
     """
 
     def __init__(
@@ -598,10 +612,13 @@ class MotorEstimator:
         self.Q = alpha_drift**2 * design.dt
         self.fade = math.exp(-design.dt / rest_fade)
         self.model_break = model_break
-        self.M_first = np.zeros((0, 5))
+        self.M_first = self.M_landing = np.zeros((0, 5))
         if load_torque_spread is not None:
             spread = real_number(load_torque_spread, "load_torque_spread", minimum=0.0)
             self.M_first = first_contact_gains(design.contact, spread)
+            self.M_landing = first_contact_gains(
+                design.contact, spread, LANDING_SPEED_SPREAD
+            )
 
     def learns(self, window, innovation, resting):
         """Whether the half-gap learns from this sample's reading: within
@@ -654,15 +671,18 @@ class MotorEstimator:
             return 0.0
         return self.ks * (d - math.copysign(alpha, d)) + self.cs * (wm - wl)
 
-    def correct(self, x, S, dP, alpha, theta_m, learning=True, clock=None):
+    def correct(
+        self, x, S, dP, alpha, theta_m, learning=True, clock=None, landed=False
+    ):
         """The estimate ``x[k|k]``, its sensitivity, the half-gap estimate
         and its variance (``P0 + dP``) from the prediction and the reading.
         The half-gap learns only with `learning` (near a contact made or
         lost: in a held contact the innovation is the load's, not the
         gap's). `clock`, the samples in contact since the half-gap was
         known (`contact_clock`), picks the contact gain from
-        `first_contact_gains`; None (the half-gap not known yet) or past
-        them: the steady-state gain."""
+        `first_contact_gains` (`M_landing` if `landed`: the load's speed
+        unknown too); None (the half-gap not known yet) or past them: the
+        steady-state gain."""
         tm, wm, _, tl, wl, td = x
         nu = theta_m - tm
         # The half-gap: least squares on the innovation's part that the
@@ -680,8 +700,9 @@ class MotorEstimator:
         M = self.M_gap
         if abs(z[0] - z[2]) > new:
             M = self.M_contact
-            if clock is not None and clock < len(self.M_first):
-                M = self.M_first[int(clock)]
+            first = self.M_landing if landed else self.M_first
+            if clock is not None and clock < len(first):
+                M = first[int(clock)]
         z = z + M * nu
         S = S - M * S[0]
         xf = np.array([z[0], z[1], self.shaft_torque(*z[:4], new), z[2], z[3], z[4]])

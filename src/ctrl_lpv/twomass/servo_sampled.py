@@ -390,10 +390,11 @@ def sampled_servo(
             # A contact broken at rest under a load torque: the gap widened,
             # the load falls back onto the flank (`gap_fall`).
             fall = list(x[_FALL : _FALL + len(_fall.FALL_STATES)])
+            if y[nread] != plan[4]:
+                fall[8] = 0.0  # a new target: landings are watched again
             if fall[0] == 0.0:
-                leant = plan_rest and abs(filtered[5]) > tc
                 fall, broke = _fall.watch(
-                    fall, xhat, filtered, y[0], leant, dt, tc, c.Jm, c.Jl
+                    fall, xhat, filtered, y[0], plan_rest, a0 + dah, c, dt, x[14]
                 )
                 if broke is not None:
                     return fall_step(x, y, fall, broke)
@@ -612,38 +613,65 @@ def sampled_servo(
     def fall_step(x, y, fall, predicted):
         """One sample of the fall mode (`gap_fall`): the motor holds still
         while the load falls (predicted open loop) and while the flank it
-        met brakes it; then a move on that flank takes it back."""
+        met brakes it, or gives way to a load that landed from a free rest;
+        then a move on that flank takes it back."""
         side, hold, clock, caught = fall[:4]
+        landed = caught == _fall.LANDED
         alpha = a0 + x[13] if caught else 2.0 * amax
         filtered, sens, dP, _ = motor.correct(
-            np.asarray(predicted), x[_NS : _NS + 5], x[_NS + 5], alpha, y[0], False
-        )
+            np.asarray(predicted), x[_NS : _NS + 5], x[_NS + 5], alpha, y[0], False,
+            round(clock / dt) if landed else None, landed,
+        )  # fmt: skip
         innovation = y[0] - predicted[0]
         ahead, sens_ahead, dP_ahead = motor.predict(filtered, sens, x[14], alpha, dP)
         at = ahead if delayed else filtered
-        u = min(max(-(k1 * (at[0] - hold) + k2 * at[1]), -limit), limit)
+        if landed:
+            u = _fall.soft_catch(at[0] - hold, at[1], c.Jm, c.Jl)
+        else:
+            u = -(k1 * (at[0] - hold) + k2 * at[1])
+        u = min(max(u, -limit), limit)
         state = list(x)
         td = abs(filtered[5])
         blind = _fall.fall_duration(_fall.BLIND_FALL, td, c.Jl, tc)
-        fall = [side, hold, clock + dt, caught, 0.0, 0.0, 0.0]
-        if not caught and clock > blind and side * innovation < -_fall.IMPACT_READING:
+        fall = [side, hold, clock + dt, caught, 0.0, 0.0, 0.0, 0.0, fall[8]]
+        # The move back to the target: on the flank, the load torque it
+        # carries (or a plain re-plan, 0); None: not yet.
+        back = None
+        if landed:
+            if clock > _fall.LANDING_HOLD:
+                if side * filtered[5] > tc:
+                    back = td
+                    state[12] = integral_holding(filtered[5], k1, k5, ks)
+                else:
+                    # A light load torque (its estimate below the contact
+                    # torque, the estimator's knife edge: left at rest
+                    # until the next target) or none (a free load bounced
+                    # off the flank: its estimate pulls away from it).
+                    fall[8] = float(side * filtered[5] > 0.0)
+                    ahead[5] = 0.0
+                    fall[0] = 0.0
+        elif not caught and clock > blind and side * innovation < -_fall.IMPACT_READING:
             gap = _fall.landing_gap(side, filtered, innovation, c.Jm, ks)
             state[13] = min(max(gap, 0.0), amax) - a0
             fall[3] = 1.0
-        elif (caught and side * filtered[4] >= 0.0) or clock > _fall.fall_duration(
-            2.0 * amax, td, c.Jl, tc
-        ):
+        elif caught and side * filtered[4] >= 0.0:
+            back = td
+        elif clock > _fall.fall_duration(2.0 * amax, td, c.Jl, tc):
+            back = 0.0
+        if back is not None:
             target = y[nread]
             start = (filtered[3], filtered[4], 0.0, 0.0)
             D = replan_duration(
                 target - start[0], start[1], c.accel_limit, c.min_duration
             )
-            if caught:
+            if back > 0.0:
                 D = one_flank_duration(
-                    start, target, D, c.Jl, c.cl, side, _fall.BRAKING_SHARE * td
+                    start, target, D, c.Jl, c.cl, side, _fall.BRAKING_SHARE * back
                 )
             state[0:6] = [*start, target, D]
-            fall = [0.0] * len(_fall.FALL_STATES)
+            fall[0] = 0.0
+        if fall[0] == 0.0:
+            fall = [0.0] * (len(_fall.FALL_STATES) - 1) + [fall[8]]
         state[6:12] = ahead
         state[14] = u
         state[_NS : _NS + 6] = [*sens_ahead, dP_ahead]
