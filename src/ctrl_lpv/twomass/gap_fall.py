@@ -59,7 +59,7 @@ load estimate never left the gap, and the load ended 4.9e-2 rad off under
    and the motor torque below the contact torque, the motor reading
    departs from the prediction and keeps doing so (beyond
    `IMPACT_READING`, the sample before beyond a third of it, the same
-   sign): the load is put on the flank the reading is dragged towards, at
+   sign; `landing`): the load is put on the flank the reading is dragged towards, at
    the speed the growth of the departure says, its load torque unknown;
 2. **the soft catch**: for `LANDING_HOLD` the motor gives way to the load
    (`soft_catch`), while the estimator runs the Kalman gains of a load
@@ -147,12 +147,12 @@ CATCH_STIFFNESS = 2000.0
 #: The sampled law's states of the fall mode: the push's side (0 out of the
 #: fall mode), the motor angle held, a clock (out of the fall mode: the
 #: time leant at rest), whether the flank was met (1, or `LANDED`), the
-#: last innovation, the rest's load angle and load torque estimates, and
-#: the time at rest free in the gap, and whether a landing was handled at
-#: this target (`watch`).
+#: last innovation, the rest's load angle and load torque estimates, the
+#: time at rest free in the gap, and whether a landing at this target was
+#: a light load (1: no landing is watched for until the next target).
 FALL_STATES = [
     "fall_side", "fall_hold", "fall_clock", "fall_caught", "fall_innovation",
-    "rest_theta_l", "rest_Td", "free_clock", "landing_spent",
+    "rest_theta_l", "rest_Td", "free_clock", "light_load",
 ]  # fmt: skip
 
 
@@ -234,9 +234,10 @@ def landing(predicted, reading, before, alpha, c, dt):
     drags the motor along: the reading departs from the prediction of the
     motor alone in the fall's direction, as ``ks v t**3 / (6 Jm)`` a time
     ``t`` after the landing at the speed ``v``. Beyond `IMPACT_READING`,
-    and growing (the innovation `before` beyond a third of it, the same
+    and lasting (the innovation `before` beyond a third of it, the same
     sign), the load is put on that flank, at the speed the growth says
-    (``t`` from the ratio of the two innovations), its load torque unknown
+    (``t`` from the ratio of the two innovations; about none where it does
+    not grow), its load torque unknown
     (`ctrl_lpv.twomass.motor_estimator.LANDING_SPEED_SPREAD`).
     """
     innovation = reading - predicted[0]

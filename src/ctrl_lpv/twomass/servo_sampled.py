@@ -654,10 +654,10 @@ def sampled_servo(
             gap = _fall.landing_gap(side, filtered, innovation, c.Jm, ks)
             state[13] = min(max(gap, 0.0), amax) - a0
             fall[3] = 1.0
-        elif caught and side * filtered[4] >= 0.0:
-            back = td
-        elif clock > _fall.fall_duration(2.0 * amax, td, c.Jl, tc):
-            back = 0.0
+        elif (caught and side * filtered[4] >= 0.0) or clock > _fall.fall_duration(
+            2.0 * amax, td, c.Jl, tc
+        ):
+            back = td if caught else 0.0
         if back is not None:
             target = y[nread]
             start = (filtered[3], filtered[4], 0.0, 0.0)
