@@ -55,8 +55,9 @@ load estimate never left the gap, and the load ended 4.9e-2 rad off under
 8 Nm (3.3-8.1e-2 for 2 to 8 Nm, alpha 0.03 to 0.06). Now (`watch`,
 `landing`, `soft_catch`):
 
-1. **the landing**: at rest, the load free in the gap for `SETTLED_TIME`
-   and the motor torque below the contact torque, the motor reading
+1. **the landing**: at rest, the load free in the gap for `SETTLED_TIME`,
+   the motor parked (its torque below the contact torque, its speed below
+   `PARKED_SPEED`), the motor reading
    departs from the prediction and keeps doing so (beyond
    `IMPACT_READING`, the sample before beyond a third of it, the same
    sign; `landing`): the load is put on the flank the reading is dragged towards, at
@@ -73,7 +74,8 @@ load estimate never left the gap, and the load ended 4.9e-2 rad off under
    until the next target); one that pulls away from the flank is a free
    load that bounced off it (with no load torque a drifting load lands
    too; estimates of -0.8 to -0.04 Nm on ten such touches): the watch goes
-   on.
+   on. Let go, the load's estimate returns to the middle of the gap,
+   still (where it is in the gap the motor encoder does not see).
 
 Measured (1 ms, delay 1, 20-bit motor encoder, 0.5 rad unless said, the
 step at 2.5 s, seeds 1-3): 0 -> 8 Nm back within 1e-3 rad 0.75-0.77 s
@@ -84,7 +86,9 @@ after the step, 2.5-3.1e-5 rad at 5 s (before: 4.9e-2); 3 Nm 1.1 s,
 torque std of the last second 0.02 Nm in all. 2 Nm on two seeds of
 three (1.26 s); on the third, and for 1 and 1.5 Nm, the load stays on the
 flank 3.2-3.5e-2 off, quiet (as before). 8 -> 0 and -8 -> 0 Nm rest in
-the gap, quiet (0.00-0.96 Nm).
+the gap, quiet (0.00-0.96 Nm). At 2 ms: 0 -> 8 Nm 0.76 s, 5.0-5.4e-5 rad
+(before: hunting at 108 Nm on seed 1), 0 -> 3 Nm 1.03-1.04 s, 8 -> 0 and
+-8 -> 0 Nm quiet in the gap (0.00-2.85 Nm).
 """
 
 from __future__ import annotations
@@ -140,6 +144,9 @@ LANDED = 2.0
 #: Time, s, a load that landed from a free rest is caught softly
 #: (`soft_catch`) before its load torque estimate says what it was.
 LANDING_HOLD = 0.2
+#: Motor speed estimate, rad/s, below which the motor counts as parked for
+#: a landing to be looked for (parked at rest it reads 2e-5 to 7e-5).
+PARKED_SPEED = 1e-3
 #: Stiffness of the soft catch, Nm/rad (critically damped on motor and
 #: load together: 11 rad/s).
 CATCH_STIFFNESS = 2000.0
@@ -204,10 +211,12 @@ def watch(fall, predicted, filtered, reading, rest, alpha, c, dt, torque):
         broke[5] = td
         fall = [push, predicted[0], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, fall[8]]
         return fall, broke
-    # Free: the load in the gap, the motor parked (a motor the law moves
-    # departs from the prediction too: the gap mode's filter is slow).
+    # Free: the load in the gap, the motor parked and still (a motor the
+    # law moves departs from the prediction too: the gap mode's filter is
+    # slow; at 2 ms one moving at 1.3e-2 rad/s read as a landing).
     free = (
         rest and not leant and abs(torque) < tc
+        and abs(predicted[1]) < PARKED_SPEED
         and abs(predicted[0] - predicted[3]) <= alpha
     )  # fmt: skip
     if free and fall[7] > SETTLED_TIME and not fall[8]:

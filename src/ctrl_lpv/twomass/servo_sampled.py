@@ -647,8 +647,13 @@ def sampled_servo(
                     # torque, the estimator's knife edge: left at rest
                     # until the next target) or none (a free load bounced
                     # off the flank: its estimate pulls away from it).
+                    # The load's estimate goes back to the middle of the
+                    # gap, still: where it is in the gap the motor encoder
+                    # does not see (left on the flank, a load that had not
+                    # landed there touched the other one after the catch,
+                    # read as a contact on the wrong side: 500 Nm at 2 ms).
                     fall[8] = float(side * filtered[5] > 0.0)
-                    ahead[5] = 0.0
+                    ahead[3:6] = [ahead[0], 0.0, 0.0]
                     fall[0] = 0.0
         elif not caught and clock > blind and side * innovation < -_fall.IMPACT_READING:
             gap = _fall.landing_gap(side, filtered, innovation, c.Jm, ks)
