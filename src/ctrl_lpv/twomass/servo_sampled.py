@@ -639,14 +639,13 @@ def sampled_servo(
         back = None
         if landed:
             if clock > _fall.LANDING_HOLD:
-                if side * filtered[5] > tc:
+                if side * filtered[5] > _fall.LANDED_TORQUE:
                     back = td
                     state[12] = integral_holding(filtered[5], k1, k5, ks)
                 else:
-                    # A light load torque (its estimate below the contact
-                    # torque, the estimator's knife edge: left at rest
-                    # until the next target) or none (a free load bounced
-                    # off the flank: its estimate pulls away from it).
+                    # A light load torque (left at rest until the next
+                    # target) or none (a free load bounced off the flank:
+                    # its estimate pulls away from it).
                     # The load's estimate goes back to the middle of the
                     # gap, still: where it is in the gap the motor encoder
                     # does not see (left on the flank, a load that had not
