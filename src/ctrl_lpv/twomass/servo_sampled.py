@@ -98,6 +98,7 @@ MOTOR_STATES = [
     *_fall.FALL_STATES,
 ]  # fmt: skip
 _FALL = _NS + 11
+_LIGHT = _fall.FALL_STATES.index("light_load")
 
 _PLAN_SUBSTEPS = 4
 _STREAM_REST_ACCEL = 1e-3  # rad/s^2
@@ -391,7 +392,7 @@ def sampled_servo(
             # the load falls back onto the flank (`gap_fall`).
             fall = list(x[_FALL : _FALL + len(_fall.FALL_STATES)])
             if y[nread] != plan[4]:
-                fall[8] = 0.0  # a new target: landings are watched again
+                fall[_LIGHT] = 0.0  # a new target: landings are watched again
             if fall[0] == 0.0:
                 fall, broke = _fall.watch(
                     fall, xhat, filtered, y[0], plan_rest, a0 + dah, c, dt, x[14]
@@ -633,7 +634,7 @@ def sampled_servo(
         state = list(x)
         td = abs(filtered[5])
         blind = _fall.fall_duration(_fall.BLIND_FALL, td, c.Jl, tc)
-        fall = [side, hold, clock + dt, caught, 0.0, 0.0, 0.0, 0.0, fall[8]]
+        fall = [side, hold, clock + dt, caught, 0.0, 0.0, 0.0, 0.0, fall[_LIGHT]]
         # The move back to the target: on the flank, the load torque it
         # carries (or a plain re-plan, 0); None: not yet.
         back = None
@@ -645,13 +646,13 @@ def sampled_servo(
                 else:
                     # A light load torque (left at rest until the next
                     # target) or none (a free load bounced off the flank:
-                    # its estimate pulls away from it).
-                    # The load's estimate goes back to the middle of the
-                    # gap, still: where it is in the gap the motor encoder
-                    # does not see (left on the flank, a load that had not
-                    # landed there touched the other one after the catch,
-                    # read as a contact on the wrong side: 500 Nm at 2 ms).
-                    fall[8] = float(side * filtered[5] > 0.0)
+                    # its estimate pulls away from it). The load's estimate
+                    # goes back to the middle of the gap, still: where it
+                    # is in the gap the motor encoder does not see (left on
+                    # the flank, a load that had not landed there touched
+                    # the other one after the catch, read as a contact on
+                    # the wrong side: 500 Nm at 2 ms).
+                    fall[_LIGHT] = float(side * filtered[5] > 0.0)
                     ahead[3:6] = [ahead[0], 0.0, 0.0]
                     fall[0] = 0.0
         elif not caught and clock > blind and side * innovation < -_fall.IMPACT_READING:
@@ -675,7 +676,7 @@ def sampled_servo(
             state[0:6] = [*start, target, D]
             fall[0] = 0.0
         if fall[0] == 0.0:
-            fall = [0.0] * (len(_fall.FALL_STATES) - 1) + [fall[8]]
+            fall = [0.0] * (len(_fall.FALL_STATES) - 1) + [fall[_LIGHT]]
         state[6:12] = ahead
         state[14] = u
         state[_NS : _NS + 6] = [*sens_ahead, dP_ahead]
