@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from ctrl_lpv.twomass.gap_crossing import one_flank_duration
 from ctrl_lpv.twomass.trajectory import (
     PEAK_ACCEL,
     move_duration,
-    one_flank_duration,
     planner_functions,
     replan_duration,
     rest_to_rest,

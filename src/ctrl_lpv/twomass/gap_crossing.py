@@ -40,6 +40,7 @@ import numpy as np
 __all__ = [
     "remaining_move",
     "torque_sign_changes",
+    "one_flank_duration",
     "streamed_sign_changes",
     "crossing_duration",
     "crossing_offset",
@@ -124,6 +125,39 @@ def torque_sign_changes(plan, Jl, cl, Td, significant):
     """
     r, v, a, j, g, h = plan
     return _sign_changes(remaining_move(r - g, v, a, j, h), h, Jl, cl, Td, significant)
+
+
+def one_flank_duration(
+    start, goal: float, shortest: float, Jl: float, cl: float, side: float,
+    spare: float, longest: float = 1.0,
+) -> float:  # fmt: skip
+    """The shortest duration of a minimum-snap move that stays on one flank.
+
+    From `shortest` on, in steps of 5 %, the first duration whose move
+    from ``start = (r, v, a, j)`` to rest at `goal` (`remaining_move`) asks
+    a shaft torque ``F = Jl a + cl v`` that a load torque pressing on the
+    flank `side` (+1 or -1) carries: ``side F >= -spare`` along the move,
+    with `spare` the share of the load torque that may brake. At most
+    `longest`.
+
+    Examples
+    --------
+    >>> D = one_flank_duration((0.0, 0.0, 0.0, 0.0), 0.02, 0.2, 5.6, 1.0, 1.0, 6.0)
+    >>> round(D, 3)
+    0.377
+    """
+    r, v, a, j = start
+    u = np.linspace(0.0, 1.0, 41)
+    duration = shortest
+    while duration < longest:
+        c = remaining_move(r - goal, v, a, j, duration)
+        F = np.polynomial.polynomial.polyval(
+            u, _torque_coefficients(c, duration, Jl, cl, 0.0)
+        )
+        if np.min(side * F) >= -spare:
+            return duration
+        duration *= 1.05
+    return longest
 
 
 def streamed_sign_changes(v, a, j, duration, Jl, cl, Td, significant):

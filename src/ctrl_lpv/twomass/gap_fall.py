@@ -35,7 +35,7 @@ So a break of the contact at rest is handled as what it is (`watch`,
    (`landing_gap`);
 4. **the catch**: the motor still holds, the flank brakes the load; once
    the load no longer falls, a move on that flank alone (the shaft torque
-   never asked to change sign, `ctrl_lpv.twomass.trajectory.one_flank_duration`)
+   never asked to change sign, `ctrl_lpv.twomass.gap_crossing.one_flank_duration`)
    takes it back to the target. Measured (1 ms, delay 1, 20-bit motor
    encoder, seeds 1-3): the paper's step is back within 2 % 0.46 s after
    it, 0.00 % beyond the target, 3.0-3.6e-4 rad at 5 s; 2, 5 and 30 Nm and
@@ -221,8 +221,7 @@ def watch(fall, predicted, filtered, reading, rest, alpha, c, dt, torque):
         broke[3] = fall[5] - td / (2.0 * c.Jl) * since**2
         broke[4] = -td / c.Jl * since
         broke[5] = td
-        fall = [push, predicted[0], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, fall[8]]
-        return fall, broke
+        return _entered(push, predicted[0], 0.0, fall[8]), broke
     # Free: the load in the gap, the motor parked and still (a motor the
     # law moves departs from the prediction too: the gap mode's filter is
     # slow; at 2 ms one moving at 1.3e-2 rad/s read as a landing).
@@ -235,7 +234,7 @@ def watch(fall, predicted, filtered, reading, rest, alpha, c, dt, torque):
         landed = landing(predicted, reading, fall[4], alpha, c, dt)
         if landed is not None:
             side, estimate = landed
-            return [side, reading, 0.0, LANDED, 0.0, 0.0, 0.0, 0.0, 0.0], estimate
+            return _entered(side, reading, LANDED, 0.0), estimate
     if leant and abs(filtered[2] - filtered[5]) < SETTLED_SHARE * abs(filtered[5]):
         fall[2] += dt
         fall[5], fall[6] = predicted[3], predicted[5]
@@ -244,6 +243,11 @@ def watch(fall, predicted, filtered, reading, rest, alpha, c, dt, torque):
     fall[7] = fall[7] + dt if free else 0.0
     fall[4] = innovation
     return fall, None
+
+
+def _entered(side, hold, caught, light):
+    """The `FALL_STATES` on entering the fall mode."""
+    return [side, hold, 0.0, caught, 0.0, 0.0, 0.0, 0.0, light]
 
 
 def landing(predicted, reading, before, alpha, c, dt):

@@ -65,7 +65,7 @@ from .inertia import INERTIA_STATES
 from .rest_flank import flank_offset, rest_flank_step
 from .servo_kernel import ServoTuning, _smoothstep
 from .stream import jerk_model
-from .trajectory import one_flank_duration, planner_functions, replan_duration
+from .trajectory import planner_functions, replan_duration
 
 __all__ = [
     "SampledServo",
@@ -670,7 +670,7 @@ def sampled_servo(
                 target - start[0], start[1], c.accel_limit, c.min_duration
             )
             if back > 0.0:
-                D = one_flank_duration(
+                D = _gx.one_flank_duration(
                     start, target, D, c.Jl, c.cl, side, _fall.BRAKING_SHARE * back
                 )
             state[0:6] = [*start, target, D]

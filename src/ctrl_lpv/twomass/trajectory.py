@@ -40,7 +40,6 @@ __all__ = [
     "PEAK_ACCEL",
     "move_duration",
     "replan_duration",
-    "one_flank_duration",
     "rest_to_rest",
     "planner_functions",
     "reference_generator",
@@ -121,53 +120,6 @@ def replan_duration(
     """
     ramp = math.sqrt(PEAK_ACCEL * abs(distance) / accel_limit)
     return max(min_duration, ramp, 3.0 * abs(speed) / accel_limit)
-
-
-def _move_from(start, goal: float, duration: float) -> np.polynomial.Polynomial:
-    """The minimum-snap move from ``start = (r, v, a, j)`` to rest at
-    `goal` in `duration`: the seventh-order polynomial of its eight
-    boundary conditions (the Euler-Lagrange equation of the snap is
-    ``r'' = 0``)."""
-    A = np.zeros((8, 8))
-    b = np.zeros(8)
-    for k in range(4):
-        A[k, k] = math.factorial(k)
-        b[k] = start[k]
-        for n in range(k, 8):
-            falling = math.factorial(n) / math.factorial(n - k)
-            A[4 + k, n] = falling * duration ** (n - k)
-    b[4] = goal
-    return np.polynomial.Polynomial(np.linalg.solve(A, b))
-
-
-def one_flank_duration(
-    start, goal: float, shortest: float, Jl: float, cl: float, side: float,
-    spare: float, longest: float = 1.0,
-) -> float:  # fmt: skip
-    """The shortest duration of a minimum-snap move that stays on one flank.
-
-    From `shortest` on, in steps of 5 %, the first duration whose move
-    from ``start = (r, v, a, j)`` to rest at `goal` asks a shaft torque
-    ``F = Jl a + cl v`` that a load torque pressing on the flank `side`
-    (+1 or -1) carries: ``side F >= -spare`` along the move, with `spare`
-    the share of the load torque that may brake. At most `longest`.
-
-    Examples
-    --------
-    >>> D = one_flank_duration((0.0, 0.0, 0.0, 0.0), 0.02, 0.2, 5.6, 1.0, 1.0, 6.0)
-    >>> round(D, 3)
-    0.377
-    """
-    duration = shortest
-    s = np.linspace(0.0, 1.0, 41)
-    while duration < longest:
-        move = _move_from(start, goal, duration)
-        t = s * duration
-        torque = Jl * move.deriv(2)(t) + cl * move.deriv(1)(t)
-        if np.min(side * torque) >= -spare:
-            return duration
-        duration *= 1.05
-    return longest
 
 
 def rest_to_rest(t, distance: float, duration: float) -> np.ndarray:
