@@ -17,6 +17,7 @@ from ctrl_lpv.sensors import Encoder
 from ctrl_lpv.twomass.rest_flank import RestFlank, flank_offset, rest_flank_step
 from ctrl_lpv.twomass.sampled_tuning import sampled_tuning
 from ctrl_lpv.twomass.servo_rest import _peak_to_peak, _rest_loop
+from ctrl_lpv.twomass.servo_sampled import plan_snap, plan_stepper
 from ctrl_lpv.twomass.trajectory import move_duration, rest_to_rest
 
 DT = 1e-3
@@ -85,6 +86,42 @@ def test_paper_scenario_sampled_on_encoders(design):
     assert m["error"] <= 2e-4
     assert m["torque_std"] <= 3.0
     assert m["peak"] <= design.torque_limit + 1e-9
+
+
+@pytest.mark.parametrize("dt", [1e-3, 2e-3, 1.25e-4])
+def test_sampled_plan_is_the_polynomial_to_its_end(design, dt):
+    """The sampled planner is the minimum-snap polynomial at every sample,
+    to the goal at rest with the time-to-go 0, and never reverses (the
+    continuous planner's floor, a fixed filter over the last 40 ms, ran the
+    reference back at the end of a move)."""
+    c, distance = design.tuning, 0.5
+    duration = move_duration(distance, c.accel_limit, c.min_duration)
+    step = plan_stepper(c, dt)
+    plan, rows = [0.0] * 6, []
+    for _ in range(round(duration / dt) + 5):
+        plan = step(plan, distance)
+        rows.append(plan)
+    rows = np.array(rows)
+    t = dt * np.arange(1, len(rows) + 1)
+    exact = rest_to_rest(t, distance, duration)
+    np.testing.assert_allclose(rows[:, 0], exact[0], rtol=0.0, atol=1e-12)
+    # The derivatives to 1e-6 of their peaks: the last samples' jerk, from
+    # a state rounded on the way, scales with 1 / h^3.
+    scale = np.abs(exact[1:4]).max(axis=1)
+    np.testing.assert_allclose(
+        rows[:, 1:4] / scale, exact[1:4].T / scale, rtol=0.0, atol=1e-6
+    )
+    assert np.all(rows[:, 1] >= -1e-12)
+    assert rows[-1].tolist() == [distance, 0.0, 0.0, 0.0, distance, 0.0]
+    # A new target mid-move re-plans from the moving state, and that move
+    # too ends at rest where it is asked.
+    for _ in range(round(0.1 / dt)):
+        plan = step(plan, 1.0)
+    assert plan[1] > 1.0
+    for _ in range(round(1.0 / dt)):
+        plan = step(plan, 0.2)
+    assert plan == [0.2, 0.0, 0.0, 0.0, 0.2, 0.0]
+    assert plan_snap(*plan) == 0.0
 
 
 def test_the_load_follows_the_plan_where_the_command_acts(design):

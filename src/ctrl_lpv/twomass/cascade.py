@@ -65,7 +65,7 @@ import numpy as np
 from .._checks import real_number
 from .parameters import Parameters
 from .servo_kernel import ServoTuning
-from .servo_sampled import flat_feedforward, law_system, plan_stepper
+from .servo_sampled import flat_feedforward, law_system, plan_snap, plan_stepper
 
 __all__ = ["CascadeDesign", "cascade_design", "CASCADE_STATES"]
 
@@ -212,16 +212,13 @@ def _cascade_system(d: CascadeDesign, name: str) -> ct.NonlinearIOSystem:
     kp, kv, ti = d.position_gain, d.speed_gain, d.integral_time
     smoothing = dt / (d.filter_time + dt)  # backward-Euler first-order filter
     plan_step = plan_stepper(c, dt)
-    from .trajectory import planner_functions
-
-    snap_of, _ = planner_functions(c.accel_limit, c.min_duration, c.horizon_floor)
 
     def law(x, y):
         plan = list(x[0:6])
         previous, speed, xi = x[6], x[7], x[8]
         theta_m, theta_l, target = (float(v) for v in y)
         r, v, a, j, g, h = plan
-        _, speed_ff, torque_ff = flat_feedforward(c, v, a, j, snap_of(*plan))
+        _, speed_ff, torque_ff = flat_feedforward(c, v, a, j, plan_snap(*plan))
         speed = speed + smoothing * ((theta_m - previous) / dt - speed)
         error = speed_ff + kp * (r - theta_l) - speed
         raw = torque_ff + kv * (error + xi / ti)

@@ -39,6 +39,7 @@ import numpy as np
 
 __all__ = [
     "remaining_move",
+    "advance_move",
     "torque_sign_changes",
     "one_flank_duration",
     "streamed_sign_changes",
@@ -89,6 +90,32 @@ def remaining_move(x0, v, a, j, h):
         [b.sum(), b[1] + 2 * b[2] + 3 * b[3], 2 * b[2] + 6 * b[3], 6 * b[3]]
     )
     return np.concatenate([b, _END_INV @ rhs])
+
+
+def advance_move(x0, v, a, j, h, tau):
+    """The state of the rest of the minimum-snap move `tau` s on.
+
+    Evaluates the polynomial of `remaining_move` (exact, however short the
+    time-to-go `h`), from ``(r - g, v, a, j)``; at or past the end of the
+    move (``tau >= h``), the goal at rest.
+
+    Returns
+    -------
+    tuple of float
+        ``(r - g, v, a, j)`` at ``tau``.
+    """
+    if tau >= h:
+        return 0.0, 0.0, 0.0, 0.0
+    c = remaining_move(x0, v, a, j, h)
+    powers = (tau / h) ** np.arange(8.0)
+    k = np.arange(8.0)
+    d1 = c[1:] * k[1:]
+    d2 = d1[1:] * k[1:-1]
+    d3 = d2[1:] * k[1:-2]
+    return (
+        float(c @ powers), float(d1 @ powers[:7]) / h, float(d2 @ powers[:6]) / h**2,
+        float(d3 @ powers[:5]) / h**3,
+    )  # fmt: skip
 
 
 def _torque_coefficients(c, h, Jl, cl, Td):

@@ -65,12 +65,13 @@ from .inertia import INERTIA_STATES
 from .rest_flank import flank_offset, rest_flank_step
 from .servo_kernel import ServoTuning, _smoothstep
 from .stream import jerk_model
-from .trajectory import planner_functions, replan_duration
+from .trajectory import PLAN_GAINS, replan_duration
 
 __all__ = [
     "SampledServo",
     "sampled_servo",
     "plan_stepper",
+    "plan_snap",
     "flat_feedforward",
     "integral_holding",
     "SAMPLED_STATES",
@@ -100,7 +101,6 @@ MOTOR_STATES = [
 _FALL = _NS + 11
 _LIGHT = _fall.FALL_STATES.index("light_load")
 
-_PLAN_SUBSTEPS = 4
 _STREAM_REST_ACCEL = 1e-3  # rad/s^2
 # A streamed set-point's gap crossings are planned above this speed (rad/s):
 # where a streamed move stops, the tracker's acceleration rings (1.5 rad/s^2
@@ -202,40 +202,43 @@ class SampledServo:
 def plan_stepper(c: ServoTuning, dt: float):
     """The servo's planner advanced by one sample of `dt`.
 
+    The rest of the move is the minimum-snap polynomial from the present
+    plan to rest at the goal in the time-to-go (`ctrl_lpv.twomass.trajectory`),
+    evaluated a sample on (`gap_crossing.advance_move`) down to the goal, where
+    the time-to-go is 0. (The continuous planner's floor on the time-to-go,
+    a fixed linear filter over the last 40 ms, is not used sampled: its tail
+    reversed the reference, -2.8e-3 rad/s after +1.2e-2, the planned crossing
+    read it as a change of flank and let go of the braking load at 8e-3 rad/s,
+    the start of the Td = 0 rest's flips; docs/servo.rst, "The move's end".)
+
     Returns
     -------
     callable
         ``plan_step(plan, target) -> next plan`` on ``plan = [r, v_r, a_r,
         j_r, goal, time_to_go]`` (the first six of `SAMPLED_STATES`): a new
-        target re-plans the move from the present plan (RK4 substeps of
-        the minimum-snap law of `ctrl_lpv.twomass.trajectory`).
+        target re-plans the move from the present plan.
     """
-    snap_of, _ = planner_functions(c.accel_limit, c.min_duration, c.horizon_floor)
-    hmin = c.horizon_floor
 
     def plan_step(plan, target):
         """The planner one sample on: a new target re-plans the move."""
         r, v, a, j, g, h = plan
         if target != g:
             g, h = target, replan_duration(target - r, v, c.accel_limit, c.min_duration)
-        step = dt / _PLAN_SUBSTEPS
-
-        def rate(x):
-            r_, v_, a_, j_, h_ = x
-            dh = -1.0 if h_ > hmin else 0.0
-            return np.array([v_, a_, j_, snap_of(r_, v_, a_, j_, g, h_), dh])
-
-        x = np.array([r, v, a, j, h])
-        for _ in range(_PLAN_SUBSTEPS):  # RK4: the snap law is smooth
-            q1 = rate(x)
-            q2 = rate(x + 0.5 * step * q1)
-            q3 = rate(x + 0.5 * step * q2)
-            q4 = rate(x + step * q3)
-            x = x + step / 6.0 * (q1 + 2.0 * q2 + 2.0 * q3 + q4)
-            x[4] = max(x[4], hmin)
-        return [x[0], x[1], x[2], x[3], g, x[4]]
+        if h <= dt * (1.0 + 1e-9):  # the move ends within this sample
+            return [g, 0.0, 0.0, 0.0, g, 0.0]
+        e, v, a, j = _gx.advance_move(r - g, v, a, j, h, dt)
+        return [g + e, v, a, j, g, h - dt]
 
     return plan_step
+
+
+def plan_snap(r, v, a, j, g, h):
+    """The snap of the minimum-snap move from ``(r, v, a, j)`` to rest at
+    `g` in `h` s (0 once the move has ended, ``h = 0``)."""
+    if h <= 0.0:
+        return 0.0
+    p0, p1, p2, p3 = PLAN_GAINS
+    return -(p0 * (r - g) / h**4 + p1 * v / h**3 + p2 * a / h**2 + p3 * j / h)
 
 
 def flat_feedforward(c: ServoTuning, v, a, j, snap, scale=1.0):
@@ -273,8 +276,6 @@ def sampled_servo(
     ks, cs = c.ks, c.cs
     k1, k2, k3, k4, k5 = c.gain
     limit, dt, delayed = c.torque_limit, s.dt, s.delay == 1
-    snap_of, _ = planner_functions(c.accel_limit, c.min_duration, c.horizon_floor)
-    hmin = c.horizon_floor
     a0, amax, teps, tc = c.alpha_initial, c.alpha_max, c.flank_width, c.contact_torque
     leak, gam, probe, hold = (
         c.integral_leak,
@@ -318,7 +319,7 @@ def sampled_servo(
             # mrad at 4.4 rad/s on a 0.5 rad move, 0.5 with this).
             next_plan = plan_step(plan, target)
             r, v, a, j, g, h = next_plan if delayed else plan
-            snap = snap_of(r, v, a, j, g, h)
+            snap = plan_snap(r, v, a, j, g, h)
             F, wmf, tff = flat_feedforward(c, v, a, j, snap, scale)
             return (r, v, a, j, F, wmf, tff, g, h), next_plan
         # Streamed: correct the tracker with the sample, extrapolate it (the
@@ -328,7 +329,7 @@ def sampled_servo(
         r, v, a, j = to_act @ z
         F, wmf, _ = flat_feedforward(c, v, a, j, 0.0, scale)
         tff = flat_feedforward(c, *(to_hold @ z)[1:], 0.0, scale)[2]
-        return (r, v, a, j, F, wmf, tff, target, hmin), [*(Pz @ z), target, hmin]
+        return (r, v, a, j, F, wmf, tff, target, 0.0), [*(Pz @ z), target, 0.0]
 
     def law(x, y):
         plan, xhat = list(x[0:6]), np.asarray(x[6:12])
@@ -368,7 +369,7 @@ def sampled_servo(
             # The half-gap learns near the prediction's contact changes and
             # where a move's reading breaks with the model
             # (`MotorEstimator.learns`).
-            plan_rest = plan[5] <= hmin * (1.0 + 1e-9) and abs(plan[0] - plan[4]) < 1e-6
+            plan_rest = plan[5] <= 0.0
             # Unless a load torque presses the load onto a flank (its
             # estimate and the integral's, both beyond the contact torque):
             # a load in the gap then does not stop, and a reading that
@@ -416,7 +417,7 @@ def sampled_servo(
         # The flank offset, as in the continuous law (`servo_kernel`).
         el, dl = tl - r, wl - v
         ah = a0 + dah
-        at_rest = h <= hmin * (1.0 + 1e-9) and abs(r - g) < 1e-6 and abs(v) < 1e-5
+        at_rest = h <= 0.0 and abs(r - g) < 1e-6 and abs(v) < 1e-5
         if streamed:
             # A streamed set-point rests only once the tracker has stopped
             # accelerating too: a sine's turning point (v = 0 for one
