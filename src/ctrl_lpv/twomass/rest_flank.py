@@ -35,6 +35,13 @@ free mass).
   `flip_torque` long enough, a CUSUM test ``q <- max(0, q + dt (-side T* -
   flip_torque))`` against `flip_evidence` (a load torque of the other sign
   or a load drifting the other way: sustained; the noise: not);
+* **not off a loaded flank**: while the shaft carries torque on the
+  latched flank (the load bounces off it, or leans on it) the latch holds,
+  no flip test and no release: ``T*`` reads the bounce's load speed (``k4`` is 560 Nm per rad/s
+  of it) as a reason to change flank within 8 ms, and the flip let go of
+  the loaded shaft mid-bounce; the load, thrown at 1.2e-2 rad/s onto the
+  other flank, came back as fast, a ping-pong at 100 Nm (Td 0.5 Nm, alpha
+  0.03, seed 1, 20 flips a second);
 * **cross, do not slam**: a flip takes the parked motor across the gap along
   a quintic at a peak acceleration of `crossing_accel` (`flank_offset`),
   with no flip test on the way, where the load is slower than
@@ -137,16 +144,21 @@ def rest_flank_step(
     load_torque: float,
     tstar: float,
     psi: float,
+    pressed: bool = False,
 ) -> tuple[float, float]:
     """One sample of the latch: the new ``(side, evidence)``.
 
     ``side`` is 0 (not latched: the continuous flank choice) or +-1 (the
     latched flank, the sign of the shaft torque it transmits); ``evidence``
     is the CUSUM statistic of a flip; ``psi`` the continuous law's flank
-    offset (-1 to 1) at this sample.
+    offset (-1 to 1) at this sample; ``pressed`` whether the shaft carries
+    torque on the latched flank (its estimate beyond the contact torque on
+    that side): the latch holds then, no flip test and no release.
     """
     if not resting:
         return 0.0, 0.0
+    if pressed:
+        return side, evidence
     if side != 0.0 and abs(error) > f.release_error:
         return 0.0, 0.0
     if side == 0.0:

@@ -477,7 +477,7 @@ def sampled_servo(
             if left <= 0.0 or not at_rest:
                 side, evidence = rest_flank_step(
                     rest, dt, side, evidence, resting=at_rest, error=el, speed=dl,
-                    load_torque=at[5], tstar=tstar, psi=psi,
+                    load_torque=at[5], tstar=tstar, psi=psi, pressed=side * tsh > tc,
                 )  # fmt: skip
             if side != 0.0:
                 psi, dpsi, ddpsi, crossing = flank_offset(
