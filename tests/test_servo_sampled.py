@@ -304,10 +304,11 @@ def test_latched_rest_runs_on_quieter_observer_gains(design):
     assert sampled_tuning(2e-3).rest_rates is None
 
 
-#: The quiet-rest runs that relay (measured; docs/servo.rst, "The plan where
-#: the command acts"): alpha 0.03, 0.5 rad, seed 2 at 22 Nm (three flips)
-#: since the reference is the plan where the command acts (1.5 Nm before).
-_REST_MISSES = {(0.03, 0.5, 1.0, 2)}
+#: The quiet-rest runs that relay (measured; docs/servo.rst, "The move's
+#: end"): Jl x1.2, 1 rad, seed 6 at 22 Nm (a load caught by a crossing motor
+#: comes back faster, then a step flip); alpha 0.03, 0.5 rad, seed 2 (22 Nm
+#: before) is quiet since the planner runs to its end.
+_REST_MISSES = {(0.03, 1.0, 1.2, 6)}
 
 
 def _rest_runs():
@@ -551,15 +552,16 @@ def test_flank_offset_crosses_the_gap_along_a_quintic():
 
 
 def test_rest_without_load_torque_crosses_the_gap_without_a_slam(design):
-    """Td = 0 on encoders (alpha 0.03, seed 1; issue 22: the rest is not yet
-    quiet, 6 flank changes after the move on this run): once latched the
+    """Td = 0 on encoders (alpha 0.03, seed 3; issue 22: the rest is not yet
+    quiet on every seed, 3 flank changes after the first second on this
+    run): once latched the
     motor stays below 30 Nm, every change of flank a crossing of the gap at
     `RestFlank.crossing_accel` (``Jm`` x 12 rad/s^2 = 4.8 Nm) where a step of
     the motor reference slams at the torque limit; the gap estimate stays
     within the parking clearance of the gap (no probing while latched, the
     contact not made there is the clearance), and the continuous flank
     choice chatters several times more."""
-    res = _simulate(design, Td=0.0, alpha=0.03)
+    res = _simulate(design, Td=0.0, alpha=0.03, seed=3)
     c, t = res.controller, res.plant.time
     side = c.states[c.state_labels.index("flank_side")]
     dev = c.states[c.state_labels.index("alpha_hat_dev")]
@@ -578,7 +580,7 @@ def test_rest_without_load_torque_crosses_the_gap_without_a_slam(design):
             dt=DT, delay=1, sensors="encoders", certify=False,
             anti_hunting=twomass.ServoAntiHunting(rest_flank=rest_flank),
         )  # fmt: skip
-        old = _simulate(other, Td=0.0, alpha=0.03).plant.inputs[0]
+        old = _simulate(other, Td=0.0, alpha=0.03, seed=3).plant.inputs[0]
         assert np.abs(old[rest]).max() >= peak
         assert np.std(old[rest]) >= spread
 

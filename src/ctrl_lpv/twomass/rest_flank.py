@@ -37,9 +37,9 @@ free mass).
   or a load drifting the other way: sustained; the noise: not);
 * **not off a loaded flank**: while the shaft carries torque on the
   latched flank (the load bounces off it, or leans on it) the latch holds,
-  no flip test and no release: ``T*`` reads the bounce's load speed (``k4`` is 560 Nm per rad/s
-  of it) as a reason to change flank within 8 ms, and the flip let go of
-  the loaded shaft mid-bounce; the load, thrown at 1.2e-2 rad/s onto the
+  no flip test and no release: ``T*`` reads the bounce's load speed (560
+  Nm per rad/s of it) as a reason to change flank within 8 ms, and the
+  flip let go of the loaded shaft mid-bounce; the load, thrown at 1.2e-2 rad/s onto the
   other flank, came back as fast, a ping-pong at 100 Nm (Td 0.5 Nm, alpha
   0.03, seed 1, 20 flips a second);
 * **cross, do not slam**: a flip takes the parked motor across the gap along
