@@ -39,9 +39,9 @@ free mass).
   latched flank (the load bounces off it, or leans on it) the latch holds,
   no flip test and no release: ``T*`` reads the bounce's load speed (560
   Nm per rad/s of it) as a reason to change flank within 8 ms, and the
-  flip let go of the loaded shaft mid-bounce; the load, thrown at 1.2e-2 rad/s onto the
-  other flank, came back as fast, a ping-pong at 100 Nm (Td 0.5 Nm, alpha
-  0.03, seed 1, 20 flips a second);
+  flip let go of the loaded shaft mid-bounce; the load, thrown at 1.2e-2
+  rad/s onto the other flank, came back as fast, a ping-pong at 100 Nm
+  (Td 0.5 Nm, alpha 0.03, seed 1, 20 flips a second);
 * **cross, do not slam**: a flip takes the parked motor across the gap along
   a quintic at a peak acceleration of `crossing_accel` (`flank_offset`),
   with no flip test on the way, where the load is slower than
