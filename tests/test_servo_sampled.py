@@ -486,6 +486,32 @@ def test_rest_flank_holds_against_noise_and_flips_on_evidence():
     assert side == -1.0 and abs(steps - expected) <= 2
 
 
+def test_rest_flank_holds_while_its_shaft_is_loaded():
+    """While the shaft carries torque on the latched flank (a load bouncing
+    off it) neither the evidence of the other flank nor a load error beyond
+    the release flips or releases it; once the shaft lets go, both act."""
+    f = RestFlank()
+    dt, steps = 1e-3, 1000
+    common = dict(resting=True, speed=0.0, load_torque=0.0, psi=0.0)
+    side, evidence = 1.0, 0.0
+    for _ in range(steps):  # 1 s of 5 Nm asked on the other flank
+        side, evidence = rest_flank_step(
+            f, dt, side, evidence, error=0.0, tstar=-5.0, pressed=True, **common
+        )
+    assert (side, evidence) == (1.0, 0.0)
+    far = 2.0 * f.release_error
+    assert rest_flank_step(
+        f, dt, 1.0, 0.0, error=far, tstar=0.0, pressed=True, **common
+    ) == (1.0, 0.0)
+    assert rest_flank_step(
+        f, dt, 1.0, 0.0, error=far, tstar=0.0, pressed=False, **common
+    ) == (0.0, 0.0)
+    flipped = rest_flank_step(
+        f, dt, 1.0, f.flip_evidence, error=0.0, tstar=-5.0, pressed=False, **common
+    )
+    assert flipped == (-1.0, 0.0)
+
+
 def test_rest_flank_latches_only_near_the_target_with_a_small_load_torque():
     """And only on the flank the motor already turns to (no jump of the
     motor reference)."""
