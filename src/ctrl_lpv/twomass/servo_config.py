@@ -83,7 +83,9 @@ class ServoPlanner:
         Shortest move, s (default 0.2: short moves excite the shaft mode
         through the feedforward's inertia error).
     horizon_floor : float, optional
-        Floor of the planner's time-to-go, s (default 0.04).
+        Floor of the continuous planner's time-to-go, s (default 0.04);
+        sampled, the planner runs the move to its end
+        (`ctrl_lpv.twomass.servo_sampled.plan_stepper`).
 
     Raises
     ------
