@@ -69,6 +69,9 @@ SCENARIOS = [
     ("Td=0, alpha 0.03, Jl x0.8, 0.05 rad", 0.0, 0.03, 0.8, 0.05),
     ("Td=0, alpha 0.03, Jl x1.2, 1 rad", 0.0, 0.03, 1.2, 1.0),
     ("Td=30, alpha 0.03 (certified rest)", 30.0, 0.03, 1.0, 0.5),
+    # The first move from mid-gap, the load torque along the step (docs:
+    # "The first move from mid-gap").
+    ("Td=8, alpha 0.03, -0.05 rad", 8.0, 0.03, 1.0, -0.05),
 ]
 
 
@@ -183,6 +186,8 @@ MOTOR_SCENARIOS = [
     ("Td=5, alpha 0.03", 5.0, 0.03, 1.0, 0.5),
     ("Td=8, alpha 0.03, 0.05 rad", 8.0, 0.03, 1.0, 0.05),
     ("Td=8, alpha 0.03, -0.05 rad", 8.0, 0.03, 1.0, -0.05),
+    ("Td=8, alpha 0.06, 0.05 rad", 8.0, 0.06, 1.0, 0.05),
+    ("Td=8, alpha 0.06, -0.05 rad", 8.0, 0.06, 1.0, -0.05),
     ("Td=8, alpha 0.03, 1 rad", 8.0, 0.03, 1.0, 1.0),
     ("Td=8, alpha 0.03, -1 rad", 8.0, 0.03, 1.0, -1.0),
     ("Td=8, Jl x0.8", 8.0, 0.03, 0.8, 0.5),

@@ -408,6 +408,13 @@ _MOTOR_MISSES = {
 }
 
 
+#: Measured on seeds 1-6 (1 ms, delay 1): +0.05 rad overshoots 11.8-12.0 %,
+#: -0.05 rad 9.5-244 %. Strict: a pass here is news.
+_FIRST_MOVE = pytest.mark.xfail(
+    strict=True, reason="issue 22: the first move's contact at the widest gap"
+)
+
+
 def _known_miss(request, *key):
     if key in _MOTOR_MISSES:
         request.applymarker(
@@ -434,6 +441,11 @@ def _known_miss(request, *key):
         (8.0, 0.03, 1.0, -0.05),
         pytest.param(8.0, 0.03, 0.8, 0.5, marks=_LIMIT),
         pytest.param(8.0, 0.03, 1.2, 0.5, marks=_LIMIT),
+        # Small first moves at the widest gap (the estimate starts at 0.03):
+        # the first contact comes 30 mrad after the predicted one, at 2 rad/s
+        # (docs/servo.rst, "The first move from mid-gap").
+        pytest.param(8.0, 0.06, 1.0, 0.05, marks=_FIRST_MOVE),
+        pytest.param(8.0, 0.06, 1.0, -0.05, marks=_FIRST_MOVE),
     ],
 )
 def test_pressed_load_grid(motor_design, Td, alpha, Jl, theta_r, seed, request):

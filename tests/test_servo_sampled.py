@@ -265,6 +265,24 @@ def test_grid_with_a_load_torque(design, case):
     assert m["torque_std"] <= 3.0
 
 
+@pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="issue 22: the first move from mid-gap with the load torque along",
+)
+@pytest.mark.parametrize("Td, alpha, theta_r", [(8.0, 0.03, -0.05), (-8.0, 0.03, 0.05)])
+def test_first_small_move_from_mid_gap_with_the_load_torque_along(
+    design, Td, alpha, theta_r
+):
+    """The run starts with the load mid-gap and a 0.05 rad step in the
+    direction the load torque pushes: the issue's 1.5 % is missed (2.5-3.2 %
+    on seeds 1-6; docs/servo.rst, "The first move from mid-gap"), the same
+    step from rest on a flank meets it (`test_servo_inertia`)."""
+    m = _run(design, Td=Td, alpha=alpha, theta_r=theta_r)
+    assert m["overshoot"] <= 1.5
+    assert m["settling"] <= 0.3
+
+
 def _estimate_noise(Phi, M, steps):
     """Standard deviation of the filtered estimate's error, per state, under
     the encoders' reading noise alone (quantization and half a count, white),
