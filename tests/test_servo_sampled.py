@@ -266,18 +266,18 @@ def test_grid_with_a_load_torque(design, case):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason="issue 22: the first move from mid-gap with the load torque along",
+@pytest.mark.parametrize(
+    "Td, alpha, theta_r",
+    [(8.0, 0.03, -0.05), (-8.0, 0.03, 0.05), (8.0, 0.06, -0.05), (30.0, 0.03, -0.1)],
 )
-@pytest.mark.parametrize("Td, alpha, theta_r", [(8.0, 0.03, -0.05), (-8.0, 0.03, 0.05)])
 def test_first_small_move_from_mid_gap_with_the_load_torque_along(
     design, Td, alpha, theta_r
 ):
-    """The run starts with the load mid-gap and a 0.05 rad step in the
-    direction the load torque pushes: the issue's 1.5 % is missed (2.5-3.2 %
-    on seeds 1-6; docs/servo.rst, "The first move from mid-gap"), the same
-    step from rest on a flank meets it (`test_servo_inertia`)."""
+    """The run starts with the load mid-gap and a small step in the direction
+    the load torque pushes: 2.2-3.2 % over on seeds 1-6 before the load torque
+    was measured by the load's fall and held by the integral in the first
+    move (`ctrl_lpv.twomass.cold_start`; docs/servo.rst, "The first move from
+    mid-gap")."""
     m = _run(design, Td=Td, alpha=alpha, theta_r=theta_r)
     assert m["overshoot"] <= 1.5
     assert m["settling"] <= 0.3

@@ -42,6 +42,7 @@ from ..exceptions import CertificationError
 from ..interconnection import kernel_nlsys
 from ..synthesis import StateFeedbackDesign, hinf_state_feedback
 from ..systems import PolytopicStateSpace
+from .cold_start import cold_start
 from .drive_observer import drive_observer, observer_matrices
 from .inertia import ServoInertia, inertia_adaptation
 from .model import lpv_model
@@ -489,6 +490,10 @@ def servo_design(
                 ),
                 plan_crossings=rule.plan_crossings,
                 contact_twist=rule.contact_twist,
+                cold_start=(
+                    cold_start(encoder_counts, _READ[sensors])
+                    if sensors == "encoders" else None
+                ),
             )  # fmt: skip
 
         if sensors == "motor":

@@ -60,6 +60,7 @@ import numpy as np
 
 from . import gap_crossing as _gx
 from . import gap_fall as _fall
+from .cold_start import COLD_START_STATES
 from .drive_observer import DRIVE_STATES
 from .inertia import INERTIA_STATES
 from .rest_flank import flank_offset, rest_flank_step
@@ -182,6 +183,10 @@ class SampledServo:
         `M` throughout. The switch is not covered by the observer's
         certificate (each gain set is certified on its own), as the latch
         is not by the rest's.
+    cold_start : `ctrl_lpv.twomass.cold_start.ColdStart` or None
+        The load torque measured by the load's fall at a cold start, and
+        held by the integral in moves until the first rest (drive observer
+        only; its states last), or None.
     """
 
     dt: float
@@ -197,6 +202,7 @@ class SampledServo:
     plan_crossings: bool = True
     contact_twist: float = 0.0
     M_rest: tuple | None = None
+    cold_start: object = None
 
 
 def plan_stepper(c: ServoTuning, dt: float):
@@ -294,6 +300,9 @@ def sampled_servo(
     nread = len(rows)
     motor = s.estimator
     inertia = s.inertia
+    cold = s.cold_start if motor is None else None
+    # The cold start's states follow the inertia estimate's.
+    first_cold = _NS + (0 if inertia is None else len(INERTIA_STATES))
 
     def blend(pair, w):
         return pair[0] + w * (pair[1] - pair[0])
@@ -354,7 +363,6 @@ def sampled_servo(
             # sample, on the state the command already on its way leads to.
             if inertia is None:
                 filtered = xhat + gain @ innovation
-                ahead = Ph @ filtered + Gh * u_prev
             else:
                 # The load inertia learnt along moves (`inertia`).
                 learnt = x[_NS : _NS + len(INERTIA_STATES)]
@@ -362,6 +370,16 @@ def sampled_servo(
                     xhat, learnt, innovation, gain, rows, Ph, plan[2], contact
                 )
                 dJ = learnt[0]
+            if cold is not None:
+                # The load torque at a cold start, from the load's fall in
+                # the gap (`cold_start`).
+                filtered, started = cold.correct(
+                    xhat, filtered, x[first_cold:], innovation, gain, rows, Ph,
+                    contact=contact, alpha_hat=a0 + dah,
+                )  # fmt: skip
+            if inertia is None:
+                ahead = Ph @ filtered + Gh * u_prev
+            else:
                 ahead = inertia.predict(Ph, Gh, filtered, u_prev, dJ, plan[2])
         else:
             # Motor encoder alone: the dead-zone model, the half-gap
@@ -584,11 +602,19 @@ def sampled_servo(
                 filtered, sens, u, gap, dP, resting
             )
         xi_next = xi + dt * dxi
-        if motor is not None and not at_rest:
-            # Motor encoder alone: in a move the integral holds the load
-            # torque estimated now, not the last rest's (`motor_estimator`).
-            xi_next += _integral_share(v, hold) * (
-                integral_holding(at[5], k1, k5, ks) - xi_next
+        # In a move the integral holds the load torque estimated now, not
+        # the last rest's: on the motor encoder alone (`motor_estimator`),
+        # and on encoders a load torque measured at a cold start until a
+        # rest has taught the integral (`cold_start`; a streamed set-point's
+        # feedforward carries the estimate instead).
+        estimated = 1.0 if motor is not None else 0.0
+        if cold is not None and not streamed and v * at[5] < 0.0:
+            estimated = started[-1]
+        if estimated > 0.0 and not at_rest:
+            xi_next += (
+                estimated
+                * _integral_share(v, hold)
+                * (integral_holding(at[5], k1, k5, ks) - xi_next)
             )
         if learnt_gap != 0.0:
             # The gap estimate learnt from a flank reading moves the flank
@@ -604,6 +630,9 @@ def sampled_servo(
         state += [evidence, td_rest, crossing]
         if inertia is not None:
             state += list(learnt)
+        if cold is not None:
+            started[-1] = cold.hand_over(started[-1], at_rest, dt)
+            state += list(started)
         if motor is not None:
             window = motor.learning_window(filtered, predicted, gap, x[_NS + 6])
             state[13] = gap - a0
@@ -687,6 +716,8 @@ def sampled_servo(
     states = SAMPLED_STATES if motor is None else SAMPLED_STATES + MOTOR_STATES
     if inertia is not None:
         states = SAMPLED_STATES + INERTIA_STATES
+    if cold is not None:
+        states = states + COLD_START_STATES
     return law_system(law, [*s.measured, "theta_r"], states, s.dt, name)
 
 

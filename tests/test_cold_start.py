@@ -1,0 +1,168 @@
+"""The load torque at a cold start (`ctrl_lpv.twomass.cold_start`).
+
+The fit is checked against the batch answer to the same question, written
+independently: the Bayesian least-squares estimate of a constant load
+torque from the readings of a free load, whose response to a unit torque is
+the closed form of ``Jl dw/dt = -cl w - Td``.
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from ctrl_lpv import sampled_response, twomass
+from ctrl_lpv.sensors import Encoder
+from ctrl_lpv.twomass.cold_start import COLD_START_STATES, ColdStart, cold_start
+from ctrl_lpv.twomass.drive_observer import DRIVE_STATES
+
+DT = 1e-3
+STEP = 2.0 * math.pi / 2**17
+ENCODERS = {"theta_m": Encoder(2**20, 0.5), "theta_l": Encoder(2**17, 0.5)}
+LOAD = [DRIVE_STATES.index("theta_l")]
+
+
+@pytest.fixture(scope="module")
+def design():
+    return twomass.servo_design(dt=DT, delay=1, sensors="encoders", certify=False)
+
+
+def _free_load_response(t, params):
+    """The load angle at `t` of a free load at rest under a unit load
+    torque (closed form)."""
+    tau = params.Jl / params.cl
+    return -(t - tau * (1.0 - np.exp(-t / tau))) / params.cl
+
+
+def _fit(fit, Phi, readings, *, contact=0.0, twist=0.0):
+    """Run the fit alone (no observer correction: gain 0) on load readings
+    of a load predicted at rest at the origin, the motor `twist` from it, a
+    half-gap estimate of 0.03 rad; return the last states."""
+    states = fit.initial()
+    predicted = np.zeros(len(DRIVE_STATES))
+    predicted[0] = twist
+    gain = np.zeros((len(DRIVE_STATES), 1))
+    for y in readings:
+        innovation = np.array([y - predicted[3]])
+        _, states = fit.correct(
+            predicted, predicted, states, innovation, gain, LOAD, Phi,
+            contact=contact, alpha_hat=0.03,
+        )  # fmt: skip
+    return states
+
+
+def test_fit_of_a_free_fall_is_the_batch_estimate(design):
+    """A free load falling under 8 Nm, read through a 17-bit encoder for 30
+    ms: the fit's estimate and variance are the batch Bayesian
+    least-squares ones, and the estimate is within three of its standard
+    deviations of the torque."""
+    params = twomass.Parameters()
+    Phi = design.sampling.Phi[0]  # the gap
+    t = DT * np.arange(30)
+    H = _free_load_response(t, params)
+    rng = np.random.default_rng(7)
+    Td = 8.0
+    readings = STEP * np.round((Td * H) / STEP + 0.5 * rng.standard_normal(t.size))
+    fit = ColdStart(reading_variance=(STEP**2 / 3.0,))
+    states = _fit(fit, Phi, readings)
+    P = fit.prior**2 + states[COLD_START_STATES.index("P_fall_dev")]
+    estimate = states[COLD_START_STATES.index("Td_fall")]
+    R = fit.reading_variance[0]
+    information = H @ H / R + 1.0 / fit.prior**2
+    assert P == pytest.approx(1.0 / information, rel=1e-6)
+    assert estimate == pytest.approx((H @ readings / R) / information, rel=1e-6)
+    assert abs(estimate - Td) < 3.0 * math.sqrt(P)
+
+
+def test_fit_stops_short_of_a_flank_and_in_contact(design):
+    """No reading teaches the fit in contact, nor with the twist beyond the
+    half-gap's margin (a contact between two samples would read as load
+    torque)."""
+    Phi = design.sampling.Phi[0]
+    fit = cold_start((2**20, 2**17), ("theta_l",))
+    readings = np.full(10, 1e-3)
+    for kwargs in ({"contact": 1.0}, {"twist": -0.81 * 0.03}):
+        states = _fit(fit, Phi, readings, **kwargs)
+        assert states[COLD_START_STATES.index("P_fall_dev")] == 0.0
+        assert states[COLD_START_STATES.index("Td_fall")] == 0.0
+    # Between twice the margin and the margin short of the flank: in part.
+    partial = _fit(fit, Phi, readings, twist=0.7 * 0.03)
+    full = _fit(fit, Phi, readings)
+    assert (
+        full[COLD_START_STATES.index("P_fall_dev")]
+        < partial[COLD_START_STATES.index("P_fall_dev")]
+        < 0.0
+    )
+
+
+def test_a_fall_joins_the_observer_once_over_and_significant(design):
+    """The estimate joins the observer's state when the fall is over (in
+    contact) and only beyond `significance` standard deviations: then the
+    load is where a load falling under the estimated torque since the start
+    is (closed form); a load at rest leaves the observer as it was."""
+    Phi = design.sampling.Phi[0]
+    fit = cold_start((2**20, 2**17), ("theta_l",))
+    params = twomass.Parameters()
+    t = DT * np.arange(21)
+    H = _free_load_response(t, params)
+    predicted = np.zeros(len(DRIVE_STATES))
+    gain = np.zeros((len(DRIVE_STATES), 1))
+    for Td in (8.0, 0.0):
+        states = _fit(fit, Phi, Td * H[:-1])
+        pending = states[COLD_START_STATES.index("Td_fall")]
+        P = fit.prior**2 + states[COLD_START_STATES.index("P_fall_dev")]
+        significant = pending**2 > fit.significance**2 * P
+        assert significant == (Td != 0.0)
+        in_gap, _ = fit.correct(
+            predicted, predicted, states, np.zeros(1), gain, LOAD, Phi,
+            contact=0.0, alpha_hat=0.03,
+        )  # fmt: skip
+        assert not np.any(in_gap)
+        filtered, after = fit.correct(
+            predicted, predicted, states, np.zeros(1), gain, LOAD, Phi,
+            contact=1.0, alpha_hat=0.03,
+        )  # fmt: skip
+        if significant:
+            assert pending == pytest.approx(Td, rel=1e-2)  # the prior shrinks it
+            assert filtered[DRIVE_STATES.index("Td")] == pytest.approx(pending)
+            assert filtered[3] == pytest.approx(pending * H[-1], rel=1e-9)
+            assert after[COLD_START_STATES.index("Td_fall")] == 0.0
+        else:
+            assert not np.any(filtered)
+
+
+def test_hand_over_decays_at_rest_and_holds_in_moves():
+    """The share of the measured load torque the integral does not hold yet
+    is held in moves and decays at rest with the time constant `memory`."""
+    fit = cold_start((2**20, 2**17))
+    assert fit.hand_over(1.0, False, DT) == 1.0
+    unheld = 1.0
+    for _ in range(round(fit.memory / DT)):
+        unheld = fit.hand_over(unheld, True, DT)
+    assert unheld == pytest.approx(math.exp(-1.0), rel=1e-2)
+
+
+def test_first_move_from_mid_gap_needs_the_cold_start(design):
+    """The 0.05 rad step along 8 Nm from mid-gap (1 ms, encoders, seed 1):
+    without the cold start the load overshoots 2.5-3.2 % (the integral holds
+    no load torque and the observer learns it slowly), with it the issue's
+    1.5 % is met; the load torque at the end of the move is known."""
+    plain = dataclasses.replace(
+        design, sampling=dataclasses.replace(design.sampling, cold_start=None)
+    )
+    overshoot = {}
+    for name, d in (("plain", plain), ("cold", design)):
+        plant = twomass.plant(twomass.Parameters(), alpha=0.03)
+        res = sampled_response(
+            plant, d.controller(), 0.4, inputs={"Td": 8.0, "theta_r": -0.05},
+            delay=1, sensors=ENCODERS, seed=1,
+        )  # fmt: skip
+        e = res.plant.outputs[2] + 0.05
+        overshoot[name] = max(0.0, -float(e.min())) / 0.05 * 100
+        if name == "cold":
+            c = res.controller
+            td = c.states[c.state_labels.index("Td_hat")][-1]
+            assert td == pytest.approx(8.0, abs=1.0)
+    assert overshoot["plain"] > 2.0
+    assert overshoot["cold"] <= 1.5
