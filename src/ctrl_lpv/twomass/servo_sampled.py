@@ -185,8 +185,8 @@ class SampledServo:
         is not by the rest's.
     cold_start : `ctrl_lpv.twomass.cold_start.ColdStart` or None
         The load torque measured by the load's fall at a cold start, and
-        held by the integral in moves until the first rest (drive observer
-        only; its states last), or None.
+        held by the integral in moves along it until the first rest (drive
+        observer only; its states last), or None.
     """
 
     dt: float
@@ -604,9 +604,10 @@ def sampled_servo(
         xi_next = xi + dt * dxi
         # In a move the integral holds the load torque estimated now, not
         # the last rest's: on the motor encoder alone (`motor_estimator`),
-        # and on encoders a load torque measured at a cold start until a
-        # rest has taught the integral (`cold_start`; a streamed set-point's
-        # feedforward carries the estimate instead).
+        # and on encoders a load torque measured at a cold start, in a move
+        # the way it pushes, until a rest has taught the integral
+        # (`cold_start`; a streamed set-point's feedforward carries the
+        # estimate instead).
         estimated = 1.0 if motor is not None else 0.0
         if cold is not None and not streamed and v * at[5] < 0.0:
             estimated = started[-1]
