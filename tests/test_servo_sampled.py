@@ -8,6 +8,8 @@ checked against the worst input sequence built from the impulse response
 (which attains it) and against the exact reachable set of a scalar loop.
 """
 
+import itertools
+
 import control as ct
 import numpy as np
 import pytest
@@ -279,6 +281,43 @@ def test_first_small_move_from_mid_gap_with_the_load_torque_along(
     move (`ctrl_lpv.twomass.cold_start`; docs/servo.rst, "The first move from
     mid-gap")."""
     m = _run(design, Td=Td, alpha=alpha, theta_r=theta_r)
+    assert m["overshoot"] <= 1.5
+    assert m["settling"] <= 0.3
+
+
+#: First moves from the origin (the load mid-gap, the load torque unknown)
+#: that miss (measured, seed 1; docs/servo.rst, "The first move from
+#: mid-gap"): Jl x1.2 at alpha 0.06 (the gap twice its first estimate and
+#: the first move too short to learn the inertia; 18 of the grid's 96 runs
+#: missed before the cold start, these among them), Jl x1.2 along 8 Nm at
+#: alpha 0.03 (the fall measures ``Td Jl / Jl_true``) and one slow landing.
+_FIRST_MOVE_MISSES = {
+    (8.0, 0.03, 1.2, -0.05),
+    (8.0, 0.06, 0.8, 0.05),
+    *((8.0, 0.06, 1.2, step) for step in (0.05, -0.05, 0.1, -0.1)),
+    *((3.0, 0.06, 1.2, step) for step in (0.05, -0.05, 0.1, -0.1, 0.2, -0.2)),
+}
+
+
+def _first_moves():
+    runs = []
+    for Td, alpha, Jl, step in itertools.product(
+        (8.0, 3.0), (0.03, 0.06), (0.8, 1.0, 1.2),
+        (0.05, -0.05, 0.1, -0.1, 0.2, -0.2, 1.0, -1.0),
+    ):  # fmt: skip
+        marks = ()
+        if (Td, alpha, Jl, step) in _FIRST_MOVE_MISSES:
+            marks = pytest.mark.xfail(strict=True, reason="issue 22: not yet")
+        runs.append(pytest.param(Td, alpha, Jl, step, marks=marks))
+    return runs
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("Td, alpha, Jl, theta_r", _first_moves())
+def test_grid_of_first_moves_from_mid_gap(design, Td, alpha, Jl, theta_r):
+    """Issue 22's steps of 0.05 to 1 rad both ways, Jl x0.8 to x1.2, as the
+    first move from the origin under a load torque (seed 1)."""
+    m = _run(design, Td=Td, alpha=alpha, Jl=Jl, theta_r=theta_r, T=1.5)
     assert m["overshoot"] <= 1.5
     assert m["settling"] <= 0.3
 
