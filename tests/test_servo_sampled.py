@@ -276,7 +276,7 @@ def test_first_small_move_from_mid_gap_with_the_load_torque_along(
     design, Td, alpha, theta_r
 ):
     """The run starts with the load mid-gap and a small step in the direction
-    the load torque pushes: 2.2-4.4 % over (seeds 1-6) before the load torque
+    the load torque pushes: 2.2-4.4 % over before the load torque
     was measured by the load's fall and held by the integral in the first
     move (`ctrl_lpv.twomass.cold_start`; docs/servo.rst, "The first move from
     mid-gap")."""
