@@ -49,12 +49,11 @@ fall, the hand-over a transient of the first move; the rest certificate
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from .drive_observer import DRIVE_STATES
+from .drive_observer import DRIVE_STATES, _encoder_steps
 from .servo_kernel import _smoothstep
 
 __all__ = ["ColdStart", "cold_start", "COLD_START_STATES"]
@@ -193,10 +192,8 @@ def cold_start(encoder_counts, measured=("theta_m", "theta_l")) -> ColdStart:
     revolution, of which `measured` are read: a reading's variance of a
     third of a count squared (its quantization, a twelfth, and half a count
     of noise)."""
-    steps = {
-        "theta_m": 2.0 * math.pi / encoder_counts[0],
-        "theta_l": 2.0 * math.pi / encoder_counts[1],
-    }
+    motor, load = _encoder_steps(encoder_counts)
+    steps = {"theta_m": motor, "theta_l": load}
     return ColdStart(
         reading_variance=tuple(steps[name] ** 2 / 3.0 for name in measured)
     )
