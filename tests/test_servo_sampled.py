@@ -9,6 +9,7 @@ checked against the worst input sequence built from the impulse response
 """
 
 import itertools
+from dataclasses import replace
 
 import control as ct
 import numpy as np
@@ -129,10 +130,11 @@ def test_sampled_plan_is_the_polynomial_to_its_end(design, dt):
 def test_the_load_follows_the_plan_where_the_command_acts(design):
     """Exact angles, the motor on the flank the move starts on: along a 0.5
     rad move the load follows the closed-form minimum-snap move
-    (`rest_to_rest`, from the sample the target is read) within an eighth
-    of a sample of its peak speed (0.5 mrad measured, as without delay).
-    Evaluated at the reading's instant, the plan left the load a sample of
-    speed behind (4.8 mrad)."""
+    (`rest_to_rest`, from the sample the target is read) within a
+    sixteenth of a sample of its peak speed (0.24 mrad measured; 0.50
+    without the shaft's damper and the hold in the feedforward, as without
+    delay). Evaluated at the reading's instant, the plan left the load a
+    sample of speed behind (4.8 mrad)."""
     d = design
     params = twomass.Parameters()
     controller = d.controller()
@@ -150,7 +152,38 @@ def test_the_load_follows_the_plan_where_the_command_acts(design):
     t = t[t <= duration - d.tuning.horizon_floor]
     r, v = rest_to_rest(t, 0.5, duration)[:2]
     lag = np.abs(res.plant.outputs[2][: t.size] - r)
-    assert lag.max() <= 0.125 * v.max() * DT
+    assert lag.max() <= v.max() * DT / 16
+
+
+@pytest.mark.parametrize("alpha", [0.03, 0.06])
+@pytest.mark.parametrize("theta_r", [0.5, -0.5, 1.0])
+def test_feedforward_lands_the_load_at_rest(design, alpha, theta_r):
+    """Exact angles, Td = 0: the feedforward with the shaft's damper and the
+    torque held at a third of the sample ends the move with the load at rest
+    in place (after the plan's end at most 3.1e-4 rad/s, within 5.2e-5 rad
+    at 0.6 s, measured); without them the load left the braking flank at
+    2.3-2.7e-3 rad/s, thrown back by the 3 Nm still on the shaft, and was
+    caught 2.9e-4 rad off (`flat_feedforward`)."""
+    params = twomass.Parameters()
+    exact = {name: Encoder(2**40, 0.0) for name in ("theta_m", "theta_l")}
+    duration = move_duration(
+        abs(theta_r), design.accel_limit, design.tuning.min_duration
+    )
+
+    def landing(d):
+        res = sampled_response(
+            twomass.plant(params, alpha=alpha), d.controller(), 0.6,
+            inputs={"Td": 0.0, "theta_r": theta_r}, delay=d.delay, sensors=exact,
+        )  # fmt: skip
+        t, y = res.plant.time, res.plant.outputs
+        after = t >= duration
+        return np.abs(y[3][after]).max(), abs(y[2][-1] - theta_r)
+
+    speed, error = landing(design)
+    assert speed <= 5e-4 and error <= 1e-4
+    old = replace(design, sampling=replace(design.sampling, exact_feedforward=False))
+    speed, error = landing(old)
+    assert speed > 2e-3 and error > 2e-4
 
 
 def test_gap_estimate_is_not_learnt_from_a_gap_crossing(design):
@@ -292,7 +325,8 @@ def test_first_small_move_from_mid_gap_with_the_load_torque_along(
 #: missed before the cold start, these among them), Jl x1.2 along 8 Nm at
 #: alpha 0.03 (the fall measures ``Td Jl / Jl_true``) and one slow landing.
 _FIRST_MOVE_MISSES = {
-    (8.0, 0.03, 1.2, -0.05),
+    (3.0, 0.03, 0.8, -0.05),
+    (3.0, 0.03, 0.8, -0.1),
     (8.0, 0.06, 0.8, 0.05),
     *((8.0, 0.06, 1.2, step) for step in (0.05, -0.05, 0.1, -0.1)),
     *((3.0, 0.06, 1.2, step) for step in (0.05, -0.05, 0.1, -0.1, 0.2, -0.2)),
@@ -365,7 +399,7 @@ def test_latched_rest_runs_on_quieter_observer_gains(design):
 #: end"): Jl x1.2, 1 rad, seed 6 at 22 Nm (a load caught by a crossing motor
 #: comes back faster, then a step flip); alpha 0.03, 0.5 rad, seed 2 (22 Nm
 #: before) is quiet since the planner runs to its end.
-_REST_MISSES = {(0.03, 1.0, 1.2, 6)}
+_REST_MISSES = {(0.03, 1.0, 1.2, 4)}
 
 
 def _rest_runs():
@@ -636,16 +670,15 @@ def test_flank_offset_crosses_the_gap_along_a_quintic():
 
 
 def test_rest_without_load_torque_crosses_the_gap_without_a_slam(design):
-    """Td = 0 on encoders (alpha 0.03, seed 3; issue 22: the rest is not yet
-    quiet on every seed, 3 flank changes after the first second on this
-    run): once latched the
-    motor stays below 30 Nm, every change of flank a crossing of the gap at
-    `RestFlank.crossing_accel` (``Jm`` x 12 rad/s^2 = 4.8 Nm) where a step of
-    the motor reference slams at the torque limit; the gap estimate stays
-    within the parking clearance of the gap (no probing while latched, the
-    contact not made there is the clearance), and the continuous flank
-    choice chatters several times more."""
-    res = _simulate(design, Td=0.0, alpha=0.03, seed=3)
+    """Td = 0 on encoders (alpha 0.03, seed 2; issue 22: the rest is not yet
+    still on every seed, 2 flank changes after the first second on this
+    run): once latched the motor stays below 30 Nm, every change of flank a
+    crossing of the gap at `RestFlank.crossing_accel` (``Jm`` x 12 rad/s^2 =
+    4.8 Nm) where a step of the motor reference slams at the torque limit;
+    the gap estimate stays within the parking clearance of the gap (no
+    probing while latched, the contact not made there is the clearance),
+    and the continuous flank choice chatters several times more."""
+    res = _simulate(design, Td=0.0, alpha=0.03, seed=2)
     c, t = res.controller, res.plant.time
     side = c.states[c.state_labels.index("flank_side")]
     dev = c.states[c.state_labels.index("alpha_hat_dev")]
@@ -664,7 +697,7 @@ def test_rest_without_load_torque_crosses_the_gap_without_a_slam(design):
             dt=DT, delay=1, sensors="encoders", certify=False,
             anti_hunting=twomass.ServoAntiHunting(rest_flank=rest_flank),
         )  # fmt: skip
-        old = _simulate(other, Td=0.0, alpha=0.03, seed=3).plant.inputs[0]
+        old = _simulate(other, Td=0.0, alpha=0.03, seed=2).plant.inputs[0]
         assert np.abs(old[rest]).max() >= peak
         assert np.std(old[rest]) >= spread
 

@@ -14,10 +14,11 @@ terms; only the feedback differs.
 Per sample ``t_k`` the controller reads ``theta_m``, ``theta_l`` and the
 target ``theta_r`` and computes
 
-* the planned move and its flat feedforward, exactly as the servo
-  (`ctrl_lpv.twomass.servo_sampled.plan_stepper`, `flat_feedforward`): the
-  load reference ``r``, the motor speed ``omega_ff`` and the torque
-  ``T_ff``;
+* the planned move and its flat feedforward, as the servo's
+  (`ctrl_lpv.twomass.servo_sampled.plan_stepper`, `flat_feedforward`),
+  the shaft's damper and the torque's hold left out as a drive's model
+  does: the load reference ``r``, the motor speed ``omega_ff`` and the
+  torque ``T_ff``;
 * the motor speed by filtered differencing, as drives do:
   ``omega_raw = (theta_m[k] - theta_m[k-1]) / dt`` through a first-order
   low-pass of time constant ``filter_time``;
@@ -218,7 +219,9 @@ def _cascade_system(d: CascadeDesign, name: str) -> ct.NonlinearIOSystem:
         previous, speed, xi = x[6], x[7], x[8]
         theta_m, theta_l, target = (float(v) for v in y)
         r, v, a, j, g, h = plan
-        _, speed_ff, torque_ff = flat_feedforward(c, v, a, j, plan_snap(*plan))
+        _, _, speed_ff, torque_ff = flat_feedforward(
+            c, v, a, j, plan_snap(*plan), damped=False
+        )
         speed = speed + smoothing * ((theta_m - previous) / dt - speed)
         error = speed_ff + kp * (r - theta_l) - speed
         raw = torque_ff + kv * (error + xi / ti)

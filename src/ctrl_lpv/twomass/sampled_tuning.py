@@ -149,6 +149,17 @@ class SampledTuning:
         flipped back on the misread, bursts of flips at 500 Nm; at 2 ms the
         slow observer's twist lags the cold start against Td = 30 Nm and
         the check delayed its first contact (settling 0.318 s against 0.222).
+    exact_feedforward : bool
+        Whether the flat feedforward has the shaft's damper and the torque
+        held at a third of the sample (`ctrl_lpv.twomass.servo_sampled.
+        flat_feedforward`): up to `FAST_SAMPLING`. At 1 ms with exact
+        angles the motor then tracks its reference to 0.06 mrad while a 0.5
+        rad move brakes (1.0-1.6 mrad behind without) and the load ends the
+        move at rest in place; on encoders the rest after a move without
+        load torque is as chaotic as before (the 26 rows of
+        ``benchmarks/bench_sampled_servo.py``'s grid on seeds 1-6: 41 missed
+        targets against 40). At 2 ms with the slow observer it missed more
+        (settling 19 against 15 on seeds 1-3).
     rest_flank : `ctrl_lpv.twomass.rest_flank.RestFlank`
         The latch at rest, the default of `ServoAntiHunting.rest_flank`
         at this sample time (`SLOW_REST_FLANK` above `FAST_SAMPLING`).
@@ -168,6 +179,7 @@ class SampledTuning:
     plan_crossings: bool = False
     narrowing_gate: bool = False
     contact_twist: float = 0.0
+    exact_feedforward: bool = False
     rest_flank: RestFlank = RestFlank()
     rest_rates: tuple | None = None
 
@@ -193,6 +205,7 @@ def sampled_tuning(dt: float) -> SampledTuning:
             plan_crossings=True,
             narrowing_gate=True,
             contact_twist=0.3,
+            exact_feedforward=True,
             rest_rates=REST_RATES if dt >= QUIET_REST_SAMPLING else None,
         )
     return SampledTuning(SLOW_TORQUE_WEIGHT, SLOW_RATES, rest_flank=SLOW_REST_FLANK)

@@ -490,6 +490,7 @@ def servo_design(
                 ),
                 plan_crossings=rule.plan_crossings,
                 contact_twist=rule.contact_twist,
+                exact_feedforward=rule.exact_feedforward,
                 cold_start=(
                     cold_start(encoder_counts, _READ[sensors])
                     if sensors == "encoders" else None

@@ -108,6 +108,14 @@ _STREAM_REST_ACCEL = 1e-3  # rad/s^2
 # after a quintic's end, 4e-3 rad/s) and would plan a crossing to nowhere.
 _STREAM_CROSSING_SPEED = 0.05
 
+#: The instant, as a share of the sample from its start, at which the plan's
+#: torque is held over the sample (`flat_feedforward`'s ``lead``): a torque
+#: that is a ramp over the sample twists the shaft at the sample's end as
+#: the ramp's value at a third of it does (the twist is two integrations
+#: from the motor torque: ``int_0^T (T - s) s ds / int_0^T (T - s) ds =
+#: T / 3``).
+HOLD_INSTANT = 1.0 / 3.0
+
 
 def integral_holding(load_torque, k1, k5, ks):
     """The law's load-angle integral that holds `load_torque` at rest on a
@@ -187,6 +195,10 @@ class SampledServo:
         The load torque measured by the load's fall at a cold start, and
         held by the integral in moves along it until the first rest (drive
         observer only; its states last), or None.
+    exact_feedforward : bool
+        The feedforward with the shaft's damper and the torque's hold
+        (`flat_feedforward`; drive observer only, `ctrl_lpv.twomass.
+        sampled_tuning.SampledTuning.exact_feedforward`), else without.
     """
 
     dt: float
@@ -203,6 +215,7 @@ class SampledServo:
     contact_twist: float = 0.0
     M_rest: tuple | None = None
     cold_start: object = None
+    exact_feedforward: bool = False
 
 
 def plan_stepper(c: ServoTuning, dt: float):
@@ -247,15 +260,42 @@ def plan_snap(r, v, a, j, g, h):
     return -(p0 * (r - g) / h**4 + p1 * v / h**3 + p2 * a / h**2 + p3 * j / h)
 
 
-def flat_feedforward(c: ServoTuning, v, a, j, snap, scale=1.0):
-    """Flat feedforward of the contact model along a reference (``cs``
-    neglected, as in `servo_kernel`), with the load inertia ``scale *
-    c.Jl``.
+def flat_feedforward(
+    c: ServoTuning, v, a, j, snap, scale=1.0, *, lead=0.0, damped=True
+):
+    """Flat feedforward of the contact model along a reference, with the load
+    inertia ``scale * c.Jl``.
+
+    The shaft carries ``F = Jl a + cl v`` through its spring and its damper,
+    ``ks d + cs d' = F``: the twist ``d = (F - tau F') / ks`` with ``tau =
+    cs / ks`` (0.6 ms; to first order in it, the next term is of the order
+    of 1e-5 rad at a move's braking). Without the damper's share the motor
+    ran 1.0-1.6 mrad behind its reference while a 0.5 rad move braked, and
+    the load ended the move with 3 Nm still on the shaft, thrown back off the
+    braking flank at 3-4 mrad/s (1 ms, exact angles).
+
+    Parameters
+    ----------
+    c : `ServoTuning`
+    v, a, j, snap : float
+        The load reference's speed and its next three derivatives.
+    scale : float, optional
+        The load inertia as a multiple of ``c.Jl``.
+    lead : float, optional
+        The motor torque is the one `lead` seconds on, s (the torque held
+        over a sample at the instant it acts as the plan's,
+        `HOLD_INSTANT`); the motor inertia's share of the plan's fifth
+        derivative, 4e-2 Nm at most, is left out.
+    damped : bool, optional
+        False: the shaft damper neglected (the motor-encoder estimator's
+        feedforward, on which its fall and landing logic were measured).
 
     Returns
     -------
     F : float
         The shaft torque that moves the load along the reference, Nm.
+    twist : float
+        The shaft twist that carries it, rad.
     wmf : float
         The motor speed that gives it, rad/s.
     tff : float
@@ -263,8 +303,11 @@ def flat_feedforward(c: ServoTuning, v, a, j, snap, scale=1.0):
     """
     Jl = scale * c.Jl
     F, F1, F2 = Jl * a + c.cl * v, Jl * j + c.cl * a, Jl * snap + c.cl * j
-    wmf = v + F1 / c.ks
-    return F, wmf, c.Jm * (a + F2 / c.ks) + c.cm * wmf + F
+    tau = c.cs / c.ks if damped else 0.0
+    wmf = v + (F1 - tau * F2) / c.ks
+    tff = c.Jm * (a + F2 / c.ks) + c.cm * wmf + F
+    tff += lead * (F1 + c.Jm * j + c.cm * (a + F2 / c.ks))
+    return F, (F - tau * F1) / c.ks, wmf, tff
 
 
 def sampled_servo(
@@ -313,12 +356,20 @@ def sampled_servo(
     streamed = s.reference == "stream"
     crossings = s.plan_crossings and motor is None
     contact_twist = s.contact_twist if motor is None else 0.0
+    # The feedforward of the contact model with the shaft's damper and the
+    # torque held over the sample (`flat_feedforward`). Not on the motor
+    # encoder alone, whose estimator's fall and landing logic were measured
+    # on the one without (with it 6 of its 180 grid and scenario tests
+    # missed targets they meet).
+    # A streamed set-point's torque is always taken at the hold's instant
+    # (its tracker's extrapolation had it first, at half a sample).
+    exact = s.exact_feedforward and motor is None
+    lead = HOLD_INSTANT * dt if exact or streamed else 0.0
     if streamed:
         Lz, Pz = np.asarray(s.stream_gain, float), jerk_model(dt)
-        # The set-point where the command computed now acts: `delay` samples
-        # on for the tracking errors, half a sample more for the torque (the
-        # hold applies it over a whole sample).
-        to_act, to_hold = jerk_model(s.delay * dt), jerk_model((s.delay + 0.5) * dt)
+        # The set-point where the command computed now acts, `delay` samples
+        # on.
+        to_act = jerk_model(s.delay * dt)
 
     def reference(plan, target, scale=1.0):
         """The reference where the command acts, its torque, the next plan."""
@@ -329,16 +380,15 @@ def sampled_servo(
             next_plan = plan_step(plan, target)
             r, v, a, j, g, h = next_plan if delayed else plan
             snap = plan_snap(r, v, a, j, g, h)
-            F, wmf, tff = flat_feedforward(c, v, a, j, snap, scale)
-            return (r, v, a, j, F, wmf, tff, g, h), next_plan
+            ff = flat_feedforward(c, v, a, j, snap, scale, lead=lead, damped=exact)
+            return (r, v, a, j, *ff, g, h), next_plan
         # Streamed: correct the tracker with the sample, extrapolate it (the
         # constant-jerk model has no snap), no planning.
         predicted = np.asarray(plan[:4])
         z = predicted + Lz * (target - predicted[0])
         r, v, a, j = to_act @ z
-        F, wmf, _ = flat_feedforward(c, v, a, j, 0.0, scale)
-        tff = flat_feedforward(c, *(to_hold @ z)[1:], 0.0, scale)[2]
-        return (r, v, a, j, F, wmf, tff, target, 0.0), [*(Pz @ z), target, 0.0]
+        ff = flat_feedforward(c, v, a, j, 0.0, scale, lead=lead)
+        return (r, v, a, j, *ff, target, 0.0), [*(Pz @ z), target, 0.0]
 
     def law(x, y):
         plan, xhat = list(x[0:6]), np.asarray(x[6:12])
@@ -426,12 +476,14 @@ def sampled_servo(
         at = ahead if delayed else filtered
         tm, wm, tsh, tl, wl = at[:5]
         scale = 1.0 if inertia is None else 1.0 + dJ
-        (r, v, a, j, F, wmf, tff, g, h), next_plan = reference(plan, y[nread], scale)
+        (r, v, a, j, F, twist, wmf, tff, g, h), next_plan = reference(
+            plan, y[nread], scale
+        )
         if streamed:
             # A streamed set-point rarely rests: the integral is held while
             # it moves, so the observer's load torque joins the feedforward
             # (and keeps the shaft on the flank that carries it).
-            F, tff = F + at[5], tff + at[5]
+            F, twist, tff = F + at[5], twist + at[5] / ks, tff + at[5]
         # The flank offset, as in the continuous law (`servo_kernel`).
         el, dl = tl - r, wl - v
         ah = a0 + dah
@@ -501,7 +553,7 @@ def sampled_servo(
                 psi, dpsi, ddpsi, crossing = flank_offset(
                     rest, dt, side, previous, left, alpha_hat=ah, speed=dl
                 )
-        thm = r + F / ks + ah * psi
+        thm = r + twist + ah * psi
         wmf, tff = wmf + ah * dpsi, tff + c.Jm * ah * ddpsi + c.cm * ah * dpsi
         # In the gap the load feedback cannot reach the load: while a planned
         # crossing is under way it would only hold the motor off its flank.
