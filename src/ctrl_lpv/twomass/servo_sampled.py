@@ -272,7 +272,7 @@ def flat_feedforward(
     of 1e-5 rad at a move's braking). Without the damper's share the motor
     ran 1.0-1.6 mrad behind its reference while a 0.5 rad move braked, and
     the load ended the move with 3 Nm still on the shaft, thrown back off the
-    braking flank at 3-4 mrad/s (1 ms, exact angles).
+    braking flank at 2.3-2.7 mrad/s (1 ms, exact angles).
 
     Parameters
     ----------
@@ -287,8 +287,9 @@ def flat_feedforward(
         `HOLD_INSTANT`); the motor inertia's share of the plan's fifth
         derivative, 4e-2 Nm at most, is left out.
     damped : bool, optional
-        False: the shaft damper neglected (the motor-encoder estimator's
-        feedforward, on which its fall and landing logic were measured).
+        False: the shaft's damper neglected (the feedforward of the motor
+        encoder alone, of 2 ms and slower, and of the cascade:
+        `ctrl_lpv.twomass.sampled_tuning.SampledTuning.exact_feedforward`).
 
     Returns
     -------
@@ -360,9 +361,9 @@ def sampled_servo(
     # torque held over the sample (`flat_feedforward`). Not on the motor
     # encoder alone, whose estimator's fall and landing logic were measured
     # on the one without (with it 6 of its 180 grid and scenario tests
-    # missed targets they meet).
-    # A streamed set-point's torque is always taken at the hold's instant
-    # (its tracker's extrapolation had it first, at half a sample).
+    # missed targets they meet). A streamed set-point's torque is always
+    # taken at the hold's instant (its tracker's extrapolation had it first,
+    # at half a sample).
     exact = s.exact_feedforward and motor is None
     lead = HOLD_INSTANT * dt if exact or streamed else 0.0
     if streamed:
@@ -387,7 +388,7 @@ def sampled_servo(
         predicted = np.asarray(plan[:4])
         z = predicted + Lz * (target - predicted[0])
         r, v, a, j = to_act @ z
-        ff = flat_feedforward(c, v, a, j, 0.0, scale, lead=lead)
+        ff = flat_feedforward(c, v, a, j, 0.0, scale, lead=lead, damped=exact)
         return (r, v, a, j, *ff, target, 0.0), [*(Pz @ z), target, 0.0]
 
     def law(x, y):
