@@ -322,7 +322,7 @@ def test_first_small_move_from_mid_gap_with_the_load_torque_along(
 #: that miss (measured, seed 1; docs/servo.rst, "The first move from
 #: mid-gap"): Jl x1.2 at alpha 0.06 (the gap twice its first estimate and
 #: the first move too short to learn the inertia; 18 of the grid's 96 runs
-#: missed before the cold start, these among them), Jl x0.8 against 3 Nm at
+#: missed before the cold start, these among them), Jl x0.8 along 3 Nm at
 #: alpha 0.03 (1.6 and 2.1 % since the feedforward's damper and hold, which
 #: brought Jl x1.2 along 8 Nm within 1.5 %) and one slow landing.
 _FIRST_MOVE_MISSES = {
