@@ -153,8 +153,9 @@ class SampledTuning:
         Whether the flat feedforward has the shaft's damper and the torque
         held at a third of the sample (`ctrl_lpv.twomass.servo_sampled.
         flat_feedforward`): up to `FAST_SAMPLING`. At 1 ms with exact
-        angles the motor then tracks its reference to 0.06 mrad while a 0.5
-        rad move brakes (1.0-1.6 mrad behind without) and the load ends the
+        angles the motor then tracks its reference within 0.1 mrad over the
+        last 20 ms of a 0.5 rad move's braking (1.7 mrad behind without;
+        0.49 against 1.73 over the whole braking) and the load ends the
         move at rest in place; on encoders the rest after a move without
         load torque is as chaotic as before (the 26 rows of
         ``benchmarks/bench_sampled_servo.py``'s grid on seeds 1-6: 41 missed

@@ -197,8 +197,8 @@ class SampledServo:
         observer only; its states last), or None.
     exact_feedforward : bool
         The feedforward with the shaft's damper and the torque's hold
-        (`flat_feedforward`; drive observer only, `ctrl_lpv.twomass.
-        sampled_tuning.SampledTuning.exact_feedforward`), else without.
+        (`flat_feedforward`, `ctrl_lpv.twomass.sampled_tuning.SampledTuning.
+        exact_feedforward`), else without.
     """
 
     dt: float
@@ -268,9 +268,10 @@ def flat_feedforward(
 
     The shaft carries ``F = Jl a + cl v`` through its spring and its damper,
     ``ks d + cs d' = F``: the twist ``d = (F - tau F') / ks`` with ``tau =
-    cs / ks`` (0.6 ms; to first order in it, the next term is of the order
-    of 1e-5 rad at a move's braking). Without the damper's share the motor
-    ran 1.0-1.6 mrad behind its reference while a 0.5 rad move braked, and
+    cs / ks`` (0.6 ms; to first order in it: the next term, ``tau^2 F'' /
+    ks``, is at most 6.7e-5 rad along a 0.5 rad move). Without the damper's
+    share the motor ran up to 1.7 mrad behind its reference while a 0.5 rad
+    move braked (0.1 mrad with it over the last 20 ms), and
     the load ended the move with 3 Nm still on the shaft, thrown back off the
     braking flank at 2.3-2.7 mrad/s (1 ms, exact angles).
 
@@ -285,7 +286,9 @@ def flat_feedforward(
         The motor torque is the one `lead` seconds on, s (the torque held
         over a sample at the instant it acts as the plan's,
         `HOLD_INSTANT`); the motor inertia's share of the plan's fifth
-        derivative, 4e-2 Nm at most, is left out.
+        derivative, not computed by the planner, is left out (``Jm lead
+        F''' / ks``: up to 1.2 Nm along a 0.5 rad move at 1 ms, and a step
+        at the plan's end, where its snap steps).
     damped : bool, optional
         False: the shaft's damper neglected (the feedforward of the motor
         encoder alone, of 2 ms and slower, and of the cascade:
@@ -357,14 +360,9 @@ def sampled_servo(
     streamed = s.reference == "stream"
     crossings = s.plan_crossings and motor is None
     contact_twist = s.contact_twist if motor is None else 0.0
-    # The feedforward of the contact model with the shaft's damper and the
-    # torque held over the sample (`flat_feedforward`). Not on the motor
-    # encoder alone, whose estimator's fall and landing logic were measured
-    # on the one without (with it 6 of its 180 grid and scenario tests
-    # missed targets they meet). A streamed set-point's torque is always
-    # taken at the hold's instant (its tracker's extrapolation had it first,
-    # at half a sample).
-    exact = s.exact_feedforward and motor is None
+    # A streamed set-point's torque is always taken at the hold's instant
+    # (its tracker's extrapolation had it first, at half a sample).
+    exact = s.exact_feedforward
     lead = HOLD_INSTANT * dt if exact or streamed else 0.0
     if streamed:
         Lz, Pz = np.asarray(s.stream_gain, float), jerk_model(dt)
