@@ -16,6 +16,7 @@ from ctrl_lpv import sampled_response, twomass
 from ctrl_lpv.sensors import Encoder
 from ctrl_lpv.twomass.cold_start import COLD_START_STATES, ColdStart, cold_start
 from ctrl_lpv.twomass.drive_observer import DRIVE_STATES
+from ctrl_lpv.twomass.servo_sampled import plan_stepper
 
 DT = 1e-3
 STEP = 2.0 * math.pi / 2**17
@@ -166,3 +167,61 @@ def test_first_move_from_mid_gap_needs_the_cold_start(design):
             assert td == pytest.approx(8.0, abs=1.0)
     assert overshoot["plain"] > 2.0
     assert overshoot["cold"] <= 1.5
+
+
+def _stepped(plan, c, dt, steps):
+    """The servo's planner stepped from `plan` (the goal unchanged)."""
+    step = plan_stepper(c, dt)
+    rows = [plan]
+    for _ in range(steps):
+        rows.append(step(rows[-1], plan[4]))
+    return np.array(rows)
+
+
+def test_restart_keeps_the_shaft_torque_on_the_holding_flank(design):
+    """At the join of a 30 Nm fall in a -0.05 rad step (the load 1.1 mrad
+    down at 0.107 rad/s, 20 ms in), the rest of the move is planned from
+    the load: stepped by the servo's planner it starts at the load's state,
+    ends at rest at the goal within the slack, and the shaft torque it asks
+    (``Jl a + cl v + Td``, from its samples) stays on the holding flank;
+    the plan made at the start asks the other flank for up to 23 Nm."""
+    c, p = design.tuning, twomass.Parameters()
+    fit = cold_start((2**20, 2**17))
+    Td, goal = 30.0, -0.05
+    first = _stepped([0.0, 0.0, 0.0, 0.0, goal, 0.2], c, DT, 20)[-1].tolist()
+    load = (-1.07e-3, -0.107)
+    plan = fit.restart(first, 0.0, 1.0, load, Td, p.Jl, p.cl)
+    assert plan[:4] == [*load, -(Td + p.cl * load[1]) / p.Jl, 0.0]
+    assert first[5] <= plan[5] <= first[5] + fit.restart_slack
+    rows = _stepped(plan, c, DT, round(plan[5] / DT) + 2)
+    assert rows[-1].tolist() == [goal, 0.0, 0.0, 0.0, goal, 0.0]
+    shaft = p.Jl * rows[:, 2] + p.cl * rows[:, 1] + Td
+    assert shaft.min() >= -0.5
+    old = _stepped(first, c, DT, round(first[5] / DT) + 2)
+    assert (p.Jl * old[:, 2] + p.cl * old[:, 1] + Td).min() < -10.0
+    # No restart but at the join, in a move the way the load torque pushes,
+    # within the slack (a 0.05 rad step along 8 Nm would need 0.24 s
+    # more: the crossings hold that load better than a slow move).
+    assert fit.restart(first, 1.0, 1.0, load, Td, p.Jl, p.cl) is first
+    assert fit.restart(first, 0.0, 1.0, load, -Td, p.Jl, p.cl) is first
+    assert fit.restart(first, 0.0, 1.0, (-1e-4, -0.03), 8.0, p.Jl, p.cl) is first
+
+
+def test_take_up_only_where_the_holding_flank_is_asked_and_not_met():
+    """The half-gap estimate takes the gap up at `take_up_rate` (times the
+    share of the load torque not yet held) with the holding flank asked, no
+    contact read and the motor where the estimate puts the flank; not in
+    contact, short of the estimated flank, on the other flank, or for a load
+    torque below the contact torque."""
+    fit = cold_start((2**20, 2**17))
+    state = np.zeros(len(DRIVE_STATES))
+    state[DRIVE_STATES.index("Td")] = 30.0
+    state[0] = 0.03  # the motor 0.03 rad ahead of the load: at the flank
+    rate = fit.take_up(1.0, state, 50.0, 0.03, 0.0, 1.5)
+    assert rate == fit.take_up_rate
+    assert fit.take_up(0.5, state, 50.0, 0.03, 0.0, 1.5) == 0.5 * rate
+    assert fit.take_up(1.0, state, 50.0, 0.03, 1.0, 1.5) == 0.0
+    assert fit.take_up(1.0, state, -50.0, 0.03, 0.0, 1.5) == 0.0
+    assert fit.take_up(1.0, state, 50.0, 0.04, 0.0, 1.5) == 0.0
+    state[DRIVE_STATES.index("Td")] = 1.0
+    assert fit.take_up(1.0, state, 50.0, 0.03, 0.0, 1.5) == 0.0

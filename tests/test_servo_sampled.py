@@ -303,7 +303,13 @@ def test_grid_with_a_load_torque(design, case):
 @pytest.mark.slow
 @pytest.mark.parametrize(
     "Td, alpha, theta_r",
-    [(8.0, 0.03, -0.05), (-8.0, 0.03, 0.05), (8.0, 0.06, -0.05), (30.0, 0.03, -0.1)],
+    [
+        (8.0, 0.03, -0.05),
+        (-8.0, 0.03, 0.05),
+        (8.0, 0.06, -0.05),
+        (30.0, 0.03, -0.1),
+        (30.0, 0.06, -0.05),
+    ],
 )
 def test_first_small_move_from_mid_gap_with_the_load_torque_along(
     design, Td, alpha, theta_r
@@ -311,8 +317,9 @@ def test_first_small_move_from_mid_gap_with_the_load_torque_along(
     """The run starts with the load mid-gap and a small step in the direction
     the load torque pushes: 2.2-4.4 % over before the load torque
     was measured by the load's fall and held by the integral in the first
-    move (`ctrl_lpv.twomass.cold_start`; docs/servo.rst, "The first move from
-    mid-gap")."""
+    move, 5.9 % at Td 30 and alpha 0.06 before the move restarted from the
+    fallen load and the gap was taken up (`ctrl_lpv.twomass.cold_start`;
+    docs/servo.rst, "The first move from mid-gap")."""
     m = _run(design, Td=Td, alpha=alpha, theta_r=theta_r)
     assert m["overshoot"] <= 1.5
     assert m["settling"] <= 0.3
@@ -323,10 +330,9 @@ def test_first_small_move_from_mid_gap_with_the_load_torque_along(
 #: mid-gap"): Jl x1.2 at alpha 0.06 (the gap twice its first estimate and
 #: the first move too short to learn the inertia; 18 of the grid's 96 runs
 #: missed before the cold start, these among them), Jl x0.8 along 3 Nm at
-#: alpha 0.03 (1.6 and 2.1 % since the feedforward's damper and hold, which
-#: brought Jl x1.2 along 8 Nm within 1.5 %) and one slow landing.
+#: alpha 0.03 (2.1 % at -0.1 rad; -0.05 rad, 1.6 %, passes since the move
+#: restarts from the fallen load) and one slow landing.
 _FIRST_MOVE_MISSES = {
-    (3.0, 0.03, 0.8, -0.05),
     (3.0, 0.03, 0.8, -0.1),
     (8.0, 0.06, 0.8, 0.05),
     *((8.0, 0.06, 1.2, step) for step in (0.05, -0.05, 0.1, -0.1)),

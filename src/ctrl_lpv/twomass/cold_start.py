@@ -11,7 +11,7 @@ while the plan accelerates goes to the inertia estimate
 brakes the load (2.5-3.2 % overshoot on six noise seeds, 1 ms, encoders;
 ``docs/servo.rst``, "The first move from mid-gap").
 
-Two things fix what the start does not know:
+Three things fix what the start does not know:
 
 * **the load's fall measures it.** While the load is free in the gap its
   motion is the load torque's alone, ``Jl d(omega_l)/dt = -cl omega_l -
@@ -42,23 +42,48 @@ Two things fix what the start does not know:
   from rest of ``tests/test_servo_inertia.py``, Jl x0.8 and x1.2: 24 runs
   of 108 missed the targets against 18).
 
-Neither is covered by a certificate: the fit is a transient of the first
-fall, the hand-over a transient of the first move; the rest certificate
-(`ctrl_lpv.twomass.servo_rest`) covers the loop after them.
+* **the move starts again from the fallen load.** Where the fall's
+  estimate joins in a move the way the load torque pushes, the plan made
+  at the start without it is behind the falling load (Td 30, alpha 0.06,
+  -0.05 rad: 0.9 mrad and 0.09 rad/s at the join) and asks to accelerate it
+  faster than the fall does: the planned crossings then keep the motor on
+  the accelerating flank and cross to the holding one late (contact 11.7
+  mrad before the target at 0.62 rad/s, 5.9 % over). `ColdStart.restart`
+  plans the rest of the move from the load's estimated state with the
+  shaft torque on the holding flank throughout, when that lengthens the
+  move by at most `ColdStart.restart_slack`; and while the holding flank is
+  asked and not reached, the motor at the flank the half-gap estimate puts
+  it, that estimate takes the gap up at `ColdStart.take_up_rate`
+  (`ColdStart.take_up`): the start's estimate holds the motor short of a
+  wider gap (30 of 60 mrad) while the load falls.
+
+None is covered by a certificate: the fit is a transient of the first
+fall, the hand-over and the restart transients of the first move; the rest
+certificate (`ctrl_lpv.twomass.servo_rest`) covers the loop after them.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from .drive_observer import DRIVE_STATES, _encoder_steps
+from .gap_crossing import remaining_move
 from .servo_kernel import _smoothstep
 
 __all__ = ["ColdStart", "cold_start", "COLD_START_STATES"]
 
 _TD = DRIVE_STATES.index("Td")
+#: The take-up runs in full with the motor at the flank the half-gap
+#: estimate puts it, fading to none this far (rad) short of it.
+_TAKE_UP_REACH = 2e-3
+#: Shaft torque, Nm, a restarted plan may ask of the other flank (the
+#: encoders' noise in the shaft-torque estimate is 0.2-0.3 Nm).
+_HOLDING_TOLERANCE = 0.5
+#: Step, s, of the restart's search for its duration.
+_RESTART_STEP = 5e-3
 
 #: The states in the sampled controller: the sensitivity of the observer's
 #: predicted state to the load-torque offset (less its start, the unit
@@ -95,6 +120,14 @@ class ColdStart:
     significance : float
         When the fall is over the fit's estimate joins the observer's if
         beyond this many of its standard deviations.
+    restart_slack : float
+        Longest, s, by which `restart` may lengthen the move (the Td 30
+        first 0.05 rad move at alpha 0.06 needs 30 ms more, and 0.02 left
+        it 5.9 % over on seed 1; a 0.05 rad step along 8 Nm would need
+        0.24 s more, and keeps its plan: restarted, such steps settled in
+        0.34-0.46 s).
+    take_up_rate : float
+        Rate, rad/s, at which `take_up` widens the half-gap estimate.
     """
 
     reading_variance: tuple
@@ -102,6 +135,8 @@ class ColdStart:
     margin: float = 0.2
     memory: float = 0.1
     significance: float = 2.0
+    restart_slack: float = 0.05
+    take_up_rate: float = 1.0
 
     def initial(self) -> np.ndarray:
         """The states (`COLD_START_STATES`) when the servo starts."""
@@ -178,6 +213,63 @@ class ColdStart:
         sens[_TD] -= 1.0
         return filtered, np.array([*sens, P - self.prior**2, pending, over, unheld])
 
+    def restart(self, plan, unheld_before, unheld, load, load_torque, Jl, cl):
+        """The plan, restarted from the load where the fall's estimate joins.
+
+        Parameters
+        ----------
+        plan : list of float
+            ``[r, v_r, a_r, j_r, goal, time_to_go]`` (the sampled servo's).
+        unheld_before, unheld : float
+            ``torque_unheld`` at the last sample and now (it is 0 until the
+            estimate joins, 1 at the join).
+        load : tuple of float
+            The load's estimated angle and speed, rad and rad/s.
+        load_torque, Jl, cl : float
+            The load torque estimate, Nm, and the load's inertia and
+            friction.
+
+        Returns
+        -------
+        list of float
+            `plan` itself but at the join in a move the way the load torque
+            pushes, where the rest of the move from the load's state, its
+            acceleration the fall's, keeps the shaft torque on the holding
+            flank in at most `restart_slack` more than the time to go.
+        """
+        time_to_go = plan[5]
+        if not (unheld_before == 0.0 < unheld and time_to_go > 0.0):
+            return plan
+        if plan[1] * load_torque >= 0.0:
+            return plan
+        theta, omega = load
+        fall = -(load_torque + cl * omega) / Jl
+        duration = _holding_duration(
+            (theta - plan[4], omega, fall), Jl, cl, load_torque,
+            time_to_go, time_to_go + self.restart_slack,
+        )  # fmt: skip
+        if duration is None:
+            return plan
+        return [theta, omega, fall, 0.0, plan[4], duration]
+
+    def take_up(self, unheld, state, shaft_torque, alpha_hat, contact, tc):
+        """Rate, rad/s, of the half-gap estimate's take-up of the gap.
+
+        While the fall's load torque is not yet held by the integral
+        (`unheld`, its share), the shaft torque asked, `shaft_torque`, is
+        on the flank that holds the load torque (beyond the contact torque
+        `tc`), the observer reads no contact (`contact`, its weight) and
+        the motor is at the flank the half-gap estimate `alpha_hat` puts it
+        (the twist estimate of `state`, `DRIVE_STATES`, within 2 mrad of
+        it): the gap is wider than the estimate.
+        """
+        load_torque = state[_TD]
+        if load_torque * shaft_torque <= 0.0 or abs(load_torque) <= tc:
+            return 0.0
+        twist = math.copysign(1.0, shaft_torque) * (state[0] - state[3])
+        there = _smoothstep((twist - alpha_hat) / _TAKE_UP_REACH + 1.0)
+        return self.take_up_rate * unheld * (1.0 - contact) * there
+
     def hand_over(self, unheld: float, resting: bool, dt: float) -> float:
         """How much of the load torque the fall measured the integral does
         not hold yet, a sample of `dt` on: falling to 0 at rest over
@@ -185,6 +277,27 @@ class ColdStart:
         if not resting:
             return unheld
         return unheld * (1.0 - min(1.0, dt / self.memory))
+
+
+def _holding_duration(start, Jl, cl, load_torque, shortest, longest):
+    """The shortest time to go in ``[shortest, longest]`` (5 ms steps) in
+    which the minimum-snap move from ``start = (r - g, v, a)`` (no jerk)
+    to rest keeps the shaft torque ``Jl a + cl v + Td`` on the side of
+    ``Td`` (within `_HOLDING_TOLERANCE`), or None."""
+    u = np.linspace(0.0, 1.0, 80)
+    powers = u[:, None] ** np.arange(8.0)
+    k = np.arange(8.0)
+    side = math.copysign(1.0, load_torque)
+    for h in np.arange(shortest, longest, _RESTART_STEP):
+        c = remaining_move(*start, 0.0, h)
+        d1 = c[1:] * k[1:]
+        d2 = d1[1:] * k[1:-1]
+        speed = powers[:, :7] @ d1 / h
+        accel = powers[:, :6] @ d2 / (h * h)
+        shaft = side * (Jl * accel + cl * speed + load_torque)
+        if shaft.min() >= -_HOLDING_TOLERANCE:
+            return float(h)
+    return None
 
 
 def cold_start(encoder_counts, measured=("theta_m", "theta_l")) -> ColdStart:

@@ -100,6 +100,7 @@ MOTOR_STATES = [
     *_fall.FALL_STATES,
 ]  # fmt: skip
 _FALL = _NS + 11
+_UNHELD = COLD_START_STATES.index("torque_unheld")
 _LIGHT = _fall.FALL_STATES.index("light_load")
 
 _STREAM_REST_ACCEL = 1e-3  # rad/s^2
@@ -475,6 +476,13 @@ def sampled_servo(
         at = ahead if delayed else filtered
         tm, wm, tsh, tl, wl = at[:5]
         scale = 1.0 if inertia is None else 1.0 + dJ
+        if cold is not None and not streamed:
+            # Where the fall's load torque joins, the move starts again from
+            # the falling load (`ColdStart.restart`).
+            plan = cold.restart(
+                plan, x[first_cold + _UNHELD], started[-1], (tl, wl), at[5],
+                scale * c.Jl, c.cl,
+            )  # fmt: skip
         (r, v, a, j, F, twist, wmf, tff, g, h), next_plan = reference(
             plan, y[nread], scale
         )
@@ -642,6 +650,12 @@ def sampled_servo(
             # parked motor then pressed on the load and pushed it around.)
             if side == 0.0:
                 ddah += probe * (1.0 - contact) * asked * still * (ah < amax)
+            if cold is not None and v * at[5] < 0.0:
+                # In the first move the way the fall's load torque pushes,
+                # the gap is taken up where the holding flank is not met
+                # (`ColdStart.take_up`).
+                take_up = cold.take_up(started[-1], at, tstar, ah, contact, tc)
+                ddah += take_up * (ah < amax)
         if delayed:
             predicted = ahead
         elif motor is None and inertia is not None:
