@@ -200,7 +200,7 @@ def test_restart_keeps_the_shaft_torque_on_the_holding_flank(design):
     old = _stepped(first, c, DT, round(first[5] / DT) + 2)
     assert (p.Jl * old[:, 2] + p.cl * old[:, 1] + Td).min() < -10.0
     # No restart but at the join, in a move the way the load torque pushes,
-    # within the slack (a 0.05 rad step along 8 Nm would need 0.24 s
+    # within the slack (a 0.05 rad step along 8 Nm would need 0.25 s
     # more: the crossings hold that load better than a slow move).
     assert fit.restart(first, 1.0, 1.0, load, Td, p.Jl, p.cl) is first
     assert fit.restart(first, 0.0, 1.0, load, -Td, p.Jl, p.cl) is first

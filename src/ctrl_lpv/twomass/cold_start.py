@@ -70,7 +70,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .drive_observer import DRIVE_STATES, _encoder_steps
-from .gap_crossing import remaining_move
+from .gap_crossing import one_flank_duration
 from .servo_kernel import _smoothstep
 
 __all__ = ["ColdStart", "cold_start", "COLD_START_STATES"]
@@ -82,8 +82,6 @@ _TAKE_UP_REACH = 2e-3
 #: Shaft torque, Nm, a restarted plan may ask of the other flank (the
 #: encoders' noise in the shaft-torque estimate is 0.2-0.3 Nm).
 _HOLDING_TOLERANCE = 0.5
-#: Step, s, of the restart's search for its duration.
-_RESTART_STEP = 5e-3
 
 #: The states in the sampled controller: the sensitivity of the observer's
 #: predicted state to the load-torque offset (less its start, the unit
@@ -122,9 +120,9 @@ class ColdStart:
         beyond this many of its standard deviations.
     restart_slack : float
         Longest, s, by which `restart` may lengthen the move (the Td 30
-        first 0.05 rad move at alpha 0.06 needs 30 ms more, and 0.02 left
+        first 0.05 rad move at alpha 0.06 needs 28 ms more, and 0.02 left
         it 5.9 % over on seed 1; a 0.05 rad step along 8 Nm would need
-        0.24 s more, and keeps its plan: restarted, such steps settled in
+        0.25 s more, and keeps its plan: restarted, such steps settled in
         0.34-0.46 s).
     take_up_rate : float
         Rate, rad/s, at which `take_up` widens the half-gap estimate.
@@ -244,11 +242,15 @@ class ColdStart:
             return plan
         theta, omega = load
         fall = -(load_torque + cl * omega) / Jl
-        duration = _holding_duration(
-            (theta - plan[4], omega, fall), Jl, cl, load_torque,
-            time_to_go, time_to_go + self.restart_slack,
+        # On the holding flank: ``Jl a + cl v`` may brake by the load torque
+        # and the tolerance.
+        longest = time_to_go + self.restart_slack
+        duration = one_flank_duration(
+            (theta, omega, fall, 0.0), plan[4], time_to_go, Jl, cl,
+            math.copysign(1.0, load_torque), abs(load_torque) + _HOLDING_TOLERANCE,
+            longest,
         )  # fmt: skip
-        if duration is None:
+        if duration >= longest:
             return plan
         return [theta, omega, fall, 0.0, plan[4], duration]
 
@@ -277,27 +279,6 @@ class ColdStart:
         if not resting:
             return unheld
         return unheld * (1.0 - min(1.0, dt / self.memory))
-
-
-def _holding_duration(start, Jl, cl, load_torque, shortest, longest):
-    """The shortest time to go in ``[shortest, longest]`` (5 ms steps) in
-    which the minimum-snap move from ``start = (r - g, v, a)`` (no jerk)
-    to rest keeps the shaft torque ``Jl a + cl v + Td`` on the side of
-    ``Td`` (within `_HOLDING_TOLERANCE`), or None."""
-    u = np.linspace(0.0, 1.0, 80)
-    powers = u[:, None] ** np.arange(8.0)
-    k = np.arange(8.0)
-    side = math.copysign(1.0, load_torque)
-    for h in np.arange(shortest, longest, _RESTART_STEP):
-        c = remaining_move(*start, 0.0, h)
-        d1 = c[1:] * k[1:]
-        d2 = d1[1:] * k[1:-1]
-        speed = powers[:, :7] @ d1 / h
-        accel = powers[:, :6] @ d2 / (h * h)
-        shaft = side * (Jl * accel + cl * speed + load_torque)
-        if shaft.min() >= -_HOLDING_TOLERANCE:
-            return float(h)
-    return None
 
 
 def cold_start(encoder_counts, measured=("theta_m", "theta_l")) -> ColdStart:
