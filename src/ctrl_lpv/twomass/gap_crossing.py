@@ -48,10 +48,14 @@ __all__ = [
     "QUINTIC_PEAK_ACCEL",
     "CROSSING_ACCEL",
     "STREAM_CROSSING_ACCEL",
+    "rest_to_rest",
+    "QUINTIC_PEAK_SPEED",
 ]
 
 #: Peak of ``|q''|`` of the quintic ``q(s) = 10 s^3 - 15 s^4 + 6 s^5``.
 QUINTIC_PEAK_ACCEL = 10.0 / math.sqrt(3.0)
+#: Peak of ``q'`` of the same quintic (its mean is 1).
+QUINTIC_PEAK_SPEED = 1.875
 
 # End conditions at u = 1 on the coefficients of u^4 .. u^7 (value and the
 # first three derivatives), inverted once.
@@ -239,6 +243,19 @@ def crossing_duration(gap, accel):
     """Duration of a quintic crossing of `gap` (rad, the full ``2 alpha``)
     at a peak motor acceleration `accel` (rad/s^2)."""
     return math.sqrt(QUINTIC_PEAK_ACCEL * abs(gap) / accel)
+
+
+def rest_to_rest(t, duration, start, end):
+    """Position, speed and acceleration at `t` of the quintic from rest at
+    `start` (``t = 0``) to rest at `end` (``t = duration``), held there
+    after."""
+    if duration <= 0.0 or t >= duration:
+        return end, 0.0, 0.0
+    s, d = max(t, 0.0) / duration, end - start
+    q = s * s * s * (10.0 - 15.0 * s + 6.0 * s * s)
+    dq = 30.0 * s * s * (1.0 - s) ** 2 / duration
+    ddq = 60.0 * s * (1.0 - s) * (1.0 - 2.0 * s) / duration**2
+    return start + d * q, d * dq, d * ddq
 
 
 def crossing_offset(side, changes, duration):

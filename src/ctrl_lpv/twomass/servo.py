@@ -31,7 +31,7 @@ The settings of each part are one object of `ctrl_lpv.twomass.servo_config`
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import control as ct
 import numpy as np
@@ -43,7 +43,7 @@ from ..interconnection import kernel_nlsys
 from ..synthesis import StateFeedbackDesign, hinf_state_feedback
 from ..systems import PolytopicStateSpace
 from .cold_start import cold_start
-from .drive_observer import drive_observer, observer_matrices
+from .drive_observer import _encoder_steps, drive_observer, observer_matrices
 from .inertia import ServoInertia, inertia_adaptation
 from .model import lpv_model
 from .motor_estimator import MotorEstimator, MotorObserver, motor_observer
@@ -398,7 +398,9 @@ def servo_design(
     # The sample time's tuning rule (`sampled_tuning`), read once.
     rule = None if dt is None else sampled_tuning(dt)
     if anti_hunting is None and rule is not None:
-        anti_hunting = ServoAntiHunting(rest_flank=rule.rest_flank)
+        anti_hunting = ServoAntiHunting(
+            rest_flank=rule.rest_flank, free_rest=rule.free_rest
+        )
     anti_hunting = _settings(anti_hunting, ServoAntiHunting, "anti_hunting")
     stream = _settings(stream, ServoStream, "stream")
     if inertia is None and rule is not None:
@@ -498,6 +500,10 @@ def servo_design(
                     cold_start(encoder_counts, _READ[sensors])
                     if sensors == "encoders" else None
                 ),
+                free_rest=(
+                    _free_rest(anti_hunting.free_rest, encoder_counts)
+                    if sensors == "encoders" else None
+                ),
             )  # fmt: skip
 
         if sensors == "motor":
@@ -528,6 +534,15 @@ def servo_design(
         sensors=sensors, reference=reference, sampling=sampling, observer=observer,
         encoder_counts=None if dt is None else tuple(encoder_counts),
     )  # fmt: skip
+
+
+def _free_rest(free, encoder_counts):
+    """`free` with the load encoder's reading variance (a third of a count
+    squared: its quantization, a twelfth, and half a count of noise), or
+    None."""
+    if free is None or free.reading_variance is not None:
+        return free
+    return replace(free, reading_variance=_encoder_steps(encoder_counts)[1] ** 2 / 3.0)
 
 
 def _sampling(dt, delay, sensors):

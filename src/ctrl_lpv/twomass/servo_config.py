@@ -14,6 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from .._checks import flag, real_number
+from .free_rest import FreeRest
 from .rest_flank import RestFlank
 
 __all__ = [
@@ -179,13 +180,19 @@ class ServoAntiHunting:
         ``reference="stream"`` the servo rests only once the streamed
         set-point has stopped (tracker speed and acceleration near zero);
         with ``sensors="motor"`` the latch is off (the motor waits mid-gap).
+    free_rest : `ctrl_lpv.twomass.free_rest.FreeRest` or None, optional
+        Sampled servo on both encoders, within the latch (`rest_flank`): a
+        free load (no load torque) rests on the motor held as a soft wall,
+        caught dead (default ``FreeRest()``; `servo_design`'s default up to
+        1.5 ms of sample time only, `ctrl_lpv.twomass.sampled_tuning`);
+        None keeps the latched law at every rest.
 
     Raises
     ------
     TypeError, ValueError
         For a value that is not a real number in its range, an `enabled`
-        that is not a bool, or a `rest_flank` that is not a `RestFlank`,
-        naming the field.
+        that is not a bool, or a `rest_flank` that is not a `RestFlank` (a
+        `free_rest` that is not a `FreeRest`), naming the field.
     """
 
     enabled: bool = True
@@ -193,6 +200,7 @@ class ServoAntiHunting:
     integral_leak: float = 2.0
     integral_hold: float = 0.05
     rest_flank: RestFlank | None = RestFlank()
+    free_rest: FreeRest | None = FreeRest()
 
     def __post_init__(self):
         _check(
@@ -205,6 +213,11 @@ class ServoAntiHunting:
             raise TypeError(
                 "ServoAntiHunting.rest_flank: expected a RestFlank or None, got "
                 f"{self.rest_flank!r}"
+            )
+        if self.free_rest is not None and not isinstance(self.free_rest, FreeRest):
+            raise TypeError(
+                "ServoAntiHunting.free_rest: expected a FreeRest or None, got "
+                f"{self.free_rest!r}"
             )
 
 

@@ -62,6 +62,7 @@ from . import gap_crossing as _gx
 from . import gap_fall as _fall
 from .cold_start import COLD_START_STATES
 from .drive_observer import DRIVE_STATES
+from .free_rest import FREE_REST_STATES, free_rest_stepper
 from .inertia import INERTIA_STATES
 from .rest_flank import flank_offset, rest_flank_step
 from .servo_kernel import ServoTuning, _smoothstep
@@ -195,7 +196,11 @@ class SampledServo:
     cold_start : `ctrl_lpv.twomass.cold_start.ColdStart` or None
         The load torque measured by the load's fall at a cold start, and
         held by the integral in moves along it until the first rest (drive
-        observer only; its states last), or None.
+        observer only; its states after the inertia estimate's), or None.
+    free_rest : `ctrl_lpv.twomass.free_rest.FreeRest` or None
+        The rest of a free load, by a wall and a dead catch, within the
+        latched flank (`ServoTuning.rest_flank`; drive observer only, its
+        reading variance set; its states last), or None.
     exact_feedforward : bool
         The feedforward with the shaft's damper and the torque's hold
         (`flat_feedforward`, `ctrl_lpv.twomass.sampled_tuning.SampledTuning.
@@ -217,6 +222,7 @@ class SampledServo:
     M_rest: tuple | None = None
     cold_start: object = None
     exact_feedforward: bool = False
+    free_rest: object = None
 
 
 def plan_stepper(c: ServoTuning, dt: float):
@@ -349,8 +355,19 @@ def sampled_servo(
     motor = s.estimator
     inertia = s.inertia
     cold = s.cold_start if motor is None else None
-    # The cold start's states follow the inertia estimate's.
-    first_cold = _NS + (0 if inertia is None else len(INERTIA_STATES))
+    states = SAMPLED_STATES if motor is None else SAMPLED_STATES + MOTOR_STATES
+    if inertia is not None:
+        states = SAMPLED_STATES + INERTIA_STATES
+    # The cold start's states follow the inertia estimate's, the free
+    # rest's the cold start's.
+    first_cold = len(states)
+    if cold is not None:
+        states = states + COLD_START_STATES
+    rest_wall = None
+    if s.free_rest is not None and motor is None and rest is not None:
+        rest_wall = free_rest_stepper(s.free_rest, c, dt)
+        first_free = len(states)
+        states = states + FREE_REST_STATES
 
     def blend(pair, w):
         return pair[0] + w * (pair[1] - pair[0])
@@ -424,7 +441,8 @@ def sampled_servo(
                 # The load torque at a cold start, from the load's fall in
                 # the gap (`cold_start`).
                 filtered, started = cold.correct(
-                    xhat, filtered, x[first_cold:], innovation, gain, rows, Ph,
+                    xhat, filtered, x[first_cold : first_cold + len(COLD_START_STATES)],
+                    innovation, gain, rows, Ph,
                     contact=contact, alpha_hat=a0 + dah,
                 )  # fmt: skip
             if inertia is None:
@@ -548,6 +566,12 @@ def sampled_servo(
             if sgn != 0.0:
                 psi, dpsi, ddpsi = _gx.crossing_offset(sgn, changes, dur)
         crossing = 0.0
+        # The load torque while latched, filtered over `lean_time` from the
+        # latch on (the observer's estimate is 0.1 Nm noisy per sample on
+        # encoders, and at the end of a move it holds the inertia error of
+        # the settling load: 1.8 Nm at Jl x0.8).
+        td_filtered = x[17] + filtered_share * (at[5] - x[17])
+        wall = None
         if rest is not None and c.anti_hunting:
             previous, left = side, x[18]
             # No flip test while the motor crosses the gap to the new flank.
@@ -556,6 +580,19 @@ def sampled_servo(
                     rest, dt, side, evidence, resting=at_rest, error=el, speed=dl,
                     load_torque=at[5], tstar=tstar, psi=psi, pressed=side * tsh > tc,
                 )  # fmt: skip
+            if rest_wall is not None:
+                # A free load's rest (`free_rest`): the motor a wall the
+                # load stops dead on, which moves no more than it asks.
+                wall = rest_wall(
+                    x[first_free:], resting=at_rest,
+                    latched=at_rest and side != 0.0 and left <= 0.0,
+                    previous=previous, side=side, evidence=evidence, target=r,
+                    load=y[1], load_error=el, load_speed=dl, load_torque=at[5],
+                    rest_torque=td_filtered, motor=tm, motor_speed=wm, alpha_hat=ah,
+                )  # fmt: skip
+                side, evidence = wall.side, wall.evidence
+                if wall.parked:
+                    previous = side
             if side != 0.0:
                 psi, dpsi, ddpsi, crossing = flank_offset(
                     rest, dt, side, previous, left, alpha_hat=ah, speed=dl
@@ -572,14 +609,13 @@ def sampled_servo(
             k1 * (tm - thm) + k2 * (wm - wmf)
             + reach * kp * el + reach * free * k4 * dl + reach * free * k5 * xi
         )  # fmt: skip
+        parked = wall is not None and wall.parked
+        if parked and wall.command is not None:
+            raw = wall.command
         u = min(max(raw, -limit), limit)
 
         # Integral: conditional on saturation, in contact only, held in moves.
-        # The load torque while latched, filtered over `lean_time` from the
-        # latch on (the observer's estimate is 0.1 Nm noisy per sample on
-        # encoders, and at the end of a move it holds the inertia error of
-        # the settling load: 1.8 Nm at Jl x0.8).
-        td_rest = 0.0 if side == 0.0 else x[17] + filtered_share * (at[5] - x[17])
+        td_rest = 0.0 if side == 0.0 else td_filtered
         leaning = 0.0
         if side != 0.0:
             leaning = _smoothstep(side * td_rest / rest.lean_torque - 1.0)
@@ -603,7 +639,8 @@ def sampled_servo(
         dxi *= max(band, leaning)
         # Gap estimate: the flank read at contacts, probing at rest.
         ddah = learnt_gap = 0.0
-        if c.gap_estimate:
+        # Parked on a wall the gap estimate holds: the wall learns its own.
+        if c.gap_estimate and not parked:
             flank = math.copysign(1.0, tsh) * ((tm - tl) - (tsh - cs * (wm - wl)) / ks)
             flank = min(max(flank, 0.0), amax)
             # A static reading: the shaft not twisting (in contact ``omega_m
@@ -699,6 +736,8 @@ def sampled_servo(
         if cold is not None:
             started[-1] = cold.hand_over(started[-1], at_rest, dt)
             state += list(started)
+        if rest_wall is not None:
+            state += list(wall.state) if wall is not None else list(x[first_free:])
         if motor is not None:
             window = motor.learning_window(filtered, predicted, gap, x[_NS + 6])
             state[13] = gap - a0
@@ -779,11 +818,6 @@ def sampled_servo(
         state[_FALL : _FALL + len(_fall.FALL_STATES)] = fall
         return u, np.asarray(state)
 
-    states = SAMPLED_STATES if motor is None else SAMPLED_STATES + MOTOR_STATES
-    if inertia is not None:
-        states = SAMPLED_STATES + INERTIA_STATES
-    if cold is not None:
-        states = states + COLD_START_STATES
     return law_system(law, [*s.measured, "theta_r"], states, s.dt, name)
 
 

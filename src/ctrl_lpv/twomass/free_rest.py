@@ -1,0 +1,414 @@
+"""The sampled servo's rest without a load torque: a wall and a dead catch.
+
+With the flank latched at rest (`rest_flank`) and no load torque, the load
+is free in the gap: it coasts on its own friction (``Jl / cl`` = 5.6 s) and
+meets the parked motor's flank. Two things kept that rest from settling on
+encoders (1 ms: about a third of the runs after a move missed the end-error
+or the peak-to-peak target, ``docs/servo.rst``):
+
+* **the parked motor jitters.** The law's load terms (position, speed,
+  integral) carry the load encoder's noise onto the motor: 0.32 mrad
+  peak-to-peak of parked motor, against 1.2e-5 rad with the motor on its
+  own feedback alone;
+* **a catch on a stiff motor is elastic.** A load arriving on the motor held
+  by the law's motor-position gain (7315 Nm/rad) comes back at 0.87 of its
+  speed; on 30 Nm/rad and the law's motor-speed damping, at 0.03. A load
+  bouncing between walls does not come to rest.
+
+`FreeRest` makes the parked motor a wall the load stops dead on:
+
+* **engage** at a latched rest with a slow load (`entry_speed`) and a small
+  load-torque estimate (`leave_torque`); the latch's own flip test is off
+  while engaged (it reads the load's speed, not its coast);
+* **the motor alone, on a soft hold**: ``Tm = -hold_stiffness (theta_m -
+  theta_wall) - hold_damping omega_m``, no load terms;
+* **the load's drift by a Kalman filter on the load encoder** (a free mass
+  with viscous friction: position and speed), whose covariance is
+  re-inflated where the innovation's two-sided CUSUM (`catch_drift`,
+  `catch_evidence`) sees a catch or a kick; a second filter (position,
+  speed, acceleration) tells a load torque from a coast: the load speeding
+  up beyond `leave_torque` of ``-(Jl a + cl v)`` for `lean_time` hands the
+  rest back to the latched law;
+* **the wall where the coast ends**: the flank changes where the load's
+  coast (``e + Jl/cl v``) ends beyond `flip_margin` on the far side, by a
+  CUSUM (`flip_evidence`) after `settle_time` on a flank; the wall is placed
+  once per flank, `clearance` short of the target or short of where the
+  load will be when the motor has arrived (`approach_accel`, `guard`), and
+  reached along a stiff rest-to-rest quintic (the law's motor gains: a catch
+  during a soft approach is elastic), held soft from then on;
+* **the half-gap from a dead catch**: a load caught at `catch_speed` or
+  faster and still (`still_speed`) for `still_time` lies on the wall: the
+  half-gap is the wall's offset from the target less the load's, shared by
+  both flanks (the estimate of the moves is 1e-4 rad low at alpha 0.06);
+* **a push towards the target**: a load at rest (or receding slower than
+  `recede_speed`) that would stay beyond `target_band` is pushed by the soft
+  wall at ``|e| / launch_arrival`` (within `launch_speeds`) over
+  `launch_time`, and caught dead by the other wall;
+* **leave** (back to the latched law until the next move) when the motor is
+  held `displacement` off its wall (a load torque the soft hold yields to),
+  the filtered load-torque estimate exceeds `leave_torque`, or the lean
+  filter sees a load torque.
+
+Measured (1 ms, one sample of delay, 20/17-bit encoders with half a count of
+noise; ``docs/servo.rst``): the four Td = 0 rows of the bench, runs missing
+a target fall from 41, 28 and 32 of 96 (three sets of 24 noise seeds) to
+8-9. Not certified: the rest certificate's load-torque floor excludes it,
+as it does the latch (`ctrl_lpv.twomass.servo_rest`); its states follow the
+cold start's in the sampled servo (`FREE_REST_STATES`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+from .gap_crossing import QUINTIC_PEAK_SPEED, crossing_duration, rest_to_rest
+
+__all__ = ["FreeRest", "FREE_REST_STATES", "FreeRestStep", "free_rest_stepper"]
+
+#: The states in the sampled controller: whether the free rest is barred
+#: until the next move, whether it is engaged, the time on the flank and
+#: the flip CUSUM; the drift filter's load error and speed, its covariance
+#: and the innovation's CUSUMs; the lean filter's load error, speed and
+#: acceleration, its covariance and the time it has seen a load torque; the
+#: wall's phase, its start and end, the time since they were set and the
+#: duration, its depth past the target and the half-gap it was placed with,
+#: the time since the last push, the fastest speed towards the wall since,
+#: the time the load has been still; the learnt half-gap and whether known.
+FREE_REST_STATES = [
+    "free_barred", "free_engaged", "free_flank_age", "free_flip_evidence",
+    "drift_e", "drift_v", "drift_P_ee", "drift_P_ev", "drift_P_vv",
+    "catch_up", "catch_down",
+    "lean_e", "lean_v", "lean_a",
+    *(f"lean_P_{i}{j}" for i in "eva" for j in "eva"), "lean_clock",
+    "wall_phase", "wall_from", "wall_to", "wall_clock", "wall_duration",
+    "wall_depth", "wall_half", "push_age", "catch_speed", "still_clock",
+    "half_gap_learnt", "half_gap_known",
+]  # fmt: skip
+_I = {name: i for i, name in enumerate(FREE_REST_STATES)}
+_BARRED, _ENGAGED, _AGE, _FLIP = (_I[n] for n in FREE_REST_STATES[:4])
+_E, _V, _PEE, _PEV, _PVV, _UP, _DOWN = (_I[n] for n in FREE_REST_STATES[4:11])
+_LEAN, _LEAN_P, _LEAN_CLOCK = _I["lean_e"], _I["lean_P_ee"], _I["lean_clock"]
+_PHASE, _FROM, _TO, _CLOCK, _DURATION = (_I[n] for n in FREE_REST_STATES[24:29])
+_DEPTH, _HALF, _PUSH_AGE, _CATCH, _STILL = (_I[n] for n in FREE_REST_STATES[29:34])
+_LEARNT, _KNOWN = _I["half_gap_learnt"], _I["half_gap_known"]
+#: Entry resets every state before these (the learnt half-gap outlives it).
+_KEPT = _LEARNT
+
+#: Wall phases: to be placed, the stiff approach, held, the soft push.
+UNPLACED, APPROACH, HELD, PUSH = 0.0, 1.0, 2.0, 3.0
+
+
+@dataclass(frozen=True)
+class FreeRest:
+    """Thresholds of the free-load rest (see the module docstring).
+
+    Attributes
+    ----------
+    entry_speed : float
+        Engage with the observer's load speed below this, rad/s.
+    leave_torque : float
+        Engage with ``|Td_hat|`` below this, Nm; leave when the filtered
+        estimate (`rest_flank.RestFlank.lean_time`) or the lean filter's
+        exceeds it.
+    hold_stiffness, hold_damping : float
+        The soft hold's gains, Nm/rad and Nm s/rad.
+    reading_variance : float or None
+        Variance of a load-encoder reading, rad^2; None: set by
+        `ctrl_lpv.twomass.servo_design` from the encoder counts (a third of
+        a count squared, as `ctrl_lpv.twomass.cold_start.cold_start`).
+    speed_diffusion : float
+        Random-walk intensity of the load speed in the drift filter,
+        (rad/s)^2 / s.
+    drift_prior : (float, float)
+        Standard deviations of the drift filter's load error and speed at
+        entry, rad and rad/s.
+    catch_drift, catch_evidence : float
+        The innovation CUSUM's drift and threshold, in standard deviations
+        of the innovation.
+    catch_inflation : (float, float)
+        Standard deviations, rad and rad/s, added to both filters' load error
+        and speed at a catch.
+    catch_settle : float
+        After a catch the flank test waits at least this long, s.
+    accel_diffusion : float
+        Random-walk intensity of the load acceleration in the lean filter,
+        (rad/s^2)^2 / s.
+    lean_prior : (float, float, float)
+        Standard deviations of the lean filter's load error, speed and
+        acceleration at entry.
+    lean_time : float
+        The lean filter's load torque lasts this long before the rest is
+        handed back, s.
+    flip_margin, flip_evidence : float
+        The flip CUSUM's drift, rad, and threshold, rad s, on the load's
+        coast end past the target on the far side.
+    settle_time : float
+        No flip test within this long of a flank change or entry, nor push,
+        s.
+    clearance : float
+        The wall's least depth short of the target, rad.
+    wall_margin : float
+        The wall stands this far short of the predicted load, rad.
+    approach_accel : float
+        Peak acceleration of the stiff approach, rad/s^2.
+    guard : float
+        The load is predicted this long past the approach's end, s.
+    arrival_error, arrival_speed, arrival_timeout : float
+        The approach has arrived within these of the wall (rad, rad/s), or
+        this long after its end (s).
+    catch_speed : float
+        A load met the wall at least this fast (rad/s) ...
+    still_speed, still_time : float
+        ... and below this speed (rad/s) for this long (s) lies on it.
+    learn_range : float
+        A half-gap read further than this from the estimate is not learnt,
+        rad.
+    target_band : float
+        A load at rest beyond this of the target is pushed, rad.
+    push_wait : float
+        Between pushes, s.
+    recede_speed, recede_horizon : float
+        A load receding towards the target slower than `recede_speed` is
+        pushed if it would still be beyond `target_band` after
+        `recede_horizon` s.
+    launch_arrival : float
+        A push aims to cross the load error in this long, s ...
+    launch_speeds : (float, float)
+        ... at a speed within these, rad/s.
+    launch_time : float
+        Duration of a push, s.
+    displacement : float
+        Leave when the motor is this far off its wall, rad.
+    """
+
+    entry_speed: float = 5e-4
+    leave_torque: float = 0.2
+    hold_stiffness: float = 30.0
+    hold_damping: float = 91.0
+    reading_variance: float | None = None
+    speed_diffusion: float = 1e-10
+    drift_prior: tuple = (3e-4, 3e-3)
+    catch_drift: float = 0.5
+    catch_evidence: float = 10.0
+    catch_inflation: tuple = (1e-4, 2e-3)
+    catch_settle: float = 0.15
+    accel_diffusion: float = 1e-2
+    lean_prior: tuple = (3e-5, 3e-3, 1.0)
+    lean_time: float = 0.05
+    flip_margin: float = 1e-4
+    flip_evidence: float = 2e-5
+    settle_time: float = 0.3
+    clearance: float = 2e-5
+    wall_margin: float = 5e-5
+    approach_accel: float = 20.0
+    guard: float = 0.05
+    arrival_error: float = 1e-5
+    arrival_speed: float = 2e-3
+    arrival_timeout: float = 0.1
+    catch_speed: float = 1.5e-4
+    still_speed: float = 3e-5
+    still_time: float = 0.15
+    learn_range: float = 1e-3
+    target_band: float = 1.5e-4
+    push_wait: float = 0.5
+    recede_speed: float = 3e-4
+    recede_horizon: float = 1.0
+    launch_arrival: float = 0.5
+    launch_speeds: tuple = (3e-4, 2e-3)
+    launch_time: float = 0.2
+    displacement: float = 5e-4
+
+
+class FreeRestStep(NamedTuple):
+    """One sample of the free rest: its next `state`, the latch's `side`
+    and `evidence`, whether the rest is `parked` on it this sample (the gap
+    estimate then holds), and the motor `command` (None: the latched
+    law's)."""
+
+    state: np.ndarray
+    side: float
+    evidence: float
+    parked: bool
+    command: float | None
+
+
+def free_rest_stepper(f: FreeRest, c, dt: float):
+    """The free rest of `f` one sample of `dt` on, for the servo tuning `c`
+    (`ctrl_lpv.twomass.servo_kernel.ServoTuning`: the nominal load inertia
+    and friction, the motor's, and the law's motor gains for the stiff
+    approach).
+
+    Returns
+    -------
+    callable
+        ``step(z, **reading) -> FreeRestStep`` on the states `z`
+        (`FREE_REST_STATES`); the reading's keywords are those of the
+        function's signature below.
+    """
+    if f.reading_variance is None:
+        raise ValueError("FreeRest.reading_variance: not set (the encoder counts)")
+    R = f.reading_variance
+    coast = c.Jl / c.cl
+    decay = math.exp(-dt / coast)
+    reach = coast * (1.0 - decay)
+    lean_model = np.array([[1.0, dt, 0.5 * dt * dt], [0.0, 1.0, dt], [0.0, 0.0, 1.0]])
+    inflation = np.diag([f.catch_inflation[0] ** 2, f.catch_inflation[1] ** 2, 0.0])
+    k1, k2 = c.gain[0], c.gain[1]
+    soft = f.hold_stiffness, f.hold_damping
+
+    def enter(z, load, load_error, load_speed):
+        z[:_KEPT] = 0.0
+        z[_ENGAGED] = 1.0
+        z[_E], z[_V] = load_error, load_speed
+        z[_PEE], z[_PVV] = f.drift_prior[0] ** 2, f.drift_prior[1] ** 2
+        z[_LEAN : _LEAN + 3] = [load, load_speed, 0.0]
+        z[_LEAN_P : _LEAN_P + 9] = np.diag(np.square(f.lean_prior)).ravel()
+
+    def lean(z, load):
+        """The lean filter one sample on: the time it has seen a load torque."""
+        x = lean_model @ z[_LEAN : _LEAN + 3]
+        P = lean_model @ z[_LEAN_P : _LEAN_P + 9].reshape(3, 3) @ lean_model.T
+        P[2, 2] += f.accel_diffusion * dt
+        gain = P[:, 0] / (P[0, 0] + R)
+        x = x + gain * (load - x[0])
+        P = P - np.outer(gain, P[0, :])
+        z[_LEAN : _LEAN + 3], z[_LEAN_P : _LEAN_P + 9] = x, P.ravel()
+        torque = -(c.Jl * x[2] + c.cl * x[1])
+        speeding = abs(torque) > f.leave_torque and x[1] * x[2] > 0.0
+        z[_LEAN_CLOCK] = z[_LEAN_CLOCK] + dt if speeding else 0.0
+
+    def drift(z, load):
+        """The drift filter one sample on, re-inflated at a catch."""
+        e, v = z[_E] + reach * z[_V], decay * z[_V]
+        Pee, Pev, Pvv = z[_PEE], z[_PEV], z[_PVV]
+        n00 = Pee + 2.0 * reach * Pev + reach * reach * Pvv
+        n01 = decay * (Pev + reach * Pvv)
+        n11 = decay * decay * Pvv + f.speed_diffusion * dt
+        innovation = load - e
+        normed = innovation / math.sqrt(n00 + R)
+        z[_UP] = max(0.0, z[_UP] + normed - f.catch_drift)
+        z[_DOWN] = max(0.0, z[_DOWN] - normed - f.catch_drift)
+        if z[_UP] > f.catch_evidence or z[_DOWN] > f.catch_evidence:
+            z[_UP] = z[_DOWN] = 0.0
+            P = z[_LEAN_P : _LEAN_P + 9].reshape(3, 3) + inflation
+            z[_LEAN_P : _LEAN_P + 9] = P.ravel()
+            n00 += inflation[0, 0]
+            n11 += inflation[1, 1]
+            z[_AGE] = min(z[_AGE], f.settle_time - f.catch_settle)
+            z[_STILL] = 0.0
+        S = n00 + R
+        g0, g1 = n00 / S, n01 / S
+        z[_E], z[_V] = e + g0 * innovation, v + g1 * innovation
+        z[_PEE], z[_PEV], z[_PVV] = (1 - g0) * n00, (1 - g0) * n01, n11 - g1 * n01
+
+    def half_gap(z, alpha_hat):
+        return z[_LEARNT] if z[_KNOWN] else alpha_hat
+
+    def place(z, side, target, motor, alpha_hat):
+        """The wall on `side`, short of the load where the motor arrives."""
+        half = half_gap(z, alpha_hat)
+        nominal = target + side * (half - f.clearance)
+        horizon = crossing_duration(nominal - motor, f.approach_accel) + f.guard
+        depth = min(-f.clearance, side * (z[_E] + z[_V] * horizon) - f.wall_margin)
+        wall = target + side * (depth + half)
+        z[_PHASE], z[_FROM], z[_TO], z[_CLOCK] = APPROACH, motor, wall, 0.0
+        z[_DURATION] = crossing_duration(wall - motor, f.approach_accel)
+        z[_DEPTH], z[_HALF], z[_CATCH], z[_STILL] = depth, half, 0.0, 0.0
+
+    def learn(z, side, alpha_hat):
+        """The half-gap from a load caught dead on the held wall."""
+        z[_CATCH] = max(z[_CATCH], -side * z[_V])
+        z[_STILL] = z[_STILL] + dt if abs(z[_V]) < f.still_speed else 0.0
+        if z[_STILL] > f.still_time and z[_CATCH] > f.catch_speed:
+            learnt = z[_HALF] + z[_DEPTH] - side * z[_E]
+            if abs(learnt - alpha_hat) < f.learn_range:
+                z[_LEARNT], z[_KNOWN] = learnt, 1.0
+            z[_CATCH] = 0.0
+
+    def push(z, side, target, alpha_hat):
+        """A load that stays off the target is pushed towards it."""
+        ze, zv = side * z[_E], side * z[_V]
+        slow = zv > -f.still_speed and abs(zv) < f.recede_speed
+        stays = ze + max(zv, 0.0) * f.recede_horizon < -f.target_band
+        if not (z[_AGE] > f.settle_time and z[_PUSH_AGE] > f.push_wait):
+            return
+        if not (slow and stays):
+            return
+        contact = side * (z[_TO] - target) - half_gap(z, alpha_hat)
+        speed = min(max(-ze / f.launch_arrival, f.launch_speeds[0]), f.launch_speeds[1])
+        travel = max(ze - contact, 0.0) + speed * f.launch_time / QUINTIC_PEAK_SPEED
+        z[_PHASE], z[_FROM], z[_TO] = PUSH, z[_TO], z[_TO] + side * travel
+        z[_CLOCK], z[_DURATION], z[_PUSH_AGE] = 0.0, f.launch_time, 0.0
+
+    def command(z, motor, motor_speed):
+        """The motor torque of the wall's phase (None: the latched law's)."""
+        ref, speed, accel = rest_to_rest(z[_CLOCK], z[_DURATION], z[_FROM], z[_TO])
+        ended = z[_CLOCK] >= z[_DURATION]
+        if z[_PHASE] == PUSH and ended:
+            z[_PHASE] = HELD
+        if z[_PHASE] == APPROACH and ended:
+            arrived = (
+                abs(motor - z[_TO]) < f.arrival_error
+                and abs(motor_speed) < f.arrival_speed
+            )
+            if arrived or z[_CLOCK] > z[_DURATION] + f.arrival_timeout:
+                z[_PHASE] = HELD
+        kp, kd = (k1, k2) if z[_PHASE] == APPROACH else soft
+        feedback = kp * (motor - ref) + kd * (motor_speed - speed)
+        u = c.Jm * accel + c.cm * speed - feedback
+        return u, ended and abs(motor - ref) > f.displacement
+
+    def step(
+        z, *, resting, latched, previous, side, evidence, target, load,
+        load_error, load_speed, load_torque, rest_torque, motor, motor_speed,
+        alpha_hat,
+    ) -> FreeRestStep:  # fmt: skip
+        """One sample: `resting` (the plan at rest), `latched` (and the
+        flank latched, not crossing), the latch's `side` before and after
+        its own step (`previous`, `side`) and `evidence`, the `target`, the
+        `load` encoder's reading, the observer's `load_error`,
+        `load_speed`, `load_torque` and its filtered `rest_torque`, the
+        `motor` angle and `motor_speed` where the command acts, and the
+        half-gap estimate `alpha_hat`."""
+        z = np.array(z, dtype=float)
+        if not resting:
+            z[_BARRED] = 0.0
+        engaged = z[_ENGAGED] == 1.0
+        if latched and not engaged and abs(rest_torque) > f.leave_torque:
+            z[_BARRED] = 1.0
+        quiet = abs(load_speed) < f.entry_speed and abs(load_torque) < f.leave_torque
+        if not latched or z[_BARRED] or not (engaged or quiet):
+            z[_ENGAGED] = 0.0
+            return FreeRestStep(z, side, evidence, False, None)
+        if engaged and side == -previous:
+            side, evidence = previous, 0.0
+        if not engaged:
+            enter(z, load - target, load_error, load_speed)
+        lean(z, load - target)
+        drift(z, load - target)
+        z[_AGE] += dt
+        if z[_AGE] > f.settle_time:
+            coast_end = side * (z[_E] + coast * z[_V])
+            z[_FLIP] = max(0.0, z[_FLIP] + dt * (coast_end - f.flip_margin))
+            if z[_FLIP] > f.flip_evidence:
+                side, evidence = -side, 0.0
+                z[_FLIP] = z[_AGE] = 0.0
+                z[_PHASE] = UNPLACED
+        if z[_PHASE] == UNPLACED:
+            place(z, side, target, motor, alpha_hat)
+        z[_CLOCK] += dt
+        z[_PUSH_AGE] += dt
+        if z[_PHASE] == HELD:
+            learn(z, side, alpha_hat)
+            push(z, side, target, alpha_hat)
+        u, yielded = command(z, motor, motor_speed)
+        if yielded or abs(rest_torque) > f.leave_torque or z[_LEAN_CLOCK] > f.lean_time:
+            z[_ENGAGED], z[_BARRED] = 0.0, 1.0
+            return FreeRestStep(z, side, evidence, True, None)
+        return FreeRestStep(z, side, evidence, True, u)
+
+    return step
