@@ -36,10 +36,6 @@ or the peak-to-peak target, ``docs/servo.rst``):
   load will be when the motor has arrived (`approach_accel`, `guard`), and
   reached along a stiff rest-to-rest quintic (the law's motor gains: a catch
   during a soft approach is elastic), held soft from then on;
-* **the half-gap from a dead catch**: a load caught at `catch_speed` or
-  faster and still (`still_speed`) for `still_time` lies on the wall: the
-  half-gap is the wall's offset from the target less the load's, shared by
-  both flanks (the estimate of the moves is 1e-4 rad low at alpha 0.06);
 * **a push towards the target**: a load at rest (or receding slower than
   `recede_speed`) that would stay beyond `target_band` is pushed by the soft
   wall at ``|e| / launch_arrival`` (within `launch_speeds`) over
@@ -75,9 +71,7 @@ __all__ = ["FreeRest", "FREE_REST_STATES", "FreeRestStep", "free_rest_stepper"]
 #: and the innovation's CUSUMs; the lean filter's load error, speed and
 #: acceleration, its covariance and the time it has seen a load torque; the
 #: wall's phase, its start and end, the time since they were set and the
-#: duration, its depth past the target and the half-gap it was placed with,
-#: the time since the last push, the fastest speed towards the wall since,
-#: the time the load has been still; the learnt half-gap and whether known.
+#: duration, its depth past the target, and the time since the last push.
 FREE_REST_STATES = [
     "free_barred", "free_engaged", "free_flank_age", "free_flip_evidence",
     "drift_e", "drift_v", "drift_P_ee", "drift_P_ev", "drift_P_vv",
@@ -85,18 +79,14 @@ FREE_REST_STATES = [
     "lean_e", "lean_v", "lean_a",
     *(f"lean_P_{i}{j}" for i in "eva" for j in "eva"), "lean_clock",
     "wall_phase", "wall_from", "wall_to", "wall_clock", "wall_duration",
-    "wall_depth", "wall_half", "push_age", "catch_speed", "still_clock",
-    "half_gap_learnt", "half_gap_known",
+    "wall_depth", "push_age",
 ]  # fmt: skip
 _I = {name: i for i, name in enumerate(FREE_REST_STATES)}
 _BARRED, _ENGAGED, _AGE, _FLIP = (_I[n] for n in FREE_REST_STATES[:4])
 _E, _V, _PEE, _PEV, _PVV, _UP, _DOWN = (_I[n] for n in FREE_REST_STATES[4:11])
 _LEAN, _LEAN_P, _LEAN_CLOCK = _I["lean_e"], _I["lean_P_ee"], _I["lean_clock"]
 _PHASE, _FROM, _TO, _CLOCK, _DURATION = (_I[n] for n in FREE_REST_STATES[24:29])
-_DEPTH, _HALF, _PUSH_AGE, _CATCH, _STILL = (_I[n] for n in FREE_REST_STATES[29:34])
-_LEARNT, _KNOWN = _I["half_gap_learnt"], _I["half_gap_known"]
-#: Entry resets every state before these (the learnt half-gap outlives it).
-_KEPT = _LEARNT
+_DEPTH, _PUSH_AGE = _I["wall_depth"], _I["push_age"]
 
 #: Wall phases: to be placed, the stiff approach, held, the soft push.
 UNPLACED, APPROACH, HELD, PUSH = 0.0, 1.0, 2.0, 3.0
@@ -160,13 +150,8 @@ class FreeRest:
     arrival_error, arrival_speed, arrival_timeout : float
         The approach has arrived within these of the wall (rad, rad/s), or
         this long after its end (s).
-    catch_speed : float
-        A load met the wall at least this fast (rad/s) ...
-    still_speed, still_time : float
-        ... and below this speed (rad/s) for this long (s) lies on it.
-    learn_range : float
-        A half-gap read further than this from the estimate is not learnt,
-        rad.
+    still_speed : float
+        A load slower than this, rad/s, is at rest (a push's condition).
     target_band : float
         A load at rest beyond this of the target is pushed, rad.
     push_wait : float
@@ -209,10 +194,7 @@ class FreeRest:
     arrival_error: float = 1e-5
     arrival_speed: float = 2e-3
     arrival_timeout: float = 0.1
-    catch_speed: float = 1.5e-4
     still_speed: float = 3e-5
-    still_time: float = 0.15
-    learn_range: float = 1e-3
     target_band: float = 1.5e-4
     push_wait: float = 0.5
     recede_speed: float = 3e-4
@@ -261,7 +243,7 @@ def free_rest_stepper(f: FreeRest, c, dt: float):
     soft = f.hold_stiffness, f.hold_damping
 
     def enter(z, load, load_error, load_speed):
-        z[:_KEPT] = 0.0
+        z[:] = 0.0
         z[_ENGAGED] = 1.0
         z[_E], z[_V] = load_error, load_speed
         z[_PEE], z[_PVV] = f.drift_prior[0] ** 2, f.drift_prior[1] ** 2
@@ -299,35 +281,20 @@ def free_rest_stepper(f: FreeRest, c, dt: float):
             n00 += inflation[0, 0]
             n11 += inflation[1, 1]
             z[_AGE] = min(z[_AGE], f.settle_time - f.catch_settle)
-            z[_STILL] = 0.0
         S = n00 + R
         g0, g1 = n00 / S, n01 / S
         z[_E], z[_V] = e + g0 * innovation, v + g1 * innovation
         z[_PEE], z[_PEV], z[_PVV] = (1 - g0) * n00, (1 - g0) * n01, n11 - g1 * n01
 
-    def half_gap(z, alpha_hat):
-        return z[_LEARNT] if z[_KNOWN] else alpha_hat
-
     def place(z, side, target, motor, alpha_hat):
         """The wall on `side`, short of the load where the motor arrives."""
-        half = half_gap(z, alpha_hat)
-        nominal = target + side * (half - f.clearance)
+        nominal = target + side * (alpha_hat - f.clearance)
         horizon = crossing_duration(nominal - motor, f.approach_accel) + f.guard
         depth = min(-f.clearance, side * (z[_E] + z[_V] * horizon) - f.wall_margin)
-        wall = target + side * (depth + half)
+        wall = target + side * (depth + alpha_hat)
         z[_PHASE], z[_FROM], z[_TO], z[_CLOCK] = APPROACH, motor, wall, 0.0
         z[_DURATION] = crossing_duration(wall - motor, f.approach_accel)
-        z[_DEPTH], z[_HALF], z[_CATCH], z[_STILL] = depth, half, 0.0, 0.0
-
-    def learn(z, side, alpha_hat):
-        """The half-gap from a load caught dead on the held wall."""
-        z[_CATCH] = max(z[_CATCH], -side * z[_V])
-        z[_STILL] = z[_STILL] + dt if abs(z[_V]) < f.still_speed else 0.0
-        if z[_STILL] > f.still_time and z[_CATCH] > f.catch_speed:
-            learnt = z[_HALF] + z[_DEPTH] - side * z[_E]
-            if abs(learnt - alpha_hat) < f.learn_range:
-                z[_LEARNT], z[_KNOWN] = learnt, 1.0
-            z[_CATCH] = 0.0
+        z[_DEPTH] = depth
 
     def push(z, side, target, alpha_hat):
         """A load that stays off the target is pushed towards it."""
@@ -338,7 +305,7 @@ def free_rest_stepper(f: FreeRest, c, dt: float):
             return
         if not (slow and stays):
             return
-        contact = side * (z[_TO] - target) - half_gap(z, alpha_hat)
+        contact = side * (z[_TO] - target) - alpha_hat
         speed = min(max(-ze / f.launch_arrival, f.launch_speeds[0]), f.launch_speeds[1])
         travel = max(ze - contact, 0.0) + speed * f.launch_time / QUINTIC_PEAK_SPEED
         z[_PHASE], z[_FROM], z[_TO] = PUSH, z[_TO], z[_TO] + side * travel
@@ -403,7 +370,6 @@ def free_rest_stepper(f: FreeRest, c, dt: float):
         z[_CLOCK] += dt
         z[_PUSH_AGE] += dt
         if z[_PHASE] == HELD:
-            learn(z, side, alpha_hat)
             push(z, side, target, alpha_hat)
         u, yielded = command(z, motor, motor_speed)
         if yielded or abs(rest_torque) > f.leave_torque or z[_LEAN_CLOCK] > f.lean_time:
