@@ -46,6 +46,7 @@ def _parked(load_errors, load_speed, *, seed=1, side=1.0, motor=0.03 - 1e-3):
     a = np.array([[0.0, 1.0, 0.0], [0.0, -P.cm / P.Jm, 1.0 / P.Jm], [0.0, 0.0, 0.0]])
     hold = expm(a * DT)
     z, x = np.zeros(len(FREE_REST_STATES)), np.array([motor, 0.0])
+    z[FREE_REST_STATES.index("free_allowed")] = 1.0  # after a move
     rows = []
     for e in load_errors:
         reading = ENCODERS["theta_l"](e, rng)
@@ -83,14 +84,15 @@ def test_drift_filter_follows_a_coasting_load():
 def test_a_load_torque_hands_the_rest_back():
     """The same load under 0.5 Nm of load torque (beyond `leave_torque`):
     the lean filter sees the load accelerated by it and hands the rest back
-    to the latched law within 0.3 s, barred until the next move."""
+    to the latched law within 0.3 s, not to engage again before the next
+    move."""
     t = DT * np.arange(1, 1001)
     e, _ = _coast(t, -3e-4, 0.0, torque=-0.5)
     rows = _parked(e, 0.0)
     handed = [k for k, (command, _) in enumerate(rows) if command is None]
     assert handed and t[handed[0]] <= 0.3
     z = rows[-1][1]
-    assert z[FREE_REST_STATES.index("free_barred")] == 1.0
+    assert z[FREE_REST_STATES.index("free_allowed")] == 0.0
     assert z[FREE_REST_STATES.index("free_engaged")] == 0.0
 
 

@@ -65,15 +65,16 @@ from .gap_crossing import QUINTIC_PEAK_SPEED, crossing_duration, rest_to_rest
 
 __all__ = ["FreeRest", "FREE_REST_STATES", "FreeRestStep", "free_rest_stepper"]
 
-#: The states in the sampled controller: whether the free rest is barred
-#: until the next move, whether it is engaged, the time on the flank and
+#: The states in the sampled controller: whether the free rest may engage
+#: (from the first move on, until it hands a rest back; 0 at the start,
+#: where the load may be anywhere in the gap), whether it is engaged, the time on the flank and
 #: the flip CUSUM; the drift filter's load error and speed, its covariance
 #: and the innovation's CUSUMs; the lean filter's load error, speed and
 #: acceleration, its covariance and the time it has seen a load torque; the
 #: wall's phase, its start and end, the time since they were set and the
 #: duration, its depth past the target, and the time since the last push.
 FREE_REST_STATES = [
-    "free_barred", "free_engaged", "free_flank_age", "free_flip_evidence",
+    "free_allowed", "free_engaged", "free_flank_age", "free_flip_evidence",
     "drift_e", "drift_v", "drift_P_ee", "drift_P_ev", "drift_P_vv",
     "catch_up", "catch_down",
     "lean_e", "lean_v", "lean_a",
@@ -82,7 +83,7 @@ FREE_REST_STATES = [
     "wall_depth", "push_age",
 ]  # fmt: skip
 _I = {name: i for i, name in enumerate(FREE_REST_STATES)}
-_BARRED, _ENGAGED, _AGE, _FLIP = (_I[n] for n in FREE_REST_STATES[:4])
+_ALLOWED, _ENGAGED, _AGE, _FLIP = (_I[n] for n in FREE_REST_STATES[:4])
 _E, _V, _PEE, _PEV, _PVV, _UP, _DOWN = (_I[n] for n in FREE_REST_STATES[4:11])
 _LEAN, _LEAN_P, _LEAN_CLOCK = _I["lean_e"], _I["lean_P_ee"], _I["lean_clock"]
 _PHASE, _FROM, _TO, _CLOCK, _DURATION = (_I[n] for n in FREE_REST_STATES[24:29])
@@ -244,7 +245,7 @@ def free_rest_stepper(f: FreeRest, c, dt: float):
 
     def enter(z, load, load_error, load_speed):
         z[:] = 0.0
-        z[_ENGAGED] = 1.0
+        z[_ALLOWED] = z[_ENGAGED] = 1.0
         z[_E], z[_V] = load_error, load_speed
         z[_PEE], z[_PVV] = f.drift_prior[0] ** 2, f.drift_prior[1] ** 2
         z[_LEAN : _LEAN + 3] = [load, load_speed, 0.0]
@@ -343,12 +344,12 @@ def free_rest_stepper(f: FreeRest, c, dt: float):
         half-gap estimate `alpha_hat`."""
         z = np.array(z, dtype=float)
         if not resting:
-            z[_BARRED] = 0.0
+            z[_ALLOWED] = 1.0
         engaged = z[_ENGAGED] == 1.0
         if latched and not engaged and abs(rest_torque) > f.leave_torque:
-            z[_BARRED] = 1.0
+            z[_ALLOWED] = 0.0
         quiet = abs(load_speed) < f.entry_speed and abs(load_torque) < f.leave_torque
-        if not latched or z[_BARRED] or not (engaged or quiet):
+        if not latched or not z[_ALLOWED] or not (engaged or quiet):
             z[_ENGAGED] = 0.0
             return FreeRestStep(z, side, evidence, False, None)
         if engaged and side == -previous:
@@ -373,7 +374,7 @@ def free_rest_stepper(f: FreeRest, c, dt: float):
             push(z, side, target, alpha_hat)
         u, yielded = command(z, motor, motor_speed)
         if yielded or abs(rest_torque) > f.leave_torque or z[_LEAN_CLOCK] > f.lean_time:
-            z[_ENGAGED], z[_BARRED] = 0.0, 1.0
+            z[_ENGAGED], z[_ALLOWED] = 0.0, 0.0
             return FreeRestStep(z, side, evidence, True, None)
         return FreeRestStep(z, side, evidence, True, u)
 
