@@ -412,7 +412,6 @@ def test_latched_rest_runs_on_quieter_observer_gains(design):
 #: to hold it and every catch after throws the load back faster; with exact
 #: angles too (0.2 rad: 62 Nm).
 _REST_MISSES = {
-    (0.03, 1.0, 1.2, 4),
     *((0.03, 0.05, 0.8, seed) for seed in (1, 2, 3, 5, 6)),
     *((0.06, 0.05, 0.8, seed) for seed in range(1, 7)),
     *((0.03, 0.2, 0.8, seed) for seed in (2, 3, 4)),
@@ -440,8 +439,8 @@ def test_no_load_torque_rest_is_quiet_on_every_seed(design, alpha, theta_r, Jl, 
     the last second <= 3 Nm on every noise seed but `_REST_MISSES`; at the
     nominal inertia the issue's rest too, end error and last-second
     peak-to-peak <= 2e-4 rad (the free rest, `twomass.free_rest`; the
-    latched law alone missed 13 of these 24 runs), off it a peak-to-peak <=
-    5e-4 rad."""
+    latched law alone missed 41 of 96 runs of the four nominal rows on
+    seeds 1-24, docs/servo.rst), off it a peak-to-peak <= 5e-4 rad."""
     m = _run(design, Td=0.0, alpha=alpha, theta_r=theta_r, Jl=Jl, seed=seed)
     assert m["settling"] <= 0.3
     assert m["overshoot"] <= 1.5

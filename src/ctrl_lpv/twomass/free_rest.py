@@ -39,7 +39,7 @@ or the peak-to-peak target, ``docs/servo.rst``):
 * **a push towards the target**: a load at rest (or receding slower than
   `recede_speed`) that would stay beyond `target_band` is pushed by the soft
   wall at ``|e| / launch_arrival`` (within `launch_speeds`) over
-  `launch_time`, and caught dead by the other wall;
+  `launch_time`, and caught by the other wall;
 * **leave** (back to the latched law until the next move) when the motor is
   held `displacement` off its wall (a load torque the soft hold yields to),
   the filtered load-torque estimate exceeds `leave_torque`, or the lean
@@ -67,12 +67,13 @@ __all__ = ["FreeRest", "FREE_REST_STATES", "FreeRestStep", "free_rest_stepper"]
 
 #: The states in the sampled controller: whether the free rest may engage
 #: (from the first move on, until it hands a rest back; 0 at the start,
-#: where the load may be anywhere in the gap), whether it is engaged, the time on the flank and
-#: the flip CUSUM; the drift filter's load error and speed, its covariance
-#: and the innovation's CUSUMs; the lean filter's load error, speed and
-#: acceleration, its covariance and the time it has seen a load torque; the
-#: wall's phase, its start and end, the time since they were set and the
-#: duration, its depth past the target, and the time since the last push.
+#: where the load may be anywhere in the gap), whether it is engaged, the
+#: time on the flank and the flip CUSUM; the drift filter's load error and
+#: speed, its covariance and the innovation's CUSUMs; the lean filter's load
+#: error, speed and acceleration, its covariance and the time it has seen a
+#: load torque; the wall's phase, its start and end, the time since they
+#: were set and the duration, its depth past the target, and the time since
+#: the last push.
 FREE_REST_STATES = [
     "free_allowed", "free_engaged", "free_flank_age", "free_flip_evidence",
     "drift_e", "drift_v", "drift_P_ee", "drift_P_ev", "drift_P_vv",
