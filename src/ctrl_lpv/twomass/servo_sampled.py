@@ -581,8 +581,8 @@ def sampled_servo(
                     load_torque=at[5], tstar=tstar, psi=psi, pressed=side * tsh > tc,
                 )  # fmt: skip
             if rest_wall is not None:
-                # A free load's rest (`free_rest`): the motor a wall the
-                # load stops dead on, which moves no more than it asks.
+                # A free load's rest (`free_rest`): the motor alone, a soft
+                # wall the load stops on.
                 wall = rest_wall(
                     x[first_free:], resting=at_rest,
                     latched=at_rest and side != 0.0 and left <= 0.0,
@@ -639,7 +639,7 @@ def sampled_servo(
         dxi *= max(band, leaning)
         # Gap estimate: the flank read at contacts, probing at rest.
         ddah = learnt_gap = 0.0
-        # Parked on a wall the gap estimate holds: the wall learns its own.
+        # Parked on a soft wall (`free_rest`) the gap estimate holds.
         if c.gap_estimate and not parked:
             flank = math.copysign(1.0, tsh) * ((tm - tl) - (tsh - cs * (wm - wl)) / ks)
             flank = min(max(flank, 0.0), amax)
