@@ -314,7 +314,8 @@ def free_rest_stepper(f: FreeRest, c, dt: float):
         z[_CLOCK], z[_DURATION], z[_PUSH_AGE] = 0.0, f.launch_time, 0.0
 
     def command(z, motor, motor_speed):
-        """The motor torque of the wall's phase (None: the latched law's)."""
+        """The motor torque of the wall's phase, and whether the motor is
+        held `displacement` off its wall (the hold yields)."""
         ref, speed, accel = rest_to_rest(z[_CLOCK], z[_DURATION], z[_FROM], z[_TO])
         ended = z[_CLOCK] >= z[_DURATION]
         if z[_PHASE] == PUSH and ended:
