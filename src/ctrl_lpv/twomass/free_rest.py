@@ -38,8 +38,8 @@ or the peak-to-peak target, ``docs/servo.rst``):
   during a soft approach is elastic), held soft from then on;
 * **a push towards the target**: a load at rest (or receding slower than
   `recede_speed`) that would stay beyond `target_band` is pushed by the soft
-  wall at ``|e| / launch_arrival`` (within `launch_speeds`) over
-  `launch_time`, and caught by the other wall;
+  wall at ``|e| / push_arrival`` (within `push_speeds`) over
+  `push_time`, and caught by the other wall;
 * **leave** (back to the latched law until the next move) when the motor is
   held `displacement` off its wall (a load torque the soft hold yields to),
   the filtered load-torque estimate exceeds `leave_torque`, or the lean
@@ -162,11 +162,11 @@ class FreeRest:
         A load receding towards the target slower than `recede_speed` is
         pushed if it would still be beyond `target_band` after
         `recede_horizon` s.
-    launch_arrival : float
-        A push aims to cross the load error in this long, s ...
-    launch_speeds : (float, float)
+    push_arrival : float
+        A push aims to take the load across its error in this long, s ...
+    push_speeds : (float, float)
         ... at a speed within these, rad/s.
-    launch_time : float
+    push_time : float
         Duration of a push, s.
     displacement : float
         Leave when the motor is this far off its wall, rad.
@@ -201,9 +201,9 @@ class FreeRest:
     push_wait: float = 0.5
     recede_speed: float = 3e-4
     recede_horizon: float = 1.0
-    launch_arrival: float = 0.5
-    launch_speeds: tuple = (3e-4, 2e-3)
-    launch_time: float = 0.2
+    push_arrival: float = 0.5
+    push_speeds: tuple = (3e-4, 2e-3)
+    push_time: float = 0.2
     displacement: float = 5e-4
 
 
@@ -308,10 +308,10 @@ def free_rest_stepper(f: FreeRest, c, dt: float):
         if not (slow and stays):
             return
         contact = side * (z[_TO] - target) - alpha_hat
-        speed = min(max(-ze / f.launch_arrival, f.launch_speeds[0]), f.launch_speeds[1])
-        travel = max(ze - contact, 0.0) + speed * f.launch_time / QUINTIC_PEAK_SPEED
+        speed = min(max(-ze / f.push_arrival, f.push_speeds[0]), f.push_speeds[1])
+        travel = max(ze - contact, 0.0) + speed * f.push_time / QUINTIC_PEAK_SPEED
         z[_PHASE], z[_FROM], z[_TO] = PUSH, z[_TO], z[_TO] + side * travel
-        z[_CLOCK], z[_DURATION], z[_PUSH_AGE] = 0.0, f.launch_time, 0.0
+        z[_CLOCK], z[_DURATION], z[_PUSH_AGE] = 0.0, f.push_time, 0.0
 
     def command(z, motor, motor_speed):
         """The motor torque of the wall's phase, and whether the motor is

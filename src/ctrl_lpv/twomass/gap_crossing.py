@@ -245,16 +245,23 @@ def crossing_duration(gap, accel):
     return math.sqrt(QUINTIC_PEAK_ACCEL * abs(gap) / accel)
 
 
+def _quintic(s, duration):
+    """``q(s) = 10 s^3 - 15 s^4 + 6 s^5`` and its first two derivatives in
+    time, ``s = t / duration``."""
+    q = s * s * s * (10.0 - 15.0 * s + 6.0 * s * s)
+    dq = 30.0 * s * s * (1.0 - s) ** 2 / duration
+    ddq = 60.0 * s * (1.0 - s) * (1.0 - 2.0 * s) / duration**2
+    return q, dq, ddq
+
+
 def rest_to_rest(t, duration, start, end):
     """Position, speed and acceleration at `t` of the quintic from rest at
     `start` (``t = 0``) to rest at `end` (``t = duration``), held there
     after."""
     if duration <= 0.0 or t >= duration:
         return end, 0.0, 0.0
-    s, d = max(t, 0.0) / duration, end - start
-    q = s * s * s * (10.0 - 15.0 * s + 6.0 * s * s)
-    dq = 30.0 * s * s * (1.0 - s) ** 2 / duration
-    ddq = 60.0 * s * (1.0 - s) * (1.0 - 2.0 * s) / duration**2
+    d = end - start
+    q, dq, ddq = _quintic(max(t, 0.0) / duration, duration)
     return start + d * q, d * dq, d * ddq
 
 
@@ -280,9 +287,6 @@ def crossing_offset(side, changes, duration):
     """
     if not changes or changes[0] >= 0.5 * duration:
         return side, 0.0, 0.0
-    s = 0.5 - changes[0] / duration
-    q = s * s * s * (10.0 - 15.0 * s + 6.0 * s * s)
-    dq = 30.0 * s * s * (1.0 - s) ** 2 / duration
-    ddq = 60.0 * s * (1.0 - s) * (1.0 - 2.0 * s) / duration**2
+    q, dq, ddq = _quintic(0.5 - changes[0] / duration, duration)
     # From `side` towards `-side`: psi = side (1 - 2 q).
     return side * (1.0 - 2.0 * q), -2.0 * side * dq, -2.0 * side * ddq

@@ -182,8 +182,8 @@ class ServoAntiHunting:
         with ``sensors="motor"`` the latch is off (the motor waits mid-gap).
     free_rest : `ctrl_lpv.twomass.free_rest.FreeRest` or None, optional
         Sampled servo on both encoders, within the latch (`rest_flank`): a
-        free load (no load torque) rests on the motor held as a soft wall,
-        caught dead (default ``FreeRest()``; `servo_design`'s default up to
+        free load (no load torque) is caught and rests on the motor held
+        alone as a soft wall (default ``FreeRest()``; `servo_design`'s default up to
         1.5 ms of sample time only, `ctrl_lpv.twomass.sampled_tuning`);
         None keeps the latched law at every rest.
 
