@@ -17,9 +17,10 @@ or the peak-to-peak target, ``docs/servo.rst``):
 
 `FreeRest` makes the parked motor a wall the load stops dead on:
 
-* **engage** at a latched rest with a slow load (`entry_speed`) and a small
-  load-torque estimate (`leave_torque`); the latch's own flip test is off
-  while engaged (it reads the load's speed, not its coast);
+* **engage** at a latched rest after a move (not at the start, where the
+  load may be anywhere in the gap) with a slow load (`entry_speed`) and a
+  small load-torque estimate (`leave_torque`); the latch's own flip test is
+  off while engaged (it reads the load's speed, not its coast);
 * **the motor alone, on a soft hold**: ``Tm = -hold_stiffness (theta_m -
   theta_wall) - hold_damping omega_m``, no load terms;
 * **the load's drift by a Kalman filter on the load encoder** (a free mass
