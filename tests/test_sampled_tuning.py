@@ -9,6 +9,7 @@ and the simulated torque at rest say so).
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import replace
 
 import numpy as np
@@ -102,14 +103,15 @@ def test_2ms_rest_certificate_covers_the_paper_load_torque(design_2ms):
 def test_certified_time_constant_is_no_faster_than_the_loop(design_2ms):
     """The rest's certified time constant is within the rule's limit and
     not faster than the slowest eigenvalue of the loop that runs, rebuilt
-    at each certified inertia."""
+    at each certified inertia with the observer's model on the nominal
+    inertia and on the load's."""
     rest = design_2ms.certificate.rest
     assert 0.0 < rest.time_constant <= sampled_tuning(2e-3).max_time_constant
     params = twomass.Parameters()
-    for scale in rest.inertias:
+    for scale, learnt in itertools.product(rest.inertias, (0.0, None)):
         loop = _rest_loop(
             params.replace(Jl=scale * params.Jl), design_2ms.gain.ravel(),
-            design_2ms.sampling,
+            design_2ms.sampling, learnt=scale - 1.0 if learnt is None else learnt,
         )  # fmt: skip
         radius = np.abs(np.linalg.eigvals(loop.A)).max()
         assert radius <= np.exp(-2e-3 / rest.time_constant) < 1.0

@@ -74,28 +74,33 @@ def test_nominal_inertia_overshoots_the_same_reversal():
 
 @pytest.mark.parametrize("Jl", [0.85, 1.15])
 def test_inertia_estimate_learns_the_load(design, Jl):
-    """After a move, the estimate is the true inertia (within 5 % of the
-    nominal), and it does not change at rest."""
+    """After a move the estimate is most of the way to the true inertia
+    (within 6 % of the nominal: 0.094 at Jl x1.15, 0.122 with the
+    observer's model on the learnt inertia only along the plan, which does
+    not move the prediction at rest), after the next within 5 %, and it
+    does not change at rest."""
     res = _move(design, start=0.3, target=0.0, Jl=Jl)["res"]
     c = res.controller
     delta = c.states[c.state_labels.index("delta_Jl_hat")]
     t = c.time
     settled = delta[(t > 1.0) & (t < SWITCH)]
-    assert abs(settled[-1] - (Jl - 1.0)) <= 0.05
+    assert abs(settled[-1] - (Jl - 1.0)) <= 0.06
     assert np.ptp(settled) == 0.0
     assert abs(delta[-1] - (Jl - 1.0)) <= 0.05
 
 
 def _adaptation(dt=2e-3, gain=0.1):
+    params = twomass.Parameters()
     return InertiaAdaptation(
-        Jl=5.6, gain=gain, accel_floor=3.0, memory=0.1, bounds=(-0.2, 0.2), dt=dt
-    )
+        Jl=params.Jl, gain=gain, accel_floor=3.0, memory=0.1, bounds=(-0.2, 0.2),
+        dt=dt, cl=params.cl,
+    )  # fmt: skip
 
 
 def test_estimate_is_idle_at_rest():
-    """At rest (no planned acceleration) the adaptation is the drive
-    observer: the correction is the observer's, delta is held, the
-    prediction is the observer's own."""
+    """At rest (no planned acceleration) the correction is the drive
+    observer's and delta is held; with delta 0 the prediction is the
+    observer's own."""
     adapt = _adaptation()
     rng = np.random.default_rng(0)
     xhat, innovation = rng.normal(size=6), rng.normal(size=2)
@@ -105,9 +110,8 @@ def test_estimate_is_idle_at_rest():
     filtered, after = adapt.correct(xhat, learnt, innovation, M, [0, 3], Phi, 0.0)
     assert after[0] == 0.1
     np.testing.assert_array_equal(filtered, xhat + M @ innovation)
-    np.testing.assert_allclose(
-        adapt.predict(Phi, Gamma, filtered, 2.0, after[0], 0.0),
-        Phi @ filtered + Gamma * 2.0,
+    np.testing.assert_array_equal(
+        adapt.predict(Phi, Gamma, filtered, 2.0, 0.0), Phi @ filtered + Gamma * 2.0
     )
     # Accelerating, in contact, the shaft pushing: delta moves, projected
     # on the range.
@@ -150,7 +154,7 @@ def _fit_move(
         filtered, learnt = adapt.correct(
             xhat, learnt, x[rows] - xhat[rows], M, rows, Phi, a
         )
-        xhat = adapt.predict(Phi, Gamma, filtered, u, learnt[0], a)
+        xhat = adapt.predict(Phi, Gamma, filtered, u, learnt[0])
         x = Phi_true @ x + Gamma_true * u
         trace.append((filtered[5], learnt[0]))
     return t, np.array(trace), learnt
@@ -159,25 +163,32 @@ def _fit_move(
 def test_fit_separates_load_torque_from_inertia():
     """A load torque of 30 Nm unknown when a rest-to-rest move starts: by
     the end of the move (the planned acceleration integrated to zero) the
-    load-torque estimate holds it and delta is back near zero, though
-    while the plan accelerated the two could not be told apart (a share
-    of the correction per sample by the acceleration alone held the load
-    torque at 2-4 Nm through such a move); at rest delta is held."""
+    load-torque estimate holds most of it and delta is back near zero,
+    though while the plan accelerated the two could not be told apart (a
+    share of the correction per sample by the acceleration alone held the
+    load torque at 2-4 Nm through such a move); at rest delta is held and
+    the observer takes the load torque the rest of the way. (Measured:
+    34.2 Nm and -0.041 at the move's end, 28.2 Nm 0.1 s later; with the
+    observer's model on the learnt inertia only along the plan, 30.0 Nm
+    and -0.021, then 29.5 Nm: the learnt model, right at rest and at
+    impacts, carries the load-torque estimate's error into the load's
+    acceleration while delta is not yet zero.)"""
     t, trace, _ = _fit_move(30.0, 0.0)
     end = np.searchsorted(t, 0.2)
-    assert abs(trace[end, 0] - 30.0) <= 3.0
-    assert abs(trace[end, 1]) <= 0.03
+    assert abs(trace[end, 0] - 30.0) <= 5.0
+    assert abs(trace[end, 1]) <= 0.05
     assert np.ptp(trace[end + 1 :, 1]) == 0.0
+    assert abs(trace[-1, 0] - 30.0) <= 2.0
 
 
 @pytest.mark.parametrize("delta", [0.15, -0.1])
 def test_fit_learns_an_inertia_error_in_one_move(delta):
     """An inertia error without load torque: the move's fit moves delta
-    towards it (at least a third of the way in one move, the rest in the
-    next ones) and keeps it at rest."""
+    towards it (at least a third of the way in one move, not beyond a fifth
+    past it: 0.177 for 0.15, -0.110 for -0.1) and keeps it at rest."""
     t, trace, _ = _fit_move(0.0, delta)
     end = np.searchsorted(t, 0.2)
-    assert 0.33 * abs(delta) <= np.sign(delta) * trace[end, 1] <= abs(delta) + 0.02
+    assert 0.33 * abs(delta) <= np.sign(delta) * trace[end, 1] <= 1.2 * abs(delta)
     assert np.ptp(trace[end + 1 :, 1]) == 0.0
 
 
@@ -186,28 +197,36 @@ def test_rest_hands_the_load_torque_correction_to_the_inertia():
     estimate counts it known (``Td_known`` from 0 at a cold start to 1),
     and then, while the plan accelerates, the observer's load-torque
     correction goes to delta (as the inertia error it is) instead of to
-    the load torque."""
+    the load torque: with the load following the plan, the share moved
+    leaves the prediction of the drive (its angles, speeds and shaft
+    torque) where the whole correction on the load torque put it."""
     adapt = _adaptation(dt=1e-3)
     rng = np.random.default_rng(1)
     Phi, M = rng.normal(size=(6, 6)) * 0.1, rng.normal(size=(6, 2))
+    Gamma = rng.normal(size=6)
     rows = [0, 3]
     learnt = adapt.initial()
     assert learnt[INERTIA_STATES.index("Td_known_dev")] == 0.0
     for _ in range(1000):  # 1 s at rest
         _, learnt = adapt.correct(np.zeros(6), learnt, np.zeros(2), M, rows, Phi, 0.0)
     assert learnt[INERTIA_STATES.index("Td_known_dev")] > 0.99
-    xhat, innovation = rng.normal(size=6), rng.normal(size=2)
-    xhat[2] = 50.0  # in contact, pushing the way the plan accelerates
+    learnt[0] = 0.1
+    xhat, innovation = rng.normal(size=6), 1e-3 * rng.normal(size=2)
     accel = 30.0
+    # In contact, the shaft accelerating the load (of inertia 1.1 Jl) as
+    # planned.
+    xhat[2] = 1.1 * adapt.Jl * accel + xhat[5] + adapt.cl * xhat[4]
     filtered, after = adapt.correct(xhat, learnt, innovation, M, rows, Phi, accel)
     share = accel**2 / (accel**2 + adapt.accel_floor**2)
     correction = M @ innovation
     np.testing.assert_allclose(
         filtered[5], xhat[5] + (1.0 - share) * correction[5], atol=1e-3
     )
-    np.testing.assert_allclose(
-        after[0], share * correction[5] / (adapt.Jl * accel), rtol=1e-3
-    )
+    assert np.sign(after[0] - 0.1) == np.sign(correction[5])
+    moved = adapt.predict(Phi, Gamma, filtered, 1.0, after[0])
+    whole = adapt.predict(Phi, Gamma, xhat + correction, 1.0, 0.1)
+    untouched = adapt.predict(Phi, Gamma, xhat, 1.0, 0.1)
+    assert np.abs(moved - whole)[:5].max() <= 1e-5 * np.abs(whole - untouched)[:5].max()
 
 
 @pytest.fixture(scope="module")
@@ -295,40 +314,26 @@ _MOVES = [(0.5, 0.0), (-0.3, 0.05), (0.0, 1.0), (1.0, 0.0)]
 #: 0.05 rad steps from rest and the 0.1 rad reversal.
 _SMALL = [(0.05, -0.05), (0.0, -0.05), (0.0, 0.05)]
 #: The runs of `_SMALL` that miss the targets (measured; docs/servo.rst,
-#: "Small moves across the gap" and "The move's end": 90 of 108 pass since
-#: the sampled planner runs the move to its end and the latch holds on a
-#: loaded flank; 91 with the old planner on the same machine, whose
-#: packages moved 5 runs against the 95 measured where the list was made;
-#: as many with the feedforward's shaft damper and hold, three runs other).
-#: Left: Td 0 at Jl x0.8 (1.9-5.4 %: the first move's inertia error, and
-#: the rest after it), Jl x1.2 with alpha 0.06 (Td 0: 4.7-6.0 %; 0 -> +0.05
-#: against Td 3 and 8: 1.8-2.7 %), and single runs at 1.6-1.9 %. A 0.05
-#: rad move in 0.2 s brakes with 53 Nm (63 at Jl x1.2) and the load torque
+#: "Small moves across the gap", "The move's end" and "The learnt inertia
+#: at rest"): 100 of 108 pass since the observer's model is on the learnt
+#: inertia at rest and at impacts as well as along the plan (89 before: at
+#: Td 0 and Jl x0.8 the rest after the move hunted on the load-torque
+#: estimate the nominal model read from the light load's bounces). Left:
+#: Td 0 with alpha 0.06 at Jl x0.8 (2.5-4.8 %, 0.48-0.68 s) and Jl x1.2
+#: (3.2-3.6 %): the first move's contact with the unknown gap. A 0.05 rad
+#: move in 0.2 s brakes with 53 Nm (63 at Jl x1.2) and the load torque
 #: gives 3-8, so the motor crosses the gap mid-move
-#: (`ctrl_lpv.twomass.gap_crossing`). The free rest
-#: (`ctrl_lpv.twomass.free_rest`) took Jl x0.8, Td 0, alpha 0.03, 0 ->
-#: +0.05 on seed 5 past the target (1.83 %; within it before). Strict: a
-#: run that starts meeting them fails here, so that the list is kept true.
+#: (`ctrl_lpv.twomass.gap_crossing`). Strict: a run that starts meeting
+#: them fails here, so that the list is kept true.
 _SMALL_MISSES = {
-    (0.8, 0.0, 0.03, (0.05, -0.05), 6),
-    (0.8, 0.0, 0.03, (0.0, -0.05), 5),
-    (0.8, 0.0, 0.03, (0.0, 0.05), 5),
-    (0.8, 0.0, 0.03, (0.0, 0.05), 6),
-    (0.8, 0.0, 0.06, (0.05, -0.05), 6),
     (0.8, 0.0, 0.06, (0.0, -0.05), 5),
     (0.8, 0.0, 0.06, (0.0, -0.05), 6),
     (0.8, 0.0, 0.06, (0.0, 0.05), 5),
     (0.8, 0.0, 0.06, (0.0, 0.05), 6),
-    (0.8, 3.0, 0.03, (0.0, -0.05), 6),
-    (0.8, 3.0, 0.06, (0.0, -0.05), 5),
-    (0.8, 3.0, 0.06, (0.0, -0.05), 6),
     (1.2, 0.0, 0.06, (0.0, -0.05), 5),
     (1.2, 0.0, 0.06, (0.0, -0.05), 6),
     (1.2, 0.0, 0.06, (0.0, 0.05), 5),
     (1.2, 0.0, 0.06, (0.0, 0.05), 6),
-    (1.2, 3.0, 0.06, (0.0, 0.05), 5),
-    (1.2, 3.0, 0.06, (0.0, 0.05), 6),
-    (1.2, 8.0, 0.06, (0.0, 0.05), 6),
 }
 #: The runs of `_MOVES` that miss (measured as above): none since the
 #: feedforward has the shaft's damper and the torque's hold (before it Jl
@@ -423,3 +428,52 @@ def test_first_move_learns_the_gap(design):
 def test_gap_settings_are_checked(kwargs, error, name):
     with pytest.raises(error, match=name):
         twomass.ServoEstimator(**kwargs)
+
+
+@pytest.mark.parametrize("delta", [-0.2, 0.2])
+def test_learnt_model_is_the_drive_on_the_learnt_inertia(delta):
+    """The observer's model on the learnt inertia (`learnt_model`) predicts
+    over a sample at 1 ms what the exact sampled model of the drive on that
+    inertia does, in contact (a shaft torque of 100 Nm, a load torque of 8
+    Nm and a moving load) and in the gap (the load torque alone): within
+    1 % of what the nominal model misses, the load's acceleration taken
+    at the sample's start (at rest and at impacts the nominal model read
+    the inertia error as a load torque)."""
+    params = twomass.Parameters()
+    adapt = _adaptation(dt=1e-3)
+    true = params.replace(Jl=(1.0 + delta) * params.Jl)
+
+    def model(p):
+        return observer_matrices(
+            drive_observer(p, dt=1e-3, shaft_torque_rate=300.0, load_torque_rate=2.0)
+        )[0]
+
+    for mode in (0, 1):  # gap, contact
+        Phi, Phi_true = model(params)[mode], model(true)[mode]
+        x = np.array([0.0, 2.0, 100.0 * mode, 0.0, 1.5, 8.0])
+        learnt = adapt.learnt_model(Phi, delta) @ x
+        missed = np.abs(Phi @ x - Phi_true @ x)
+        for i in (3, 4):  # the load's angle and speed
+            assert missed[i] > 0.0
+            assert abs(learnt[i] - (Phi_true @ x)[i]) <= 0.01 * missed[i]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_light_load_rests_without_a_load_torque(design, seed):
+    """Td 0, alpha 0.03, Jl x0.8, 0.5 rad: the rest is quiet (issue 22's
+    2e-4 rad end error and last-second peak-to-peak, 3 Nm of torque
+    standard deviation). With the observer's model on the nominal inertia
+    at rest (the learnt inertia along the plan only) the light load's
+    bounces read as a load torque of 1-2 Nm and the rest hunted on every
+    seed of 1-16 (70-93 Nm on seeds 1-3)."""
+    params = twomass.Parameters()
+    plant = twomass.plant(params.replace(Jl=0.8 * params.Jl), alpha=0.03)
+    res = sampled_response(
+        plant, design.controller(), 5.0, inputs={"Td": 0.0, "theta_r": 0.5},
+        delay=design.delay, sensors=ENCODERS, seed=seed,
+    )  # fmt: skip
+    t, e = res.plant.time, res.plant.outputs[2] - 0.5
+    last = t >= 4.0
+    assert abs(e[-1]) <= 2e-4 and np.ptp(e[last]) <= 2e-4
+    assert np.std(res.plant.inputs[0][last]) <= 3.0

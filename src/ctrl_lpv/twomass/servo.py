@@ -487,7 +487,7 @@ def servo_design(
                 reference=reference,
                 stream_gain=tracker, measured=tuple(_READ[sensors]), estimator=motor,
                 inertia=(
-                    inertia_adaptation(inertia, params.Jl, (lo, hi), dt)
+                    inertia_adaptation(inertia, params.Jl, (lo, hi), dt, params.cl)
                     if sensors == "encoders" else None
                 ),
                 plan_crossings=rule.plan_crossings,

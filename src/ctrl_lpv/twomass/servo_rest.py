@@ -11,13 +11,17 @@ discrete-time loop of
   deviations);
 * the drive observer (`ctrl_lpv.twomass.drive_observer`, the contact
   vertex), reading the encoder angles with an error ``n`` bounded by
-  ``counts_error`` counts (the quantization and its noise);
+  ``counts_error`` counts (the quantization and its noise), its model on
+  the load inertia the servo has learnt (`ctrl_lpv.twomass.inertia`): the
+  nominal, as before the first move, or within ``learnt_tolerance`` of the
+  load's (the learning itself is not certified: the simulation grid
+  checks it);
 * the command, computed from the estimate predicted to the instant it acts
   and held one sample (``delay=1``: the command on its way is a state);
 * the discrete integral of the load error.
 
 Quantization is a peak-bounded disturbance, ``|n_i| <= counts_error q_i``.
-At a fixed load inertia the loop is linear and time-invariant, so the
+At a fixed load inertia and learnt inertia the loop is linear and time-invariant, so the
 largest the load error and the torque's deviation from its mean (half the
 ripple's peak-to-peak) can become is exactly the peak-to-peak gain of the
 loop, the l1 norm of its impulse response times the reading bounds
@@ -63,6 +67,10 @@ class RestBound:
         ``|Tm - mean| <=`` this, Nm: half the torque's peak-to-peak.
     inertias : tuple of float
         Load inertias certified, multiples of the nominal.
+    learnt_tolerance : float
+        The observer's model is on the nominal load inertia or on one
+        within this of the load's, as multiples of the nominal (0 without
+        an inertia estimate: the nominal alone).
     counts_error : float
         The encoder reading error allowed for, in counts.
     min_load_torque : float
@@ -83,6 +91,7 @@ class RestBound:
     error_bound: float
     ripple_bound: float
     inertias: tuple
+    learnt_tolerance: float
     counts_error: float
     min_load_torque: float
     time_constant: float
@@ -90,10 +99,16 @@ class RestBound:
 
     def __str__(self) -> str:
         inertias = ", ".join(f"{j:g}" for j in self.inertias)
+        learnt = ""
+        if self.learnt_tolerance > 0.0:
+            learnt = (
+                f", learnt Jl nominal or within {self.learnt_tolerance:g} x "
+                "nominal of it"
+            )
         return (
             f"rest (sampled loop in contact, |Td| >= {self.min_load_torque:.3g} Nm, "
             f"encoder error <= {self.counts_error:g} "
-            f"counts, Jl = {inertias} x nominal): |theta_l - theta_r| <= "
+            f"counts, Jl = {inertias} x nominal{learnt}): |theta_l - theta_r| <= "
             f"{self.error_bound:.3g} rad, torque ripple |Tm - mean| <= "
             f"{self.ripple_bound:.3g} Nm, approached with a time constant <= "
             f"{self.time_constant:.3g} s"
@@ -111,6 +126,7 @@ def rest_bound(
     flank_width: float,
     contact_torque: float,
     latch_torque: float = 0.0,
+    learnt_tolerance: float = 0.1,
 ) -> RestBound:
     """Certify the sampled servo's rest (see the module docstring).
 
@@ -125,7 +141,10 @@ def rest_bound(
         Sample time, delay and observer matrices.
     Jl_range : (float, float)
         Load inertias, multiples of ``params.Jl``: the loop is certified at
-        both ends and at the nominal.
+        both ends and at the nominal, each with the observer's model on the
+        nominal inertia and, with an inertia estimate
+        (``sampling.inertia``), on the load's and `learnt_tolerance` either
+        side of it within `Jl_range`.
     encoder_counts : (int, int), optional
         Counts per revolution of the motor and load encoders.
     counts_error : float, optional
@@ -139,6 +158,10 @@ def rest_bound(
         The flank latch at rest (`ctrl_lpv.twomass.rest_flank`) engages
         only with the observer's load-torque estimate below this, Nm: the
         load torque must keep the estimate above it (default 0: no latch).
+    learnt_tolerance : float, optional
+        How far, as a multiple of the nominal, the learnt inertia may be
+        from the load's (default 0.1; the inertia grid's moves learn it
+        within 0.05, ``tests/test_servo_inertia.py``).
 
     Returns
     -------
@@ -153,11 +176,21 @@ def rest_bound(
     K = np.asarray(gain, float).reshape(5)
     steps = 2.0 * math.pi / np.asarray(encoder_counts, float)
     inertias = (float(Jl_range[0]), 1.0, float(Jl_range[1]))
+    tolerance = 0.0 if sampling.inertia is None else float(learnt_tolerance)
+    pairs = [
+        (scale, delta)
+        for scale in inertias
+        for delta in sorted({
+            0.0, *(min(max(scale - 1.0 + s * tolerance, Jl_range[0] - 1.0),
+                       Jl_range[1] - 1.0) for s in (-1.0, 0.0, 1.0)),
+        })
+    ]  # fmt: skip
     errors, ripples, floors, rates, parts = [], [], [], [], []
-    for scale in inertias:
-        loop = _rest_loop(params.replace(Jl=scale * params.Jl), K, sampling)
+    for scale, delta in pairs:
+        plant = params.replace(Jl=scale * params.Jl)
+        loop = _rest_loop(plant, K, sampling, learnt=delta)
         bounds, checks = _peak_to_peak(loop, counts_error * steps)
-        where = f"Jl = {scale:g} x nominal"
+        where = f"Jl = {scale:g} x nominal, learnt {1.0 + delta:g} x"
         checks = [replace(check, where=where) for check in checks]
         if not all(check.passed for check in checks):
             raise CertificationError(
@@ -181,16 +214,20 @@ def rest_bound(
         parts.extend(checks)
     return RestBound(
         error_bound=max(errors), ripple_bound=max(ripples), inertias=inertias,
+        learnt_tolerance=tolerance,
         counts_error=float(counts_error), min_load_torque=max(floors),
         time_constant=1.0 / min(rates),
         certificate=Certificate(tuple(parts)),
     )  # fmt: skip
 
 
-def _rest_loop(plant: Parameters, K: np.ndarray, sampling) -> ct.StateSpace:
+def _rest_loop(
+    plant: Parameters, K: np.ndarray, sampling, learnt: float = 0.0
+) -> ct.StateSpace:
     """The linear rest loop: states ``[drive (4), estimate (6), int e_l,
     command on its way]``, inputs the reading errors, outputs ``e_l``, ``Tm``
-    (deviations from the equilibrium)."""
+    (deviations from the equilibrium); the observer's model on the learnt
+    inertia ``(1 + learnt)`` times the nominal (`sampling.inertia`)."""
     dt, delayed = sampling.dt, sampling.delay == 1
     Jm, Jl, cm, cl, ks, cs = (
         plant.Jm, plant.Jl, plant.cm, plant.cl, plant.ks, plant.cs
@@ -208,6 +245,8 @@ def _rest_loop(plant: Parameters, K: np.ndarray, sampling) -> ct.StateSpace:
     drive = ct.c2d(ct.ss(A, B, np.eye(4), 0), dt, "zoh")
     Pp, Gp = drive.A, drive.B[:, 0]
     Po, Go, Mo = sampling.Phi[1], sampling.Gamma[1], sampling.M[1]
+    if sampling.inertia is not None:
+        Po = sampling.inertia.learnt_model(Po, learnt)
     Cp = np.zeros((2, 4))  # encoder angles of the drive
     Cp[0, 0] = Cp[1, 2] = 1.0
     Co = np.zeros((2, 6))  # the same rows of the estimate

@@ -448,7 +448,7 @@ def sampled_servo(
             if inertia is None:
                 ahead = Ph @ filtered + Gh * u_prev
             else:
-                ahead = inertia.predict(Ph, Gh, filtered, u_prev, dJ, plan[2])
+                ahead = inertia.predict(Ph, Gh, filtered, u_prev, dJ)
         else:
             # Motor encoder alone: the dead-zone model, the half-gap
             # estimated with it (`motor_estimator`).
@@ -696,7 +696,7 @@ def sampled_servo(
         if delayed:
             predicted = ahead
         elif motor is None and inertia is not None:
-            predicted = inertia.predict(Ph, Gh, filtered, u, dJ, plan[2])
+            predicted = inertia.predict(Ph, Gh, filtered, u, dJ)
         elif motor is None:
             predicted = Ph @ filtered + Gh * u
         else:
