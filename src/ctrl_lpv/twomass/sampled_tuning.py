@@ -8,7 +8,7 @@ at 125 us and 1 ms; from 2 ms on, with one sample of delay, the same
 observer makes the rest loop ring at half the sample rate (certified torque
 ripple 722 Nm and load-torque floor 297 Nm at 2 ms, 10-12 Nm of torque
 standard deviation at rest in simulation). There a slower observer and a
-heavier torque weight give a well-damped rest loop (floor 7.8 Nm, ripple
+heavier torque weight give a well-damped rest loop (floor 8.0 Nm, ripple
 6.3 Nm at 2 ms). The list starts with the largest load-torque intensity
 that does (50 Nm/s): the load-torque estimate is what absorbs a load
 inertia off nominal during a move.

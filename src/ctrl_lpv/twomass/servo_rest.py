@@ -21,22 +21,21 @@ discrete-time loop of
 * the discrete integral of the load error.
 
 Quantization is a peak-bounded disturbance, ``|n_i| <= counts_error q_i``.
-At a fixed load inertia and learnt inertia the loop is linear and time-invariant, so the
-largest the load error and the torque's deviation from its mean (half the
-ripple's peak-to-peak) can become is exactly the peak-to-peak gain of the
-loop, the l1 norm of its impulse response times the reading bounds
-(Dahleh and Diaz-Bobillo 1995). `rest_bound` sums the impulse response in
-float64 and bounds the tail it leaves out with a Lyapunov matrix that
-certifies the contraction of the loop (``A' P A < rho^2 P``); an ellipsoid
-(`ctrl_lpv.ultimate_bound`) bounds the same quantities with a quadratic
-function, looser on this 12-state loop (8.7e-4 rad and 21 Nm at the
-lightest load, against 7.3e-4 rad and 12.5 Nm) and a hundred times slower.
-What is not covered: the gap (a load at rest in the gap is not in this
-loop), the contact detection, the planner, the gap estimate and the flank
-latch at rest (`ctrl_lpv.twomass.rest_flank`, which engages only with a
-load-torque estimate below its threshold: the load-torque floor keeps the
-estimate above it); the simulations check those.
-"""
+At a fixed load inertia and learnt inertia the loop is linear and
+time-invariant, so the largest the load error and the torque's deviation
+from its mean (half the ripple's peak-to-peak) can become is exactly the
+peak-to-peak gain of the loop, the l1 norm of its impulse response times the
+reading bounds (Dahleh and Diaz-Bobillo 1995). `rest_bound` sums the impulse
+response in float64 and bounds the tail it leaves out with a Lyapunov matrix
+that certifies the contraction of the loop (``A' P A < rho^2 P``); an
+ellipsoid (`ctrl_lpv.ultimate_bound`) bounds the same quantities with a
+quadratic function, looser on this 12-state loop (8.7e-4 rad and 21 Nm at
+the lightest load, against 7.3e-4 rad and 12.5 Nm) and a hundred times
+slower. What is not covered: the gap (a load at rest in the gap is not in
+this loop), the contact detection, the planner, the gap estimate and the
+flank latch at rest (`ctrl_lpv.twomass.rest_flank`, which engages only with
+a load-torque estimate below its threshold: the load-torque floor keeps the
+estimate above it); the simulations check those."""
 
 from __future__ import annotations
 
@@ -177,14 +176,15 @@ def rest_bound(
     steps = 2.0 * math.pi / np.asarray(encoder_counts, float)
     inertias = (float(Jl_range[0]), 1.0, float(Jl_range[1]))
     tolerance = 0.0 if sampling.inertia is None else float(learnt_tolerance)
-    pairs = [
-        (scale, delta)
-        for scale in inertias
-        for delta in sorted({
-            0.0, *(min(max(scale - 1.0 + s * tolerance, Jl_range[0] - 1.0),
-                       Jl_range[1] - 1.0) for s in (-1.0, 0.0, 1.0)),
-        })
-    ]  # fmt: skip
+    lo, hi = (float(j) - 1.0 for j in Jl_range)
+
+    def learnt(scale):
+        """The learnt inertias (less one) certified with the load's `scale`:
+        the nominal, the load's and `tolerance` either side, within range."""
+        near = (min(max(scale - 1.0 + s * tolerance, lo), hi) for s in (-1, 0, 1))
+        return sorted({0.0, *near})
+
+    pairs = [(scale, delta) for scale in inertias for delta in learnt(scale)]
     errors, ripples, floors, rates, parts = [], [], [], [], []
     for scale, delta in pairs:
         plant = params.replace(Jl=scale * params.Jl)
