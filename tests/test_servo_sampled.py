@@ -380,42 +380,61 @@ def _estimate_noise(Phi, M, steps):
     return np.sqrt(np.diag(F))
 
 
+def _load_torque_time(Phi, M):
+    """Samples the filtered load-torque estimate takes to learn 63 % of a
+    load-torque step (its error's free response from 1 Nm)."""
+    C = np.zeros((2, 6))
+    C[0, 0] = C[1, 3] = 1.0
+    A = (np.eye(6) - M @ C) @ Phi
+    error, samples = np.eye(6)[5], 0
+    while abs(error[5]) > np.exp(-1.0):
+        error, samples = A @ error, samples + 1
+        assert samples < 10_000
+    return samples
+
+
 def test_latched_rest_runs_on_quieter_observer_gains(design):
-    """While the flank is latched the observer runs on gains of lower
-    intensities (`SampledTuning.rest_rates`): each gain set is a stable
-    filter at the gap and in contact, and under the encoders' reading noise
-    the rest gains' speed and shaft-torque estimates are several times
-    quieter (what moved the parked motor: Td = 0 chattered at 3.4-7.2 Nm
-    over the last second with the moving gains on 12 of 30 runs, at most
-    1.8 Nm on 60 runs with these, docs/servo.rst)."""
+    """While the flank is latched the observer runs on gains of a lower
+    shaft-torque intensity (`SampledTuning.rest_rates`): each gain set is a
+    stable filter at the gap and in contact; under the encoders' reading
+    noise the rest gains' motor-speed and shaft-torque estimates are
+    several times quieter (what moved the parked motor: Td = 0 chattered at
+    3.4-7.2 Nm over the last second with the moving gains on 12 of 30 runs,
+    docs/servo.rst), and they learn a load torque within 50 ms, as the
+    moving gains do: the latch's flank is the one the load torque presses
+    the load onto, and a load falling under 0.5 Nm has fallen 1.1e-4 rad by
+    then, within the latch's 3e-4 rad (with a load-torque intensity of 2
+    Nm/s they took 170 ms, and 0.5-1 Nm relayed on 12 of 64 runs)."""
     s = design.sampling
     assert s.M_rest is not None
     steps = 2.0 * np.pi / np.array([2.0**20, 2.0**17])
+    dt = design.dt
     for Phi, M, M_rest in zip(s.Phi, s.M, s.M_rest):
         moving, rest = (
             _estimate_noise(Phi, M, steps),
             _estimate_noise(Phi, M_rest, steps),
         )
-        # omega_m, Ts, omega_l
-        assert np.all(rest[[1, 2, 4]] < 0.5 * moving[[1, 2, 4]])
+        # omega_m, Ts
+        assert np.all(rest[[1, 2]] < 0.5 * moving[[1, 2]])
+        assert _load_torque_time(Phi, M_rest) * dt <= 0.05
+        assert _load_torque_time(Phi, M) * dt <= 0.05
     # Above the fast sampling the observer is slow already: one gain set.
     assert sampled_tuning(2e-3).rest_rates is None
 
 
-#: The quiet-rest runs that relay (measured; docs/servo.rst, "The move's
-#: end", "A lighter load at Td = 0" and "The learnt inertia at rest"): the
-#: lighter load's 0.05 rad move at alpha 0.06 (its first move's contact with
-#: the unknown gap), its 0.2 rad move at alpha 0.03 on seeds 5 and 6 (53-99
-#: Nm) and Jl x1.2, 1 rad, on seeds 2 and 4 (44 and 22 Nm): the move ends
-#: with the latch on one flank and the load leaving the other, and the
-#: catch starts a relay. With the observer on the nominal inertia at rest
-#: the lighter load's bounces read as a load torque and 14 runs relayed
-#: (Jl x0.8: 0.05 rad at alpha 0.03 on five seeds, at alpha 0.06 on six,
-#: 0.2 rad on three).
+#: The quiet-rest runs that miss (measured; docs/servo.rst, "The move's
+#: end", "A lighter load at Td = 0", "The learnt inertia at rest" and "The
+#: flank a load torque presses"): the lighter load's 0.05 rad move at alpha
+#: 0.06 (its first move's contact with the unknown gap), its 0.2 rad move at
+#: alpha 0.03 on seed 4 (3.1 Nm) and Jl x1.2, 1 rad, on seed 6 (5.2e-4 rad
+#: peak-to-peak). With the latch's flank from the asked shaft torque alone
+#: and a slow load-torque estimate at rest, the 0.2 rad move relayed on
+#: seeds 5 and 6 (53-99 Nm) and the 1 rad move on seeds 2 and 4 (44 and 22
+#: Nm).
 _REST_MISSES = {
     *((0.06, 0.05, 0.8, seed) for seed in range(1, 6)),
-    *((0.03, 0.2, 0.8, seed) for seed in (5, 6)),
-    *((0.03, 1.0, 1.2, seed) for seed in (2, 4)),
+    (0.03, 0.2, 0.8, 4),
+    (0.03, 1.0, 1.2, 6),
 }
 
 
@@ -451,6 +470,25 @@ def test_no_load_torque_rest_is_quiet_on_every_seed(design, alpha, theta_r, Jl, 
         assert m["ptp"] <= 2e-4
     else:
         assert m["ptp"] <= 5e-4
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "Td, theta_r, Jl, seed",
+    [(0.5, 0.5, 1.0, 7), (0.5, 0.5, 1.0, 13), (0.5, -0.5, 1.0, 3),
+     (0.5, -0.5, 1.0, 9), (1.0, 0.5, 0.8, 6), (1.0, 0.5, 0.8, 14)],
+)  # fmt: skip
+def test_light_load_torque_rests_on_its_flank(design, Td, theta_r, Jl, seed):
+    """Issue 22, no hunting sampled under a small load torque (alpha 0.03):
+    the issue's rest (end error and last-second peak-to-peak <= 2e-4 rad,
+    torque standard deviation <= 3 Nm). The latched flank is the one the
+    load torque presses the load onto (`rest_flank`): with the asked shaft
+    torque alone these runs latched on the flank the load bounced off at the
+    move's end, the load fell across the gap onto the motor's flip and
+    relayed at 98-156 Nm."""
+    m = _run(design, Td=Td, alpha=0.03, theta_r=theta_r, Jl=Jl, seed=seed)
+    assert m["error"] <= 2e-4 and m["ptp"] <= 2e-4
+    assert m["torque_std"] <= 3.0
 
 
 @pytest.mark.slow

@@ -16,7 +16,12 @@ free mass).
   error below `latch_error`, load speed below `latch_speed`) with a small
   load torque (the observer's ``|Td_hat|`` below `latch_torque`), the flank
   is latched on the side the continuous law's offset is turning to, once
-  it is beyond `latch_flank` of the way (no jump of the motor reference);
+  it is beyond `latch_flank` of the way (no jump of the motor reference),
+  the offset of the shaft torque the rest needs: ``T*`` and the load
+  torque estimate, which the law's integral holds only in contact (the
+  flank a load torque presses the load onto; ``T*`` alone read the load's
+  bounce off the braking flank at a move's end as the side, and a load
+  under 0.5-1 Nm fell 2 mrad across the gap from it onto the motor's flip);
 * **park**: the motor is parked `clearance` short of that flank (the load
   is not pushed by the gap estimate's error or the motor's noise; a load
   drifting onto the flank is caught at its own, small, speed);
@@ -31,9 +36,10 @@ free mass).
   (elsewhere out of contact it leaks), so that the load torque is held
   by the integral and not by a load error (with the proportional term
   faded, 1 Nm sat 2.2-2.6e-4 rad off the target);
-* **flip on evidence**: the side changes only when ``-side T*`` stays beyond
-  `flip_torque` long enough, a CUSUM test ``q <- max(0, q + dt (-side T* -
-  flip_torque))`` against `flip_evidence` (a load torque of the other sign
+* **flip on evidence**: the side changes only when ``-side T*`` (with the
+  load torque estimate, as the latch) stays beyond `flip_torque` long
+  enough, a CUSUM test ``q <- max(0, q + dt (-side T* - flip_torque))``
+  against `flip_evidence` (a load torque of the other sign
   or a load drifting the other way: sustained; the noise: not);
 * **not off a loaded flank**: while the shaft carries torque on the
   latched flank (the load bounces off it, or leans on it) the latch holds,
@@ -150,10 +156,12 @@ def rest_flank_step(
 
     ``side`` is 0 (not latched: the continuous flank choice) or +-1 (the
     latched flank, the sign of the shaft torque it transmits); ``evidence``
-    is the CUSUM statistic of a flip; ``psi`` the continuous law's flank
-    offset (-1 to 1) at this sample; ``pressed`` whether the shaft carries
-    torque on the latched flank (its estimate beyond the contact torque on
-    that side): the latch holds then, no flip test and no release.
+    is the CUSUM statistic of a flip; ``tstar`` the shaft torque the rest
+    needs (the law's asked shaft torque and the load torque estimate) and
+    ``psi`` the continuous law's flank offset (-1 to 1) for it; ``pressed``
+    whether the shaft carries torque on the latched flank (its estimate
+    beyond the contact torque on that side): the latch holds then, no flip
+    test and no release.
     """
     if not resting:
         return 0.0, 0.0

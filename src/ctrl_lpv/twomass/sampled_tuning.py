@@ -78,13 +78,19 @@ SLOW_REST_FLANK = RestFlank(latch_error=2e-3, latch_torque=6.0)
 #: ``(shaft_torque_rate, load_torque_rate)``, Nm/s, of the drive observer's
 #: gains while the flank is latched at rest, up to `FAST_SAMPLING`. There the
 #: load is free in the gap or leans on the latched flank: the moving
-#: observer's estimates (3000 and 20 Nm/s) are what moves the parked motor
-#: (at 1 ms, encoders: motor speed 3.8e-3 rad/s, load speed 5.6e-4 rad/s and
-#: shaft torque 0.92 Nm of noise in the gap, through the motor- and
-#: load-speed gains 0.35 + 0.70 Nm of torque noise on the motor, which
-#: then touched the load at 6e-3 rad/s: 1.4e-3 rad/s kicks); these give
-#: 1.4e-3 rad/s, 1.4e-4 rad/s and 0.03 Nm.
-REST_RATES = (300.0, 2.0)
+#: observer's shaft-torque intensity (3000 Nm/s) is what moves the parked
+#: motor (at 1 ms, encoders: motor speed 3.8e-3 rad/s and shaft torque 0.92
+#: Nm of noise in the gap, through the motor-speed gain 0.35 Nm of torque
+#: noise on the motor, which then touched the load at 6e-3 rad/s: 1.4e-3
+#: rad/s kicks); 300 gives 1.5e-3 rad/s and 0.17 Nm. The load-torque
+#: intensity stays the moving one: the latch's flank is the one the load
+#: torque presses the load onto (`rest_flank`), and at 2 Nm/s the estimate
+#: took 170 ms to learn 63 % of a load torque in the gap (39 ms at 20): a
+#: load under 0.5-1 Nm fell 2 mrad from the latched flank before a flip
+#: and relayed on 12 of 64 runs (Td 0.5 at +-0.5 rad, 1 at Jl x0.8, 0.5 at
+#: Jl x1.2, alpha 0.03, seeds 1-16; 0 with 20 and the flank of the load
+#: torque, 1 of 168 on seeds 17-40 with three more rows).
+REST_RATES = (300.0, 20.0)
 #: Shortest sample time, s, of `REST_RATES`. At 125 us the moving observer
 #: is quieter per sample (1.9e-3 rad/s on the motor speed, 2.4e-4 on the
 #: load's) and the Td 0 rest meets 3 Nm without them (1.4-1.7 Nm, seeds

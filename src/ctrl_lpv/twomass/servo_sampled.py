@@ -372,6 +372,11 @@ def sampled_servo(
     def blend(pair, w):
         return pair[0] + w * (pair[1] - pair[0])
 
+    def flank_share(torque):
+        """The continuous law's flank offset (-1 to 1) for the asked shaft
+        `torque`."""
+        return math.copysign(_smoothstep((abs(torque) - deadband) / teps), torque)
+
     plan_step = plan_stepper(c, dt)
     filtered_share = 0.0 if rest is None else 1.0 - math.exp(-dt / rest.lean_time)
 
@@ -542,7 +547,7 @@ def sampled_servo(
             F - ratio * (kp * el + free * k4 * dl + free * k5 * xi)
             if c.anti_hunting else F
         )  # fmt: skip
-        psi = math.copysign(_smoothstep((abs(tstar) - deadband) / teps), tstar)
+        psi = flank_share(tstar)
         dpsi = ddpsi = 0.0
         if crossings and not at_rest and c.anti_hunting:
             # The planned shaft torque's sign changes ahead: the motor
@@ -576,9 +581,19 @@ def sampled_servo(
             previous, left = side, x[18]
             # No flip test while the motor crosses the gap to the new flank.
             if left <= 0.0 or not at_rest:
+                # The flank at rest is the one the load torque presses the
+                # load onto: its estimate joins the asked shaft torque, where
+                # the integral holds it only in contact. (Without it the
+                # latch read the load's bounce off the braking flank at a
+                # move's end, 1.5e-3 rad/s, as the side; under 0.5-1 Nm
+                # the load then fell 2 mrad across the gap from it onto the
+                # motor's flip, a relay on 12 of 64 runs.)
+                needed = tstar + at[5]
                 side, evidence = rest_flank_step(
                     rest, dt, side, evidence, resting=at_rest, error=el, speed=dl,
-                    load_torque=at[5], tstar=tstar, psi=psi, pressed=side * tsh > tc,
+                    load_torque=at[5], tstar=needed,
+                    psi=flank_share(needed),
+                    pressed=side * tsh > tc,
                 )  # fmt: skip
             if rest_wall is not None:
                 # A free load's rest (`free_rest`): the motor alone, a soft
