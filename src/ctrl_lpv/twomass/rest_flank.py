@@ -16,12 +16,13 @@ free mass).
   error below `latch_error`, load speed below `latch_speed`) with a small
   load torque (the observer's ``|Td_hat|`` below `latch_torque`), the flank
   is latched on the side the continuous law's offset is turning to, once
-  it is beyond `latch_flank` of the way (no jump of the motor reference),
-  the offset of the shaft torque the rest needs: ``T*`` and the load
-  torque estimate, which the law's integral holds only in contact (the
-  flank a load torque presses the load onto; ``T*`` alone read the load's
-  bounce off the braking flank at a move's end as the side, and a load
-  under 0.5-1 Nm fell 2 mrad across the gap from it onto the motor's flip);
+  it is beyond `latch_flank` of the way (no jump of the motor reference).
+  The offset is that of the shaft torque the rest needs, ``T*``: the law's
+  asked shaft torque and the load torque estimate, which the law's
+  integral holds only in contact; so the flank is the one a load torque
+  presses the load onto (the asked torque alone read the load's bounce off
+  the braking flank at a move's end as the side, and a load under 0.5-1
+  Nm fell 2 mrad across the gap from it onto the motor's flip: a relay);
 * **park**: the motor is parked `clearance` short of that flank (the load
   is not pushed by the gap estimate's error or the motor's noise; a load
   drifting onto the flank is caught at its own, small, speed);
@@ -36,10 +37,9 @@ free mass).
   (elsewhere out of contact it leaks), so that the load torque is held
   by the integral and not by a load error (with the proportional term
   faded, 1 Nm sat 2.2-2.6e-4 rad off the target);
-* **flip on evidence**: the side changes only when ``-side T*`` (with the
-  load torque estimate, as the latch) stays beyond `flip_torque` long
-  enough, a CUSUM test ``q <- max(0, q + dt (-side T* - flip_torque))``
-  against `flip_evidence` (a load torque of the other sign
+* **flip on evidence**: the side changes only when ``-side T*`` stays beyond
+  `flip_torque` long enough, a CUSUM test ``q <- max(0, q + dt (-side T* -
+  flip_torque))`` against `flip_evidence` (a load torque of the other sign
   or a load drifting the other way: sustained; the noise: not);
 * **not off a loaded flank**: while the shaft carries torque on the
   latched flank (the load bounces off it, or leans on it) the latch holds,

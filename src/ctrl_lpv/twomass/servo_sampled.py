@@ -581,18 +581,13 @@ def sampled_servo(
             previous, left = side, x[18]
             # No flip test while the motor crosses the gap to the new flank.
             if left <= 0.0 or not at_rest:
-                # The flank at rest is the one the load torque presses the
-                # load onto: its estimate joins the asked shaft torque, where
-                # the integral holds it only in contact. (Without it the
-                # latch read the load's bounce off the braking flank at a
-                # move's end, 1.5e-3 rad/s, as the side; under 0.5-1 Nm
-                # the load then fell 2 mrad across the gap from it onto the
-                # motor's flip, a relay on 12 of 64 runs.)
+                # The shaft torque the rest needs (`rest_flank`): the load
+                # torque estimate joins the asked one, whose integral holds
+                # it only in contact.
                 needed = tstar + at[5]
                 side, evidence = rest_flank_step(
                     rest, dt, side, evidence, resting=at_rest, error=el, speed=dl,
-                    load_torque=at[5], tstar=needed,
-                    psi=flank_share(needed),
+                    load_torque=at[5], tstar=needed, psi=flank_share(needed),
                     pressed=side * tsh > tc,
                 )  # fmt: skip
             if rest_wall is not None:
