@@ -159,8 +159,9 @@ def rest_bound(
         load torque must keep the estimate above it (default 0: no latch).
     learnt_tolerance : float, optional
         How far, as a multiple of the nominal, the learnt inertia may be
-        from the load's (default 0.1; the inertia grid's moves learn it
-        within 0.05, ``tests/test_servo_inertia.py``).
+        from the load's (default 0.1; the inertia tests' moves learn it
+        within 0.06 after one move and 0.05 after two,
+        ``tests/test_servo_inertia.py``).
 
     Returns
     -------
