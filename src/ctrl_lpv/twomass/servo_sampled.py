@@ -109,6 +109,8 @@ _STREAM_REST_ACCEL = 1e-3  # rad/s^2
 # where a streamed move stops, the tracker's acceleration rings (1.5 rad/s^2
 # after a quintic's end, 4e-3 rad/s) and would plan a crossing to nowhere.
 _STREAM_CROSSING_SPEED = 0.05
+# A gap reading is kept up to this share of the largest gap.
+_READING_SPAN = 1.25
 
 #: The instant, as a share of the sample from its start, at which the plan's
 #: torque is held over the sample (`flat_feedforward`'s ``lead``): a torque
@@ -652,7 +654,12 @@ def sampled_servo(
         # Parked on a soft wall (`free_rest`) the gap estimate holds.
         if c.gap_estimate and not parked:
             flank = math.copysign(1.0, tsh) * ((tm - tl) - (tsh - cs * (wm - wl)) / ks)
-            flank = min(max(flank, 0.0), amax)
+            # Readings past the largest gap are kept (within a quarter of
+            # it): the readings of a gap of alpha_max scatter about it, and
+            # cut at alpha_max their mean, and the estimate, was 1.1e-4 rad
+            # short at 0.06; the free rest's walls stood as far past the
+            # target (`free_rest`).
+            flank = min(max(flank, 0.0), _READING_SPAN * amax)
             # A static reading: the shaft not twisting (in contact ``omega_m
             # - omega_l`` is the shaft torque's rate over ``ks``: 1 rad/s
             # along a 0.05 rad move, below 0.1 only at its torque peaks).
