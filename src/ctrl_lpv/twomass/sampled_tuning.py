@@ -183,6 +183,18 @@ class SampledTuning:
         0.05 rad step at alpha 0.03 without load torque worse (settling
         0.55 s on two of six seeds, torque standard deviation 19 Nm
         against 14).
+    gap_reading_span : float
+        A reading of the half-gap at a contact is kept up to this multiple
+        of ``alpha_max``: 1.25 up to `FAST_SAMPLING`, 1 (cut at alpha_max)
+        above. The readings of a gap of alpha_max scatter about it; cut
+        there, their mean and the estimate ended a move 1.1e-4 rad short
+        at alpha 0.06 (1 ms, Td 0, +-0.5 rad, seeds 1-16; 2.0e-5 long when
+        kept, as at alpha 0.03), and the free rest's walls stood as far
+        past the target. At 2 ms, where the free rest is off, kept readings
+        made the first moves at alpha 0.06 worse (Td 3 over 0.05 rad: 0.61
+        s and 7.5 % against 0.34 s and 0.05 %, the estimate learning the
+        wider gap sooner and the observer then misreading the motor's
+        crossing as a contact at -130 Nm).
     """
 
     torque_weight: float
@@ -198,6 +210,7 @@ class SampledTuning:
     rest_flank: RestFlank = RestFlank()
     rest_rates: tuple | None = None
     free_rest: FreeRest | None = None
+    gap_reading_span: float = 1.0
 
 
 def sampled_tuning(dt: float) -> SampledTuning:
@@ -224,5 +237,6 @@ def sampled_tuning(dt: float) -> SampledTuning:
             exact_feedforward=True,
             rest_rates=REST_RATES if dt >= QUIET_REST_SAMPLING else None,
             free_rest=FreeRest(),
+            gap_reading_span=1.25,
         )
     return SampledTuning(SLOW_TORQUE_WEIGHT, SLOW_RATES, rest_flank=SLOW_REST_FLANK)

@@ -492,6 +492,7 @@ def servo_design(
                 ),
                 plan_crossings=rule.plan_crossings,
                 contact_twist=rule.contact_twist,
+                gap_reading_span=rule.gap_reading_span,
                 # Not on the motor encoder alone: its estimator's fall and
                 # landing logic were measured on the feedforward without (with
                 # it 6 of its 180 grid and scenario tests missed targets).

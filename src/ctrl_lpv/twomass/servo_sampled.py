@@ -109,8 +109,6 @@ _STREAM_REST_ACCEL = 1e-3  # rad/s^2
 # where a streamed move stops, the tracker's acceleration rings (1.5 rad/s^2
 # after a quintic's end, 4e-3 rad/s) and would plan a crossing to nowhere.
 _STREAM_CROSSING_SPEED = 0.05
-# A gap reading is kept up to this share of the largest gap.
-_READING_SPAN = 1.25
 
 #: The instant, as a share of the sample from its start, at which the plan's
 #: torque is held over the sample (`flat_feedforward`'s ``lead``): a torque
@@ -207,6 +205,10 @@ class SampledServo:
         The feedforward with the shaft's damper and the torque's hold
         (`flat_feedforward`, `ctrl_lpv.twomass.sampled_tuning.SampledTuning.
         exact_feedforward`), else without.
+    gap_reading_span : float
+        A reading of the half-gap at a contact is kept up to this multiple
+        of ``alpha_max``
+        (`ctrl_lpv.twomass.sampled_tuning.SampledTuning.gap_reading_span`).
     """
 
     dt: float
@@ -225,6 +227,7 @@ class SampledServo:
     cold_start: object = None
     exact_feedforward: bool = False
     free_rest: object = None
+    gap_reading_span: float = 1.0
 
 
 def plan_stepper(c: ServoTuning, dt: float):
@@ -388,6 +391,7 @@ def sampled_servo(
     # A streamed set-point's torque is always taken at the hold's instant
     # (its tracker's extrapolation had it first, at half a sample).
     exact = s.exact_feedforward
+    reading_span = s.gap_reading_span
     lead = HOLD_INSTANT * dt if exact or streamed else 0.0
     if streamed:
         Lz, Pz = np.asarray(s.stream_gain, float), jerk_model(dt)
@@ -654,12 +658,9 @@ def sampled_servo(
         # Parked on a soft wall (`free_rest`) the gap estimate holds.
         if c.gap_estimate and not parked:
             flank = math.copysign(1.0, tsh) * ((tm - tl) - (tsh - cs * (wm - wl)) / ks)
-            # Readings past the largest gap are kept (within a quarter of
-            # it): the readings of a gap of alpha_max scatter about it, and
-            # cut at alpha_max their mean, and the estimate, was 1.1e-4 rad
-            # short at 0.06; the free rest's walls stood as far past the
-            # target (`free_rest`).
-            flank = min(max(flank, 0.0), _READING_SPAN * amax)
+            # Readings past the largest gap are kept up to `reading_span`
+            # of it (`SampledTuning.gap_reading_span`).
+            flank = min(max(flank, 0.0), reading_span * amax)
             # A static reading: the shaft not twisting (in contact ``omega_m
             # - omega_l`` is the shaft torque's rate over ``ks``: 1 rad/s
             # along a 0.05 rad move, below 0.1 only at its torque peaks).
