@@ -554,6 +554,17 @@ def sampled_servo(
             if c.anti_hunting else F
         )  # fmt: skip
         psi = flank_share(tstar)
+        if at_rest and motor is None and rest is not None and c.anti_hunting:
+            # Unlatched at rest (a load torque beyond the latch's), a load
+            # torque that pushes the load towards the target brings it
+            # there: the flank stays the one that holds it. (A move ending
+            # 1.4 mrad short, Jl x0.8, Td 3-5 Nm: the load-position term
+            # asked for the other flank, the motor crossed the gap to push,
+            # the load came on its own and the crossing back met it, a
+            # relay at 120-150 Nm.)
+            holding = math.copysign(1.0, at[5])
+            if abs(at[5]) >= rest.latch_torque and holding * el > 0.0:
+                psi = holding
         dpsi = ddpsi = 0.0
         if crossings and not at_rest and c.anti_hunting:
             # The planned shaft torque's sign changes ahead: the motor
@@ -703,6 +714,13 @@ def sampled_servo(
             # contact not made there is the clearance, not a wider gap.
             # (Probed, the estimate grew 2 mrad past the gap at rest, the
             # parked motor then pressed on the load and pushed it around.)
+            # A load torque beyond the contact torque makes the contact at
+            # rest by itself: a contact read as lost there is the shaft
+            # torque estimate's noise (1-2 Nm on encoders), and probing on
+            # it held the estimate 3 mrad wide against the rest's reading,
+            # whose integral give-back (below) then bled the integral.
+            if at_rest:
+                asked *= 1.0 - _smoothstep(abs(at[5]) / tc - 1.0)
             if side == 0.0:
                 ddah += probe * (1.0 - contact) * asked * still * (ah < amax)
             if cold is not None and v * at[5] < 0.0:
