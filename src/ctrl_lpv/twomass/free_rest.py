@@ -50,7 +50,9 @@ or the peak-to-peak target, ``docs/servo.rst``):
 Measured (1 ms, one sample of delay, 20/17-bit encoders with half a count of
 noise; ``docs/servo.rst``): the four Td = 0 rows of the bench, runs missing
 a target fall from 41, 28, 32 and 34 of 96 (four sets of 24 noise seeds)
-to 3, 4, 2 and 5. Not certified: the rest certificate's load-torque floor excludes it,
+to 3, 4, 2 and 5, and to none since the half-gap's readings are kept past
+alpha_max and the rest waits for a parked motor (1 of 192 on seeds
+97-144). Not certified: the rest certificate's load-torque floor excludes it,
 as it does the latch (`ctrl_lpv.twomass.servo_rest`); its states follow the
 cold start's in the sampled servo (`FREE_REST_STATES`).
 """

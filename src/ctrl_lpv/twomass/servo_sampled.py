@@ -710,10 +710,6 @@ def sampled_servo(
             if probe_error > 0.0:
                 asked *= _smoothstep(abs(el) / probe_error - 1.0)
             still = _smoothstep(1.0 - (abs(v) + abs(wl)) / c.rest_speed)
-            # Latched, the motor parks short of the flank on purpose: the
-            # contact not made there is the clearance, not a wider gap.
-            # (Probed, the estimate grew 2 mrad past the gap at rest, the
-            # parked motor then pressed on the load and pushed it around.)
             # A load torque beyond the contact torque makes the contact at
             # rest by itself: a contact read as lost there is the shaft
             # torque estimate's noise (1-2 Nm on encoders), and probing on
@@ -721,6 +717,10 @@ def sampled_servo(
             # whose integral give-back (below) then bled the integral.
             if at_rest:
                 asked *= 1.0 - _smoothstep(abs(at[5]) / tc - 1.0)
+            # Latched, the motor parks short of the flank on purpose: the
+            # contact not made there is the clearance, not a wider gap.
+            # (Probed, the estimate grew 2 mrad past the gap at rest, the
+            # parked motor then pressed on the load and pushed it around.)
             if side == 0.0:
                 ddah += probe * (1.0 - contact) * asked * still * (ah < amax)
             if cold is not None and v * at[5] < 0.0:
