@@ -70,6 +70,26 @@ def test_sign_changes_from_a_moving_plan():
     assert side == 1.0
 
 
+@pytest.mark.parametrize(
+    "Td, correction, kept",
+    [
+        (3.0, 0.0, 2),  # braking, then the hold's crossing
+        (3.0, -1.0, 2),  # the load torque with the correction still asks it
+        (3.0, -2.0, 1),  # it does not: a load running ahead stays braked
+        (-3.0, 10.0, 1),  # the last change is the braking's, never dropped
+    ],
+)
+def test_the_holds_crossing_follows_the_feedback(Td, correction, kept):
+    """The last change into the rest's hold (after it the move asks no more
+    than the load torque) is planned only where the load torque plus the
+    feedback's correction now asks for the hold's flank; the changes kept
+    are the planned torque's zeros."""
+    plan = _plan_at(0.05, 0.2, 0.07)
+    _, changes = torque_sign_changes(plan, JL, CL, Td, 1.5, correction=correction)
+    assert len(changes) == kept
+    np.testing.assert_allclose(changes, _zeros(0.05, 0.2, Td, 0.07)[:kept], atol=1e-4)
+
+
 def test_remaining_move_meets_its_end_conditions():
     """The polynomial starts at the plan's state and ends at rest."""
     c = remaining_move(-0.03, 0.4, -2.0, 50.0, 0.15)

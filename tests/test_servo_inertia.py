@@ -61,6 +61,18 @@ def test_reversal_on_a_heavier_load(design, start, target):
     assert m["settling"] <= 0.3
 
 
+def test_a_load_running_ahead_is_braked_not_let_go(design):
+    """Jl x1.2, Td 0, alpha 0.06, a 0.05 rad step from rest: the heavier
+    load runs ahead at the end of the move and the observer reads its
+    inertia as 2.5-4 Nm of load torque; the hold's planned crossing is
+    dropped while the feedback asks for braking
+    (`gap_crossing.torque_sign_changes`; main d3f5b07 crossed, let the load
+    run free and overshot 3.15 %)."""
+    m = _move(design, start=0.0, target=0.05, Jl=1.2, Td=0.0, alpha=0.06, seed=5)
+    assert m["overshoot"] <= 1.5
+    assert m["settling"] <= 0.3
+
+
 def test_nominal_inertia_overshoots_the_same_reversal():
     """The same reversal with the inertia estimate off: the nominal inertia
     in the feedforward and the observer overshoots it (the cause fixed)."""
@@ -316,22 +328,13 @@ _MOVES = [(0.5, 0.0), (-0.3, 0.05), (0.0, 1.0), (1.0, 0.0)]
 _SMALL = [(0.05, -0.05), (0.0, -0.05), (0.0, 0.05)]
 #: The runs of `_SMALL` that miss the targets (measured; docs/servo.rst,
 #: "Small moves across the gap", "The move's end", "The learnt inertia at
-#: rest", "The flank a load torque presses" and "The gap read at its
-#: largest"): 103 of 108 pass. Left: the first move's contact with the
-#: unknown gap at alpha 0.06, a 0.05 rad move in 0.2 s braking with 53 Nm
-#: (63 at Jl x1.2), so that the motor crosses the gap mid-move
-#: (`ctrl_lpv.twomass.gap_crossing`): Td 0 at Jl x0.8 to -0.05 rad on seed
-#: 6 and at Jl x1.2 both ways. (Td 0 at Jl x0.8 to 0.05 rad and Td 3 at Jl
-#: x1.2 from 0 to 0.05 pass since the gap's readings are no longer cut at
-#: alpha_max.) Strict: a run that starts meeting them fails here, so that
-#: the list is kept true.
-_SMALL_MISSES = {
-    (0.8, 0.0, 0.06, (0.0, -0.05), 6),
-    (1.2, 0.0, 0.06, (0.0, -0.05), 5),
-    (1.2, 0.0, 0.06, (0.0, -0.05), 6),
-    (1.2, 0.0, 0.06, (0.0, 0.05), 5),
-    (1.2, 0.0, 0.06, (0.0, 0.05), 6),
-}
+#: rest", "The flank a load torque presses", "The gap read at its largest"
+#: and "The hold's crossing and a load running ahead"): 107 of 108 pass.
+#: Left: Td 0 at Jl x0.8 to -0.05 rad on seed 6, the rest after the move
+#: (0.60 s, 2.1 %: the latch's flip crossing the gap at 0.9 rad/s meets
+#: the drifting load and kicks it to 0.03 rad/s). Strict: a run that starts
+#: meeting them fails here, so that the list is kept true.
+_SMALL_MISSES = {(0.8, 0.0, 0.06, (0.0, -0.05), 6)}
 #: The runs of `_MOVES` that miss (measured as above): none since the
 #: feedforward has the shaft's damper and the torque's hold (before it Jl
 #: x0.8, Td 3, alpha 0.06, 0.5 -> 0 on seed 6 at 2.3 % and the -0.3 ->

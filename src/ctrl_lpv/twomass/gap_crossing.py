@@ -133,7 +133,7 @@ def _torque_coefficients(c, h, Jl, cl, Td):
     return F
 
 
-def torque_sign_changes(plan, Jl, cl, Td, significant):
+def torque_sign_changes(plan, Jl, cl, Td, significant, correction=0.0):
     """Times (from now, s) where the planned shaft torque changes flank.
 
     Parameters
@@ -145,6 +145,15 @@ def torque_sign_changes(plan, Jl, cl, Td, significant):
     significant : float
         A sign of ``F`` counts only on stretches where ``|F|`` exceeds it
         (Nm); a smaller excursion keeps the flank before it.
+    correction : float
+        The feedback's correction to the asked shaft torque now, Nm. A last
+        change into the rest's hold (after it, to the end of the move, ``F``
+        asks no more than ``Td``, within `significant`) is dropped where
+        ``Td + correction`` no longer asks for that flank: a load running
+        ahead of the plan is braked, not let go. (Jl x1.2, Td 0, alpha
+        0.06, a 0.05 rad step: the load running ahead at the end of the
+        move, an estimate of 2.5-4 Nm of load torque, the inertia's error,
+        planned the hold's crossing and let the load run 3.1-3.4 % past.)
 
     Returns
     -------
@@ -155,7 +164,14 @@ def torque_sign_changes(plan, Jl, cl, Td, significant):
         The times of the significant sign changes from now, in order.
     """
     r, v, a, j, g, h = plan
-    return _sign_changes(remaining_move(r - g, v, a, j, h), h, Jl, cl, Td, significant)
+    F = _planned_torque(remaining_move(r - g, v, a, j, h), h, Jl, cl, Td)
+    side, changes = _sign_changes(F, h, significant)
+    hold = math.copysign(1.0, Td)
+    if changes and abs(Td) > significant and hold * (Td + correction) < significant:
+        after = np.flatnonzero(hold * F < 0.0)[-1] + 1
+        if np.max(np.abs(F[after:])) <= abs(Td) + significant:
+            changes = changes[:-1]
+    return side, changes
 
 
 def one_flank_duration(
@@ -209,16 +225,21 @@ def streamed_sign_changes(v, a, j, duration, Jl, cl, Td, significant):
     t0 = -0.5 * h
     v0, a0 = v + a * t0 + 0.5 * j * t0 * t0, a + j * t0
     c = np.array([0.0, v0 * h, 0.5 * a0 * h * h, j * h**3 / 6.0, 0.0, 0.0, 0.0, 0.0])
-    side, changes = _sign_changes(c, h, Jl, cl, Td, significant)
+    F = _planned_torque(c, h, Jl, cl, Td)
+    side, changes = _sign_changes(F, h, significant)
     return side, [t + t0 for t in changes]
 
 
-def _sign_changes(c, h, Jl, cl, Td, significant):
-    """`torque_sign_changes` along the position polynomial `c` (in ``u =
+def _planned_torque(c, h, Jl, cl, Td):
+    """``F`` at `_GRID` points over the position polynomial `c` (in ``u =
     tau / h``, lowest order first)."""
-    F = np.polynomial.polynomial.polyval(
+    return np.polynomial.polynomial.polyval(
         np.linspace(0.0, 1.0, _GRID), _torque_coefficients(c, h, Jl, cl, Td)
     )
+
+
+def _sign_changes(F, h, significant):
+    """`torque_sign_changes` of the planned torque `F` over `h` s."""
     sign = np.where(F >= 0.0, 1.0, -1.0)
     cuts = np.flatnonzero(sign[1:] != sign[:-1]) + 1
     bounds = [0, *cuts.tolist(), _GRID]

@@ -583,8 +583,9 @@ def sampled_servo(
                     )
             else:
                 sgn, changes = _gx.torque_sign_changes(
-                    [r, v, a, j, g, h], scale * c.Jl, c.cl, at[5], tc
-                )
+                    [r, v, a, j, g, h], scale * c.Jl, c.cl, at[5], tc,
+                    correction=-ratio * (kp * el + free * k4 * dl),
+                )  # fmt: skip
             if sgn != 0.0:
                 psi, dpsi, ddpsi = _gx.crossing_offset(sgn, changes, dur)
         crossing = 0.0
