@@ -64,7 +64,7 @@ def test_reversal_on_a_heavier_load(design, start, target):
 def test_a_load_running_ahead_is_braked_not_let_go(design):
     """Jl x1.2, Td 0, alpha 0.06, a 0.05 rad step from rest: the heavier
     load runs ahead at the end of the move and the observer reads its
-    inertia as 2.5-4 Nm of load torque; the hold's planned crossing is
+    inertia as 2.5-4.5 Nm of load torque; the hold's planned crossing is
     dropped while the feedback asks for braking
     (`gap_crossing.torque_sign_changes`; main d3f5b07 crossed, let the load
     run free and overshot 3.15 %)."""

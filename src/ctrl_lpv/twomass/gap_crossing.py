@@ -152,7 +152,7 @@ def torque_sign_changes(plan, Jl, cl, Td, significant, correction=0.0):
         ``Td + correction`` no longer asks for that flank: a load running
         ahead of the plan is braked, not let go. (Jl x1.2, Td 0, alpha
         0.06, a 0.05 rad step: the load running ahead at the end of the
-        move, an estimate of 2.5-4 Nm of load torque, the inertia's error,
+        move, an estimate of 2.5-4.5 Nm of load torque, the inertia's error,
         planned the hold's crossing and let the load run 3.1-3.4 % past.)
 
     Returns
