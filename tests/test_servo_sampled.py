@@ -344,13 +344,14 @@ def test_first_small_move_from_mid_gap_with_the_load_torque_along(
 #: First moves from the origin (the load mid-gap, the load torque unknown)
 #: that miss (measured, seed 1; docs/servo.rst, "The first move from
 #: mid-gap" and "The learnt inertia at rest"): Jl x1.2 at alpha 0.06 over
-#: 0.05 rad, both ways along 3 Nm and against 8 Nm (1.75 %): the gap twice
-#: its first estimate and the first move too short to learn the inertia.
-#: Twelve missed with the observer's model on the nominal inertia at rest
-#: and at impacts (Jl x1.2 at alpha 0.06 up to 0.2 rad, Jl x0.8 along 3 Nm
-#: at alpha 0.03 over -0.1 rad, one slow landing).
+#: -0.05 rad under Td 3 and 8 Nm (1.75 %): the gap twice its first
+#: estimate and the first move too short to learn the inertia. Twelve
+#: missed with the observer's model on the nominal inertia at rest and at
+#: impacts (Jl x1.2 at alpha 0.06 up to 0.2 rad, Jl x0.8 along 3 Nm at
+#: alpha 0.03 over -0.1 rad, one slow landing); +0.05 rad against 3 Nm
+#: passes since the hold's crossing is decided on the feedback ("The
+#: hold's crossing and a load running ahead").
 _FIRST_MOVE_MISSES = {
-    (3.0, 0.06, 1.2, 0.05),
     (3.0, 0.06, 1.2, -0.05),
     (8.0, 0.06, 1.2, -0.05),
 }
