@@ -84,10 +84,10 @@ SAMPLED_STATES = [
     "r", "v_r", "a_r", "j_r", "goal", "time_to_go",
     "theta_m_hat", "omega_m_hat", "Ts_hat", "theta_l_hat", "omega_l_hat",
     "Td_hat", "int_e_l", "alpha_hat_dev", "Tm_prev", "flank_side",
-    "flank_evidence", "Td_rest", "flank_crossing", "hold_crossing",
+    "flank_evidence", "Td_rest", "flank_crossing", "hold_crossing", "contact_age",
 ]  # fmt: skip
 #: The motor-encoder estimator's states, or the inertia estimate, follow these.
-_NS = 20
+_NS = 21
 #: ``hold_crossing``: the planned crossing into the rest's hold, decided
 #: where it starts and held to the end of the move: 0 undecided, `_PLANNED`,
 #: or the braking flank (+1 or -1) kept instead.
@@ -109,6 +109,9 @@ _UNHELD = COLD_START_STATES.index("torque_unheld")
 _LIGHT = _fall.FALL_STATES.index("light_load")
 
 _STREAM_REST_ACCEL = 1e-3  # rad/s^2
+#: A contact read for this long, s, is no longer a landing misread
+#: (``contact_age``; the gap estimate's narrowing readings).
+_LANDING_TIME = 0.01
 # A streamed set-point's gap crossings are planned above this speed (rad/s):
 # where a streamed move stops, the tracker's acceleration rings (1.5 rad/s^2
 # after a quintic's end, 4e-3 rad/s) and would plan a crossing to nowhere.
@@ -434,6 +437,10 @@ def sampled_servo(
             # and forth within 10 ms.
             side_twist = math.copysign(1.0, xhat[2]) * (xhat[0] - xhat[3])
             contact *= _smoothstep(side_twist / (contact_twist * (a0 + dah)))
+        # How long the contact has been read on its flank (signed, s).
+        age, flank_now = 0.0, math.copysign(1.0, xhat[2])
+        if contact > 0.5:
+            age = x[20] + flank_now * dt if x[20] * flank_now >= 0.0 else flank_now * dt
         if motor is None:
             Ph, Gh = blend(Phi, contact), blend(Gam, contact)
             # Latched at rest (the flank of the last sample), and not on a
@@ -721,9 +728,17 @@ def sampled_servo(
                 # still in the gap (readings of 0.012-0.04 against 0.06).
                 # Such a reading is narrower than the gap: a reading more
                 # than `narrowing` below the estimate teaches it only where
-                # static. (Gating every reading on a static one taught the
-                # estimate 3.6 of the 30 mrad it missed in a 0.05 rad move.)
-                trusted = max(static, _smoothstep(1.0 - (ah - flank) / narrowing))
+                # static or from a contact held beyond the landing's time.
+                # (Gating every reading on a static one taught the estimate
+                # 3.6 of the 30 mrad it missed in a 0.05 rad move; on a
+                # static one or a narrow band alone, a gap narrower than the
+                # first estimate was not learnt: 0.02 read as 0.025 after a
+                # 0.5 rad move, and the rest without a load torque hunted at
+                # 130-160 Nm.)
+                held = _smoothstep(abs(age) / _LANDING_TIME - 1.0)
+                trusted = max(
+                    static, held, _smoothstep(1.0 - (ah - flank) / narrowing)
+                )  # fmt: skip
                 learnt_gap = gam * trusted * learning * contact * (flank - ah)
             ddah = learnt_gap
             asked = _smoothstep(abs(tstar) / tc - 1.0)
@@ -788,7 +803,7 @@ def sampled_servo(
             if give * xi_next < 0.0:
                 xi_next = math.copysign(max(abs(xi_next) - abs(give), 0.0), xi_next)
         state = [*next_plan, *predicted, xi_next, dah + dt * ddah, u, side]
-        state += [evidence, td_rest, crossing, decided]
+        state += [evidence, td_rest, crossing, decided, age]
         if inertia is not None:
             state += list(learnt)
         if cold is not None:
