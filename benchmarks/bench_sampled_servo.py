@@ -72,6 +72,11 @@ SCENARIOS = [
     # The first move from mid-gap, the load torque along the step (docs:
     # "The first move from mid-gap").
     ("Td=8, alpha 0.03, -0.05 rad", 8.0, 0.03, 1.0, -0.05),
+    # Gaps narrower than the first estimate (alpha_max / 2; docs: "Gaps
+    # narrower than the first estimate").
+    ("Td=0, alpha 0.01", 0.0, 0.01, 1.0, 0.5),
+    ("Td=1, no gap", 1.0, 0.0, 1.0, 0.5),
+    ("Td=0, alpha 0.01, 0.05 rad", 0.0, 0.01, 1.0, 0.05),
 ]
 
 

@@ -212,8 +212,8 @@ def test_a_gap_narrower_than_the_first_estimate_is_learnt_in_the_move(design):
     """A half-gap of 0.01 against the first estimate's 0.03, Td = 0: the
     move's contacts teach the estimate the narrower gap, and the rest is the
     issue's (no hunting). The readings below the estimate were trusted only
-    where static: the estimate ended the move at 0.025 and the rest hunted
-    at 137-138 Nm (seeds 1-2)."""
+    where static: the estimate stayed at 0.028 and the rest hunted at
+    137-138 Nm (seeds 1-2)."""
     alpha = 0.01
     res = _simulate(design, Td=0.0, alpha=alpha)
     c = res.controller

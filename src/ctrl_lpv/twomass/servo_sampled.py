@@ -732,9 +732,9 @@ def sampled_servo(
                 # (Gating every reading on a static one taught the estimate
                 # 3.6 of the 30 mrad it missed in a 0.05 rad move; on a
                 # static one or a narrow band alone, a gap narrower than the
-                # first estimate was not learnt: 0.02 read as 0.025 after a
-                # 0.5 rad move, and the rest without a load torque hunted at
-                # 130-160 Nm.)
+                # first estimate, 0.03, was not learnt: 0, 0.01 and 0.02 read
+                # as 0.025-0.030 after a 0.5 rad move, and the rest without
+                # a load torque hunted at 130-160 Nm.)
                 held = _smoothstep(abs(age) / _LANDING_TIME - 1.0)
                 trusted = max(
                     static, held, _smoothstep(1.0 - (ah - flank) / narrowing)
