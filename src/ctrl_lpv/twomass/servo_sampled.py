@@ -734,7 +734,7 @@ def sampled_servo(
                 # static one or a narrow band alone, a gap narrower than the
                 # first estimate, 0.03, was not learnt: 0, 0.01 and 0.02 read
                 # as 0.025-0.030 after a 0.5 rad move, and the rest without
-                # a load torque hunted at 130-160 Nm.)
+                # a load torque hunted at 129-163 Nm.)
                 held = _smoothstep(abs(age) / _LANDING_TIME - 1.0)
                 trusted = max(
                     static, held, _smoothstep(1.0 - (ah - flank) / narrowing)
