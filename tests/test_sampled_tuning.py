@@ -16,6 +16,7 @@ import pytest
 
 from ctrl_lpv import twomass
 from ctrl_lpv.twomass.sampled_tuning import (
+    ALTERNATING_LIMIT,
     FAST_SAMPLING,
     FLOOR_TARGET,
     QUIET_REST_SAMPLING,
@@ -71,6 +72,51 @@ def test_rule_by_sample_time():
 def test_rule_refuses_a_bad_sample_time(dt):
     with pytest.raises((TypeError, ValueError), match="dt"):
         sampled_tuning(dt)
+
+
+def test_rule_can_be_asked_for_either_tuning():
+    assert sampled_tuning(1e-3, fast=False) == sampled_tuning(2e-3, fast=False)
+    assert sampled_tuning(1e-3, fast=False).rates == sampled_tuning(2e-3).rates
+    assert sampled_tuning(2e-3, fast=True).rates == sampled_tuning(1e-3).rates
+    with pytest.raises(TypeError, match="fast"):
+        sampled_tuning(1e-3, fast="yes")
+
+
+def _flipping(design):
+    """The largest modulus of the rest loop's eigenvalues with a negative
+    real part (numpy on the loop's matrix)."""
+    loop = _rest_loop(design.params, design.gain[0], design.sampling)
+    poles = np.linalg.eigvals(loop.A)
+    poles = poles[poles.real < 0.0]
+    return np.abs(poles).max() if poles.size else 0.0
+
+
+@pytest.mark.parametrize("dt", [0.75e-3, 1.25e-3])
+def test_fast_tuning_whose_rest_loop_alternates_gives_way_to_the_slow_one(dt):
+    """Within the fast tuning's range of sample times, its drive observer
+    puts a rest-loop eigenvalue near -1 at some of them (a command that
+    flips sign every sample: 0.75, 1.25 and 1.5 ms, where the paper
+    scenario chattered at 6-16 Nm at rest): there the design runs the slow
+    tuning, whose rest loop has no such mode, and the paper scenario rests
+    within the issue's 5 Nm."""
+    fast = sampled_tuning(dt)
+    forced = twomass.servo_design(
+        dt=dt, delay=1, sensors="encoders", certify=False,
+        synthesis=twomass.ServoSynthesis(torque_weight=fast.torque_weight),
+        estimator=twomass.ServoEstimator(
+            shaft_torque_rate=fast.rates[0][0], load_torque_rate=fast.rates[0][1]
+        ),
+    )  # fmt: skip
+    assert _flipping(forced) > ALTERNATING_LIMIT
+    design = twomass.servo_design(dt=dt, delay=1, sensors="encoders", certify=False)
+    assert _flipping(design) < 0.5
+    assert not design.sampling.plan_crossings  # the slow tuning's
+    m = _run(design, Td=8.0, alpha=0.03, T=3.0)
+    assert m["settling"] <= 0.3
+    assert m["torque_std"] <= 5.0
+    # Where the fast tuning's rest does not alternate it is kept.
+    kept = twomass.servo_design(dt=1e-3, delay=1, sensors="encoders", certify=False)
+    assert _flipping(kept) < 0.5 and kept.sampling.plan_crossings
 
 
 @pytest.mark.parametrize(

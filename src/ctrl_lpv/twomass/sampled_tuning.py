@@ -13,8 +13,9 @@ heavier torque weight give a well-damped rest loop (floor 8.0 Nm, ripple
 that does (50 Nm/s): the load-torque estimate is what absorbs a load
 inertia off nominal during a move.
 
-`sampled_tuning` states the rule: up to `FAST_SAMPLING` the fast tuning;
-above it the torque weight `SLOW_TORQUE_WEIGHT` and a short, fixed list of
+`sampled_tuning` states the rule: up to `FAST_SAMPLING` the fast tuning
+(where its rest loop does not alternate, `ALTERNATING_LIMIT`); above it,
+and where it does, the torque weight `SLOW_TORQUE_WEIGHT` and a short, fixed list of
 observer intensities, of which `servo_design` keeps the first whose
 certified rest covers `FLOOR_TARGET` (the paper's load torque) and is
 approached with a certified time constant of at most `MAX_TIME_CONSTANT`,
@@ -27,17 +28,28 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .._checks import real_number
+from .._checks import flag, real_number
 from .free_rest import FreeRest
 from .rest_flank import RestFlank
 
 __all__ = [
-    "SampledTuning", "sampled_tuning", "FAST_SAMPLING", "FLOOR_TARGET", "REST_RATES",
-    "QUIET_REST_SAMPLING",
+    "SampledTuning", "sampled_tuning", "ALTERNATING_LIMIT", "FAST_SAMPLING",
+    "FLOOR_TARGET", "REST_RATES", "QUIET_REST_SAMPLING",
 ]  # fmt: skip
 
 #: Largest sample time, s, of the fast observer tuning.
 FAST_SAMPLING = 1.5e-3
+#: Largest modulus of a rest-loop eigenvalue with a negative real part (a
+#: mode that flips the command every sample,
+#: `ctrl_lpv.twomass.servo_rest.alternating_mode`) with which the fast
+#: tuning is kept (`ctrl_lpv.twomass.servo.servo_design`); beyond it the
+#: slow one runs. The fast drive observer's gains are an LMI optimum that
+#: moves with the sample time: at 0.125, 0.25, 0.5, 1 and 1.1 ms the rest
+#: loop has no such eigenvalue, at 0.75, 1.25 and 1.5 ms one of modulus
+#: 0.974-0.984, a certified ripple of 248-509 Nm (floor 90-174 Nm), and
+#: the paper scenario chattered at 6-16 Nm of torque standard deviation at
+#: rest (Td 0: 40-188 Nm); with the slow tuning 0.35-0.52 Nm (0.3-1.4 Nm).
+ALTERNATING_LIMIT = 0.9
 #: Load torque, Nm, the rest certificate should cover (the paper's 8 Nm).
 FLOOR_TARGET = 8.0
 #: Slowest certified approach of the rest, s, that a tuning may have
@@ -213,20 +225,24 @@ class SampledTuning:
     gap_reading_span: float = 1.0
 
 
-def sampled_tuning(dt: float) -> SampledTuning:
+def sampled_tuning(dt: float, *, fast: bool | None = None) -> SampledTuning:
     """The tuning rule of the sampled servo for sample time `dt`, s.
 
     Parameters
     ----------
     dt : float
         Sample time, s.
+    fast : bool, optional
+        The fast tuning (True) or the slow one (False); None (default): the
+        fast one up to `FAST_SAMPLING`.
 
     Returns
     -------
     `SampledTuning`
     """
     dt = real_number(dt, "dt", positive=True)
-    if dt <= FAST_SAMPLING:
+    fast = dt <= FAST_SAMPLING if fast is None else flag(fast, "fast")
+    if fast:
         return SampledTuning(
             FAST_TORQUE_WEIGHT,
             ((3000.0, 20.0),),

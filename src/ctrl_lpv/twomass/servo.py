@@ -48,7 +48,7 @@ from .inertia import ServoInertia, inertia_adaptation
 from .model import lpv_model
 from .motor_estimator import MotorEstimator, MotorObserver, motor_observer
 from .parameters import Parameters
-from .sampled_tuning import FAST_TORQUE_WEIGHT, sampled_tuning
+from .sampled_tuning import ALTERNATING_LIMIT, FAST_TORQUE_WEIGHT, sampled_tuning
 from .servo_certificate import ServoCertificate, servo_certificate
 from .servo_config import (
     ServoAntiHunting,
@@ -60,7 +60,7 @@ from .servo_config import (
     positive_range,
 )
 from .servo_kernel import INPUTS, STATES, ServoTuning, servo_kernel
-from .servo_rest import rest_bound
+from .servo_rest import alternating_mode, rest_bound
 from .servo_sampled import SampledServo, sampled_servo
 from .stream import stream_gain
 from .trajectory import PEAK_ACCEL, move_duration
@@ -383,6 +383,29 @@ def servo_design(
         leaves no acceleration, or `sensors`, `dt` and `delay` that do not
         go together.
     """
+    arguments = dict(locals())
+    checked_dt, _ = _sampling(dt, delay, sensors)
+    # The sample time's tuning rule (`sampled_tuning`); on encoders the fast
+    # one only where its rest loop does not alternate (`ALTERNATING_LIMIT`).
+    rule = None if checked_dt is None else sampled_tuning(checked_dt)
+    design = _servo_design(rule, **arguments)
+    if rule is None or sensors != "encoders":
+        return design
+    slow = sampled_tuning(checked_dt, fast=False)
+    if rule != slow:
+        mode = alternating_mode(design.params, design.gain, design.sampling)
+        if mode > ALTERNATING_LIMIT:
+            design = _servo_design(slow, **arguments)
+    return design
+
+
+def _servo_design(
+    rule, *, params, torque_limit, alpha_max, Jl_range, Td_max, gain, planner,
+    synthesis, anti_hunting, estimator, certify, dt, delay, sensors,
+    encoder_counts, reference, stream, inertia,
+):  # fmt: skip
+    """`servo_design` under the sample time's tuning `rule` (None: continuous
+    time)."""
     params = Parameters() if params is None else params
     if not isinstance(params, Parameters):
         raise TypeError(f"params: expected twomass.Parameters, got {type(params)!r}")
@@ -395,8 +418,6 @@ def servo_design(
     estimator = _settings(estimator, ServoEstimator, "estimator")
     certify = flag(certify, "certify")
     dt, delay = _sampling(dt, delay, sensors)
-    # The sample time's tuning rule (`sampled_tuning`), read once.
-    rule = None if dt is None else sampled_tuning(dt)
     if anti_hunting is None and rule is not None:
         anti_hunting = ServoAntiHunting(
             rest_flank=rule.rest_flank, free_rest=rule.free_rest
@@ -519,7 +540,7 @@ def servo_design(
             # On the motor encoder alone the load angle at rest is not
             # observable (the motor sees theta_l + alpha): no rest certificate.
             observer, sampling, rest = _encoder_observer(
-                params, K, tuning, sampled, dt=dt, sensors=sensors,
+                params, K, tuning, sampled, rule, dt=dt, sensors=sensors,
                 encoder_counts=encoder_counts, Jl_range=(lo, hi), certify=certify,
                 rates=(estimator.shaft_torque_rate, estimator.load_torque_rate),
             )  # fmt: skip
@@ -590,19 +611,18 @@ PEAK_ACCEL = PEAK_ACCEL
 
 
 def _encoder_observer(
-    params, K, tuning, sampled, *, dt, sensors, encoder_counts, Jl_range, certify,
-    rates,
+    params, K, tuning, sampled, rule, *, dt, sensors, encoder_counts, Jl_range,
+    certify, rates,
 ):  # fmt: skip
     """The drive observer, the sampled law's numbers and the certified rest.
 
-    Given intensities (`rates`, None: the rule's) are used as they are;
-    otherwise those of `sampled_tuning` are tried in order and the first
+    Given intensities (`rates`, None: the `rule`'s) are used as they are;
+    otherwise those of the `rule` (`sampled_tuning`) are tried in order and the first
     whose certified load-torque floor is at most the rule's target, with a
     certified time constant at most the rule's, is kept, else the lowest
     floor (among the fast enough, if any). A loop that does not certify is
     skipped; if none does, the last refusal is raised.
     """
-    rule = sampled_tuning(dt)
     if rates == (None, None):
         candidates = rule.rates
     else:

@@ -50,7 +50,7 @@ from ..certificate import Certificate, Check, negative_definite
 from ..exceptions import CertificationError
 from .parameters import Parameters
 
-__all__ = ["RestBound", "rest_bound"]
+__all__ = ["RestBound", "alternating_mode", "rest_bound"]
 
 
 @dataclass(frozen=True)
@@ -220,6 +220,32 @@ def rest_bound(
         time_constant=1.0 / min(rates),
         certificate=Certificate(tuple(parts)),
     )  # fmt: skip
+
+
+def alternating_mode(params: Parameters, gain, sampling) -> float:
+    """The largest modulus among the rest loop's eigenvalues with a negative
+    real part: a mode that flips the command's sign every sample (the
+    linear rest loop of `rest_bound`, nominal inertia).
+
+    Parameters
+    ----------
+    params : `Parameters`
+        Nominal drive data (the observer's model).
+    gain : array_like
+        The feedback gain ``K`` (1 x 5).
+    sampling : `ctrl_lpv.twomass.servo_sampled.SampledServo`
+        The sampled law's numbers (observer matrices, delay).
+
+    Returns
+    -------
+    float
+        0 when no eigenvalue has a negative real part; near 1, a mode at
+        half the sample rate that barely decays.
+    """
+    K = np.asarray(gain, float).reshape(-1)
+    poles = np.linalg.eigvals(_rest_loop(params, K, sampling).A)
+    flipping = poles[poles.real < 0.0]
+    return float(np.abs(flipping).max()) if flipping.size else 0.0
 
 
 def _rest_loop(
