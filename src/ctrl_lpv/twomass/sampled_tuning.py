@@ -48,7 +48,7 @@ FAST_SAMPLING = 1.5e-3
 #: loop has no such eigenvalue, at 0.75, 1.25 and 1.5 ms one of modulus
 #: 0.974-0.984, a certified ripple of 248-509 Nm (floor 90-174 Nm), and
 #: the paper scenario chattered at 6-16 Nm of torque standard deviation at
-#: rest (Td 0: 40-188 Nm); with the slow tuning 0.35-0.52 Nm (0.3-1.4 Nm).
+#: rest (Td 0: up to 188 Nm); with the slow tuning 0.35-0.52 Nm (0.3-1.4 Nm).
 ALTERNATING_LIMIT = 0.9
 #: Load torque, Nm, the rest certificate should cover (the paper's 8 Nm).
 FLOOR_TARGET = 8.0
