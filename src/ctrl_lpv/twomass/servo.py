@@ -392,11 +392,10 @@ def servo_design(
     if rule is None or sensors != "encoders":
         return design
     slow = sampled_tuning(checked_dt, fast=False)
-    if rule != slow:
-        mode = alternating_mode(design.params, design.gain, design.sampling)
-        if mode > ALTERNATING_LIMIT:
-            design = _servo_design(slow, **arguments)
-    return design
+    mode = alternating_mode(design.params, design.gain, design.sampling)
+    if rule == slow or mode <= ALTERNATING_LIMIT:
+        return design
+    return _servo_design(slow, **arguments)
 
 
 def _servo_design(
