@@ -92,6 +92,8 @@ _NS = 21
 #: where it starts and held to the end of the move: 0 undecided, `_PLANNED`,
 #: or the braking flank (+1 or -1) kept instead.
 _PLANNED = 2.0
+_HOLD = SAMPLED_STATES.index("hold_crossing")
+_AGE = SAMPLED_STATES.index("contact_age")
 SAMPLED_INPUTS = ["theta_m", "theta_l", "theta_r"]
 #: The motor-encoder estimator's extra states: the sensitivity of the
 #: prediction to the half-gap and the half-gap variance (less its initial),
@@ -440,7 +442,8 @@ def sampled_servo(
         # How long the contact has been read on its flank (signed, s).
         age, flank_now = 0.0, math.copysign(1.0, xhat[2])
         if contact > 0.5:
-            age = x[20] + flank_now * dt if x[20] * flank_now >= 0.0 else flank_now * dt
+            held_on = x[_AGE] * flank_now >= 0.0
+            age = (x[_AGE] if held_on else 0.0) + flank_now * dt
         if motor is None:
             Ph, Gh = blend(Phi, contact), blend(Gam, contact)
             # Latched at rest (the flank of the last sample), and not on a
@@ -577,7 +580,7 @@ def sampled_servo(
             if abs(at[5]) >= rest.latch_torque and holding * el > 0.0:
                 psi = holding
         dpsi = ddpsi = 0.0
-        decided = 0.0 if at_rest else x[19]
+        decided = 0.0 if at_rest else x[_HOLD]
         if crossings and not at_rest and c.anti_hunting:
             # The planned shaft torque's sign changes ahead: the motor
             # starts across the gap before the braking is needed
