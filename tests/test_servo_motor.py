@@ -363,21 +363,6 @@ def test_first_contact_learns_a_wide_gap_without_a_load_torque(motor_design):
     assert m["rest_error"] <= 0.06, m
 
 
-def test_light_load_holds_when_the_design_has_its_inertia():
-    """Jl x0.8, Td = 8 Nm: the servo designed on the nominal inertia hunts
-    (the estimator mispredicts the load's flight across the gap, see
-    `motor_estimator`); designed on the drive's own inertia, as a
-    commissioning identification gives it, it meets the targets."""
-    params = P.replace(Jl=0.8 * P.Jl)
-    design = twomass.servo_design(
-        params, dt=DT, delay=1, sensors="motor", certify=False
-    )
-    m = _run(design, 8.0, 0.03, 0.5, Jl=0.8, T=2.0, seed=1)
-    _pressed_targets_hold(m)
-    # The rest is quiet: no limit cycle on the motor torque.
-    assert m["torque_std"] <= 3.0, m
-
-
 # Known limits of the motor-encoder estimator (see `motor_estimator` and
 # docs/servo.rst): a load inertia off the model's by 10 % or more (the
 # load's free flight across the gap is predicted with the model's Jl, so

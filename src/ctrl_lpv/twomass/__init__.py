@@ -18,7 +18,8 @@
 * `servo_design`: the torque-limited position servo (planner, feedforward,
   certified feedback, no hunting), its settings (`ServoPlanner`,
   `ServoSynthesis`, `ServoAntiHunting`, `ServoEstimator`) and its comparison
-  (`servo_comparison`).
+  (`servo_comparison`); `identify_load_inertia`: the load inertia from a
+  motor-encoder record, to commission the motor-encoder servo on.
 
 The names are imported lazily, as in `ctrl_lpv`.
 """
@@ -68,6 +69,8 @@ _EXPORTS = {
     "ServoEstimator": "servo_config",
     "ServoStream": "servo_config",
     "ServoInertia": "inertia",
+    "identify_load_inertia": "commissioning",
+    "LoadInertia": "commissioning",
     "cascade_design": "cascade",
     "CascadeDesign": "cascade",
     "servo_loop": "servo_compare",

@@ -120,8 +120,10 @@ motor table, and ``tests/test_servo_motor.py``):
   without hunting. So the inertia must
   be within a few per cent (x1.2 learnt as x1.16 still hunts) before the
   first rest, from one move read through one encoder: a commissioning
-  move (or `servo_design` on the identified inertia) is the measured
-  answer;
+  move is the measured answer, the inertia read from its record by
+  `ctrl_lpv.twomass.commissioning.identify_load_inertia` (this estimator
+  run on each candidate inertia, the one that predicts the motor reading
+  best) and `servo_design` made on it;
 * the half-gap is learnt only when the side changes (a crossing) or a
   move's reading breaks with the model, with an error of about ``|dw_l|
   t_c + |dTd| t_c^2 / (2 Jl)`` over a crossing of duration ``t_c`` (a
@@ -152,6 +154,7 @@ motor table, and ``tests/test_servo_motor.py``):
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass
 
@@ -623,6 +626,13 @@ class MotorEstimator:
             self.M_landing = first_contact_gains(
                 design.contact, spread, LANDING_SPEED_SPREAD
             )
+
+    def with_load_inertia(self, Jl):
+        """This estimator with the load inertia `Jl` in its prediction (the
+        gains unchanged; `ctrl_lpv.twomass.commissioning`)."""
+        other = copy.copy(self)
+        other.Jl = real_number(Jl, "Jl", positive=True)
+        return other
 
     def learns(self, window, innovation, resting):
         """Whether the half-gap learns from this sample's reading: within
