@@ -20,9 +20,12 @@ Three things fix what the start does not know:
   from a prior of `ColdStart.prior` along the sensitivity of the
   observer's predicted state to the offset (through the observer's model
   and its own correction, as `ctrl_lpv.twomass.inertia` does for its fit).
-  Only in the gap (the observer's contact weight 0) and with the twist
-  estimate short of the half-gap estimate by `ColdStart.margin` of it: a
-  contact made between two samples would read as a load torque. The fit
+  Only in the gap (the observer's contact weight 0), with the twist
+  estimate short of the half-gap estimate by `ColdStart.margin` of it (a
+  contact made between two samples would read as a load torque), and
+  while the motor reading agrees with the free motor
+  (`ColdStart.contact_reading`: a gap narrower than its estimate is met
+  before the twist estimate gets there). The fit
   runs over the first fall only; when it is over its estimate joins the
   observer's if beyond `ColdStart.significance` of its standard
   deviations (an 8 Nm fall at alpha 0.03, 1 ms, seeds 1-6: 7.4-10.8 Nm
@@ -126,6 +129,20 @@ class ColdStart:
         0.34-0.46 s).
     take_up_rate : float
         Rate, rad/s, at which `take_up` widens the half-gap estimate.
+    contact_reading : float
+        The fall is over where the motor encoder's reading departs from its
+        prediction by more than this, rad (`cold_start`: eight counts, 5e-5
+        rad on 20 bits): in the gap the motor is free and its prediction
+        exact to the reading's noise (at most 1.8e-5 rad in a fall at 1 ms,
+        20 bits), and a shaft torque of 10 Nm over a 2 ms sample moves it by
+        5e-5 rad. The twist estimate alone ends the fall only at
+        the half-gap estimate: a gap narrower than that (the first estimate
+        is ``alpha_max / 2``) was met while the fit ran, and the fit read the
+        motor's push as a load torque (2 ms, half-gap 0.005, Td 1 Nm, +0.05
+        rad: +65 Nm, the move 16 % over).
+    motor_reading : int or None
+        Index of the motor encoder among the readings (None: not read, no
+        `contact_reading` test).
     """
 
     reading_variance: tuple
@@ -135,6 +152,8 @@ class ColdStart:
     significance: float = 2.0
     restart_slack: float = 0.05
     take_up_rate: float = 1.0
+    contact_reading: float = 5e-5
+    motor_reading: int | None = None
 
     def initial(self) -> np.ndarray:
         """The states (`COLD_START_STATES`) when the servo starts."""
@@ -188,6 +207,11 @@ class ColdStart:
             * (1.0 - contact)
             * _smoothstep((edge - twist) / (self.margin * alpha_hat))
         )
+        motor = self.motor_reading
+        if motor is not None and abs(innovation[motor]) > self.contact_reading:
+            # The motor reading breaks with the free motor: a contact the
+            # half-gap estimate does not predict (a gap narrower than it).
+            weight = 0.0
         if weight > 0.0:
             # The offset's gain from readings weighted by `weight` (1/weight
             # times as noisy), written without dividing by a vanishing one.
@@ -285,9 +309,11 @@ def cold_start(encoder_counts, measured=("theta_m", "theta_l")) -> ColdStart:
     """The `ColdStart` of encoders with `encoder_counts` (motor, load) per
     revolution, of which `measured` are read: a reading's variance of a
     third of a count squared (its quantization, a twelfth, and half a count
-    of noise)."""
+    of noise), and a contact read beyond eight motor counts."""
     motor, load = _encoder_steps(encoder_counts)
     steps = {"theta_m": motor, "theta_l": load}
     return ColdStart(
-        reading_variance=tuple(steps[name] ** 2 / 3.0 for name in measured)
+        reading_variance=tuple(steps[name] ** 2 / 3.0 for name in measured),
+        contact_reading=8.0 * motor,
+        motor_reading=measured.index("theta_m") if "theta_m" in measured else None,
     )
