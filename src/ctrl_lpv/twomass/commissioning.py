@@ -52,7 +52,7 @@ MIN_SHARPNESS = 1.2
 _SHARPNESS_STEP = 0.05
 _NOT_IDENTIFIED = (
     "theta_m: the record does not identify the load inertia (the mean "
-    "squared innovation 5 %% off the best is {:.3g} times that at it, at "
+    "squared innovation 5 % off the best is {:.3g} times that at it, at "
     f"least {MIN_SHARPNESS} needed): record a move in which the shaft "
     "carries the load"
 )
@@ -100,7 +100,7 @@ def identify_load_inertia(
         and sample time. The record's samples are the design's.
     theta_m : array_like
         The motor encoder's readings at the samples ``t_k = k dt``, from
-        a start at rest (the load anywhere in the gap).
+        a start at rest (the load mid-gap or on a flank).
     torque : array_like
         The motor torque applied over ``[t_k, t_{k+1})``, Nm (with one
         sample of delay, the command computed at ``t_{k-1}``).
@@ -166,28 +166,34 @@ def identify_load_inertia(
     Jl = design.params.Jl
     factors = np.linspace(lo, hi, max(3, round((hi - lo) / step) + 1))
 
-    # The record's half-gap and load torque are the drive's, whatever its
-    # inertia: the profile is run again from the half-gap its best candidate
-    # learnt, with the load torque unknown (the first-contact gains learn
-    # it, as in the servo) or at the estimate at the record's end, and the
-    # better of the two kept. In one pass from the design's first estimates
-    # the widest gap's late first contact dominated the innovation (x1.2
-    # under 30 Nm read as x1.264); the end's load torque is a move's (x1.15
-    # under -8 Nm at the widest gap read as x1.183), but without it 30 Nm,
-    # beyond the first-contact prior, read x1.1 as x1.053.
-    def profile(alpha, load):
+    # The record's half-gap, load torque and start are the drive's, whatever
+    # its inertia: the profile is run again from the half-gap its best
+    # candidate learnt, from the start (the load at rest mid-gap or on either
+    # flank; the load torque unknown, as in the servo, or at the estimate at
+    # the record's end) that predicts best on a coarse grid. In one pass from
+    # the design's first estimates the widest gap's late first contact
+    # dominated the innovation (x1.2 under 30 Nm read as x1.264); the end's
+    # load torque is a move's (x1.15 under -8 Nm at the widest gap read as
+    # x1.183), but without it 30 Nm, beyond the first-contact prior, read
+    # x1.1 as x1.053; from mid-gap alone, records that start on a flank were
+    # refused or misread (x1.1 under -8 Nm as x1.183).
+    def profile(start, factors=factors):
         def msi(factor):
             estimate = estimator.with_load_inertia(factor * Jl)
-            return _innovations(estimate, readings, applied, alpha, load)
+            return _innovations(estimate, readings, applied, *start)
 
         runs = [msi(f) for f in factors]
         costs = np.array([cost for cost, *_ in runs])
         return msi, costs, runs[int(np.argmin(costs))][1:]
 
-    _, _, (alpha, load) = profile(design.tuning.alpha_initial, 0.0)
-    msi, costs, _ = min(
-        (profile(alpha, start) for start in (0.0, load)), key=lambda p: p[1].min()
-    )
+    _, _, (alpha, load) = profile((design.tuning.alpha_initial, 0.0, 0.0))
+    starts = [
+        (alpha, torque, side * alpha)
+        for torque in (0.0, load)
+        for side in (-1.0, 0.0, 1.0)
+    ]  # fmt: skip
+    start = min(starts, key=lambda start: profile(start, factors[::3])[1].min())
+    msi, costs, _ = profile(start)
     best = int(np.argmin(costs))
     if not costs.max() >= MIN_SHARPNESS * costs.min():
         raise ValueError(_NOT_IDENTIFIED.format(costs.max() / costs.min()))
@@ -226,14 +232,15 @@ def _record(values, name):
     return values
 
 
-def _innovations(estimator, readings, applied, alpha, load):
+def _innovations(estimator, readings, applied, alpha, load, offset):
     """The mean squared one-sample prediction error of the motor reading
     of `estimator` along the record, from a rest at the first reading with
-    the half-gap and load-torque estimates `alpha` and `load`, and those
-    estimates at its end. The load-torque gains are the servo's
-    (`MotorEstimator.correct`): the first-contact gains from the first
-    contact at which the half-gap is known."""
-    x = np.array([readings[0], 0.0, 0.0, readings[0], 0.0, load])
+    the half-gap and load-torque estimates `alpha` and `load` and the load
+    `offset` behind the motor, and those two estimates at its end. The
+    load-torque gains are the servo's (`MotorEstimator.correct`): the
+    first-contact gains from the first contact at which the half-gap is
+    known."""
+    x = np.array([readings[0], 0.0, 0.0, readings[0] - offset, 0.0, load])
     S, dP, window, total = np.zeros(5), 0.0, 0.0, 0.0
     check, clock = [0.0, 0.0, 0.0], 0.0
     for reading, torque in zip(readings, applied):
