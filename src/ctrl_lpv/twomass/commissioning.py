@@ -187,11 +187,11 @@ def identify_load_inertia(
     # The load at rest mid-gap or on either flank, its torque unknown; then
     # leaning there with the torque that start learnt (on a flank the shaft
     # twisted by it).
-    sides = {side: profile((alpha, 0.0, side * alpha)) for side in (-1.0, 0.0, 1.0)}
-    side = min(sides, key=lambda side: sides[side][1].min())
-    torque = sides[side][2][1]
-    leaning = profile((alpha, torque, side * alpha + abs(side) * torque / estimator.ks))
-    msi, costs, _ = min(sides[side], leaning, key=lambda p: p[1].min())
+    starts = {side: profile((alpha, 0.0, side * alpha)) for side in (-1.0, 0.0, 1.0)}
+    side = min(starts, key=lambda side: starts[side][1].min())
+    load = starts[side][2][1]
+    leaning = profile((alpha, load, side * alpha + abs(side) * load / estimator.ks))
+    msi, costs, _ = min(starts[side], leaning, key=lambda p: p[1].min())
     best = int(np.argmin(costs))
     if not costs.max() >= MIN_SHARPNESS * costs.min():
         raise ValueError(_NOT_IDENTIFIED.format(costs.max() / costs.min()))
@@ -210,8 +210,8 @@ def identify_load_inertia(
     factor, cost = float(refined.x), float(refined.fun)
     if costs[best] < cost:
         factor, cost = float(factors[best]), float(costs[best])
-    sides = [msi(factor * (1.0 + s * _SHARPNESS_STEP))[0] for s in (-1.0, 1.0)]
-    sharpness = min(sides) / cost if cost > 0.0 else np.inf
+    around = [msi(factor * (1.0 + s * _SHARPNESS_STEP))[0] for s in (-1.0, 1.0)]
+    sharpness = min(around) / cost if cost > 0.0 else np.inf
     if not sharpness >= MIN_SHARPNESS:
         raise ValueError(_NOT_IDENTIFIED.format(sharpness))
     return LoadInertia(
