@@ -100,7 +100,9 @@ __all__ = [
     "IMPACT_READING",
     "SETTLED_TIME",
     "SETTLED_SHARE",
-    "BLIND_FALL",
+    "BLIND_TIME",
+    "CHASE_SPEED",
+    "CHASE_ACCEL",
     "BRAKING_SHARE",
     "FALL_STATES",
     "LANDED",
@@ -112,6 +114,7 @@ __all__ = [
     "landing",
     "landing_gap",
     "soft_catch",
+    "chase",
     "fall_duration",
 ]
 
@@ -132,15 +135,23 @@ IMPACT_READING = 5e-5
 #: is looked for: the end of a move is not a rest.
 SETTLED_TIME = 0.05
 SETTLED_SHARE = 0.25
-#: Fall, rad, within which a landing is not looked for: under 30 Nm the
-#: break's transient read as a landing 3 ms in, with the half-gap unchanged.
-BLIND_FALL = 1e-3
+#: Time, s, from the break within which a landing is not looked for: the
+#: break is read a few samples late, and its first readings are the lurch's.
+#: (As a fall of 1e-3 rad, 37 ms under 8 Nm and 75 ms under 2 Nm, the
+#: chasing motor met the load within it and pushed it on: 1.2 mrad past its
+#: rest, then a half-gap read 5 mrad short and a hunt at 500 Nm.)
+BLIND_TIME = 4e-3
 #: Share of the load torque the move back may use to brake the load (the
 #: rest keeps the shaft torque on the flank): at 0.75 the recovery of the
 #: paper's step takes 0.46 s; a move of the servo's own duration (0.2 s)
 #: asked for braking through the gap, and the motor crossed it twice at the
 #: load (Tm -257 then -500 Nm, the load bouncing 25 mrad).
 BRAKING_SHARE = 0.75
+
+#: The motor's chase of the falling load (`chase`): speed, rad/s, and
+#: acceleration, rad/s^2.
+CHASE_SPEED = 0.5
+CHASE_ACCEL = 100.0
 
 #: `FALL_STATES`' ``fall_caught`` of a load that landed from a free rest
 #: (`watch`): the estimator's landing gains run from the landing on.
@@ -218,6 +229,9 @@ def watch(fall, predicted, filtered, reading, rest, alpha, c, dt, torque):
         td = fall[6]
         since = math.sqrt(2.0 * c.Jm * abs(innovation) / max(abs(td), tc))
         broke = [float(v) for v in predicted]
+        # The motor ran free since: its lurch is read, not predicted.
+        broke[0] = reading
+        broke[1] = predicted[1] + td / c.Jm * since
         broke[3] = fall[5] - td / (2.0 * c.Jl) * since**2
         broke[4] = -td / c.Jl * since
         broke[5] = td
@@ -292,6 +306,22 @@ def landing_gap(side, filtered, innovation, Jm, ks):
     closing = max(side * (filtered[1] - filtered[4]), 0.0)
     since = (6.0 * Jm * abs(innovation) / (ks * max(closing, 1e-6))) ** (1.0 / 3.0)
     return side * (filtered[0] - filtered[3]) - closing * since
+
+
+def chase(time, widest):
+    """The motor's way into a gap widened under the load, its speed and
+    acceleration, `time` s after the chase starts: up to `CHASE_SPEED` at
+    `CHASE_ACCEL`, and no further than `widest` rad."""
+    if time <= 0.0:
+        return 0.0, 0.0, 0.0
+    ramp = CHASE_SPEED / CHASE_ACCEL
+    if time < ramp:
+        way, speed, accel = 0.5 * CHASE_ACCEL * time**2, CHASE_ACCEL * time, CHASE_ACCEL
+    else:
+        way, speed, accel = CHASE_SPEED * (time - 0.5 * ramp), CHASE_SPEED, 0.0
+    if way >= widest:
+        return widest, 0.0, 0.0
+    return way, speed, accel
 
 
 def fall_duration(distance, load_torque, Jl, tc):

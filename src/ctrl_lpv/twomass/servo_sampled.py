@@ -837,14 +837,22 @@ def sampled_servo(
         innovation = y[0] - predicted[0]
         ahead, sens_ahead, dP_ahead = motor.predict(filtered, sens, x[14], alpha, dP)
         at = ahead if delayed else filtered
+        td = abs(filtered[5])
+        # Until the load is met, the motor chases it into the widened gap
+        # (`gap_fall.chase`); then it holds, carrying the load torque.
+        way, speed, accel = 0.0, 0.0, 0.0
+        if not caught:
+            way, speed, accel = _fall.chase(
+                clock + (dt if delayed else 0.0), 2.0 * amax
+            )
         if landed:
             u = _fall.soft_catch(at[0] - hold, at[1], c.Jm, c.Jl)
         else:
-            u = -(k1 * (at[0] - hold) + k2 * at[1])
+            u = side * (c.Jm * accel + c.cm * speed + caught * td) - (
+                k1 * (at[0] - hold - side * way) + k2 * (at[1] - side * speed)
+            )
         u = min(max(u, -limit), limit)
         state = list(x)
-        td = abs(filtered[5])
-        blind = _fall.fall_duration(_fall.BLIND_FALL, td, c.Jl, tc)
         fall = [side, hold, clock + dt, caught, 0.0, 0.0, 0.0, 0.0, fall[_LIGHT]]
         # The move back to the target: on the flank, the load torque it
         # carries (or a plain re-plan, 0); None: not yet.
@@ -866,9 +874,19 @@ def sampled_servo(
                     fall[_LIGHT] = float(side * filtered[5] > 0.0)
                     ahead[3:6] = [ahead[0], 0.0, 0.0]
                     fall[0] = 0.0
-        elif not caught and clock > blind and side * innovation < -_fall.IMPACT_READING:
-            gap = _fall.landing_gap(side, filtered, innovation, c.Jm, ks)
-            state[13] = min(max(gap, 0.0), amax) - a0
+        elif (
+            not caught
+            and clock > _fall.BLIND_TIME
+            and side * innovation < -_fall.IMPACT_READING
+        ):
+            gap = min(
+                max(_fall.landing_gap(side, filtered, innovation, c.Jm, ks), 0.0), amax
+            )
+            state[13] = gap - a0
+            # The motor holds where the shaft carries the load torque on
+            # the flank met (at the chase's reference, 0.5 mrad further on,
+            # the press flung the load ahead of the move back: 300 Nm).
+            fall[1] = filtered[3] + side * (gap + td / ks)
             fall[3] = 1.0
         elif (caught and side * filtered[4] >= 0.0) or clock > _fall.fall_duration(
             2.0 * amax, td, c.Jl, tc
