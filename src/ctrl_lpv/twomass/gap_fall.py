@@ -103,6 +103,8 @@ __all__ = [
     "BLIND_TIME",
     "CHASE_SPEED",
     "CHASE_ACCEL",
+    "CHASE_GAIN",
+    "CHASE_TORQUE",
     "BRAKING_SHARE",
     "FALL_STATES",
     "LANDED",
@@ -115,6 +117,7 @@ __all__ = [
     "landing_gap",
     "soft_catch",
     "chase",
+    "chase_speed",
     "fall_duration",
 ]
 
@@ -148,10 +151,19 @@ BLIND_TIME = 4e-3
 #: load (Tm -257 then -500 Nm, the load bouncing 25 mrad).
 BRAKING_SHARE = 0.75
 
-#: The motor's chase of the falling load (`chase`): speed, rad/s, and
-#: acceleration, rad/s^2.
+#: The motor's chase of the falling load (`chase`, `chase_speed`): its
+#: speed, rad/s per square root of the load torque's Nm, at most
+#: `CHASE_SPEED`, rad/s, reached at `CHASE_ACCEL`, rad/s^2. At 0.5 rad/s
+#: whatever the torque, a light load (2 to 5 Nm) kicked ahead by the impact
+#: drifted off the flank, and the move back from it swung at 300-500 Nm or
+#: lost it (2 ms).
+CHASE_GAIN = 0.125
 CHASE_SPEED = 0.5
 CHASE_ACCEL = 100.0
+#: Load torque, Nm, under which the motor holds still while the load falls
+#: (the estimate of a light load's torque misreads at the catch: 2 Nm read
+#: as 1 Nm, and the move back lost the load at 2 ms; 3 and 4 Nm recover).
+CHASE_TORQUE = 2.5
 
 #: `FALL_STATES`' ``fall_caught`` of a load that landed from a free rest
 #: (`watch`): the estimator's landing gains run from the landing on.
@@ -308,20 +320,37 @@ def landing_gap(side, filtered, innovation, Jm, ks):
     return side * (filtered[0] - filtered[3]) - closing * since
 
 
-def chase(time, widest):
-    """The motor's way into a gap widened under the load, its speed and
-    acceleration, `time` s after the chase starts: up to `CHASE_SPEED` at
-    `CHASE_ACCEL`, and no further than `widest` rad."""
-    if time <= 0.0:
+def chase(time, widest, load_torque):
+    """The motor's way into a gap widened under `load_torque` (Nm), its
+    speed and acceleration, `time` s after the break: up to
+    `chase_speed` at `CHASE_ACCEL`, and no further than `widest` rad;
+    none under `CHASE_TORQUE`."""
+    speed = chase_speed(load_torque)
+    if time <= 0.0 or speed == 0.0:
         return 0.0, 0.0, 0.0
-    ramp = CHASE_SPEED / CHASE_ACCEL
+    ramp = speed / CHASE_ACCEL
     if time < ramp:
         way, speed, accel = 0.5 * CHASE_ACCEL * time**2, CHASE_ACCEL * time, CHASE_ACCEL
     else:
-        way, speed, accel = CHASE_SPEED * (time - 0.5 * ramp), CHASE_SPEED, 0.0
+        way, accel = speed * (time - 0.5 * ramp), 0.0
     if way >= widest:
         return widest, 0.0, 0.0
     return way, speed, accel
+
+
+def chase_speed(load_torque):
+    """The speed, rad/s, at which the motor chases a load falling under
+    `load_torque` (Nm): ``CHASE_GAIN sqrt(|load_torque|)``, at most
+    `CHASE_SPEED`; 0 under `CHASE_TORQUE`.
+
+    Met at the relative speed ``v``, the load is kicked ahead at up to
+    ``2 Jm v / (Jm + Jl)`` and its torque brings it back within ``(2 Jm v /
+    (Jm + Jl))**2 Jl / (2 Td)``: with ``v`` growing as ``sqrt(Td)``, the
+    same for every load torque (8e-4 rad at most on the paper's drive)."""
+    load_torque = abs(load_torque)
+    if load_torque < CHASE_TORQUE:
+        return 0.0
+    return min(CHASE_GAIN * math.sqrt(load_torque), CHASE_SPEED)
 
 
 def fall_duration(distance, load_torque, Jl, tc):

@@ -843,7 +843,7 @@ def sampled_servo(
         way, speed, accel = 0.0, 0.0, 0.0
         if not caught:
             way, speed, accel = _fall.chase(
-                clock + (dt if delayed else 0.0), 2.0 * amax
+                clock + (dt if delayed else 0.0), 2.0 * amax, td
             )
         if landed:
             u = _fall.soft_catch(at[0] - hold, at[1], c.Jm, c.Jl)
@@ -887,7 +887,7 @@ def sampled_servo(
             # the flank met (at the chase's reference, 0.5 mrad further on,
             # the press flung the load ahead of the move back: 300 Nm).
             fall[1] = filtered[3] + side * (gap + td / ks)
-            fall[3] = 1.0
+            fall[2], fall[3] = 0.0, 1.0
         elif (caught and side * filtered[4] >= 0.0) or clock > _fall.fall_duration(
             2.0 * amax, td, c.Jl, tc
         ):
