@@ -442,7 +442,8 @@ def test_pressed_load_grid(motor_design, Td, alpha, Jl, theta_r, seed, request):
 
 def _gap_step(design, Td, alpha, theta_r, seed):
     """The move before a step of the half-gap at 2.5 s, and the 2.5 s
-    after it, with the controller's response."""
+    after it (with the largest error and torque there), with the
+    controller's response and the metrics of the whole run."""
     res = _response(design, Td, alpha, theta_r, T=5.0, seed=seed)
     p, step = res.plant, res.plant.time < 2.5
 
@@ -451,25 +452,29 @@ def _gap_step(design, Td, alpha, theta_r, seed):
 
     move = _metrics(stretch(step, 0.0), theta_r, 2.5)
     after = _metrics(stretch(~step, 2.5), theta_r, 2.5)  # last second: 4-5 s
-    return move, after, res.controller
+    after["peak"] = np.abs(p.outputs[2, ~step] - theta_r).max()
+    after["torque"] = np.abs(p.inputs[0, ~step]).max()
+    return move, after, res.controller, _metrics(p, theta_r, 5.0)
 
 
 @pytest.mark.parametrize(
     "seed", [1, *(pytest.param(s, marks=pytest.mark.slow) for s in range(2, 13))]
 )
 def test_gap_step_at_rest_under_a_load_torque(motor_design, seed):
-    """The paper's gap step (0.03 -> 0.045 at 2.5 s) at rest under Td = 8
-    Nm, the motor encoder alone: the load falls back through the widened
-    gap (nothing tells it before it lands: 12.6 mrad to the flank, 25 mrad
-    with the catch), and a move on the flank alone takes it back: within 2
-    % 0.46 s after the step, not beyond the target, at rest within 1e-3 rad
-    with the gap estimate at the new half-gap. It ended 63-66 mrad off while
-    the estimator took the load in the gap to stop; then (stop 41) the law
-    swung the motor across the gap at the falling load and the recovery
-    overshot the target by 0.8-2.7 % (seeds 1-12)."""
-    move, after, c = _gap_step(motor_design, 8.0, twomass.alpha_step(), 0.5, seed)
+    """The paper's scenario on the motor encoder alone: the gap steps
+    (0.03 -> 0.045 at 2.5 s) at rest under Td = 8 Nm, the load falls back
+    through the widened gap, the motor chases it into the gap and meets it
+    3.7-3.8 mrad off (`gap_fall.chase`), and a move on the flank alone
+    takes it back: the whole run settles (2 %) in 0.205 s as the paper
+    asks, the load within 5 mrad and the torque within 40 Nm after the
+    step, at rest within 1e-3 rad with the gap estimate at the new
+    half-gap. Holding the motor still, the load fell 25 mrad and the run
+    settled in 2.96 s, at up to 500 Nm; before the fall mode it ended
+    63-66 mrad off."""
+    move, after, c, run = _gap_step(motor_design, 8.0, twomass.alpha_step(), 0.5, seed)
     assert move["settling"] <= 0.5 and move["overshoot"] <= 2.0, move
-    assert after["settling"] <= 0.5 and after["overshoot"] <= 0.5, after
+    assert run["settling"] <= 0.25 and run["overshoot"] <= 1.0, run
+    assert after["peak"] <= 5e-3 and after["torque"] <= 100.0, after
     assert after["error"] <= 1e-3 and after["torque_std"] <= 3.0, after
     dev = c.states[c.state_labels.index("alpha_hat_dev")][-1]
     assert abs(motor_design.tuning.alpha_initial + dev - 0.045) <= 1e-3
@@ -486,17 +491,24 @@ def test_gap_step_at_rest_under_a_load_torque(motor_design, seed):
         (-8.0, (0.03, 0.045), -0.5),
         (8.0, (0.03, 0.045), 1.0),
         (8.0, (0.03, 0.06), 0.5),
+        (8.0, (0.03, 0.045), -0.5),
     ],
 )
 def test_gap_widening_under_other_load_torques(motor_design, Td, alpha, theta_r, seed):
-    """The load falls toward the target's side of the flank (the load
-    torque opposes the move): back within 2 % in 0.8 s (a move on one flank
-    under 2 Nm is slow: 0.74 s), not beyond the target, at rest within 1e-3
-    rad. Under 2, 5 and 30 Nm, and the step to 0.06, it ended 15-76 mrad
-    off before the fall mode (`gap_fall`)."""
-    _, after, _ = _gap_step(motor_design, Td, twomass.alpha_step(*alpha), theta_r, seed)
-    assert after["settling"] <= 0.8 and after["overshoot"] <= 0.5, after
+    """The motor chases the falling load (3.2-9.0 mrad off, back within 1e-3
+    rad in 0.22-0.34 s; 20-46 mrad held still), or under 2 Nm holds still
+    (20 mrad, 0.96 s): back within 2 % in 0.8 s, not beyond the target by
+    more than 1 % (Td 8 Nm at -0.5 rad falls past it: 0.66-0.68 %, 4.9 %
+    held still), at rest within 1e-3 rad. Under 2, 5 and 30 Nm, and the
+    step to 0.06, it ended 15-76 mrad off before the fall mode
+    (`gap_fall`)."""
+    _, after, _, _ = _gap_step(
+        motor_design, Td, twomass.alpha_step(*alpha), theta_r, seed
+    )
+    assert after["settling"] <= 0.8 and after["overshoot"] <= 1.0, after
     assert after["error"] <= 1e-3 and after["torque_std"] <= 3.0, after
+    if abs(Td) >= gap_fall.CHASE_TORQUE:
+        assert after["peak"] <= 1e-2, after
 
 
 def _load_torque_step(design, before, after, alpha, theta_r, seed):
