@@ -203,10 +203,11 @@ MOTOR_SCENARIOS = [
 
 
 #: Rows run on a servo commissioned on the drive (the estimator's nominal
-#: inertia fails the Jl rows above): the nominal design's 0.5 rad move under
-#: 8 Nm at alpha 0.03, recorded for 0.4 s on the run's noise seed, gives the
-#: load inertia (`twomass.identify_load_inertia`), and the servo is designed
-#: on it.
+#: inertia fails the Jl rows above, its first half-gap estimate, 0.03, the
+#: small moves at the widest gap): the nominal design's 0.5 rad move under
+#: 8 Nm on the drive, recorded for 0.4 s on the run's noise seed, gives the
+#: load inertia and the half-gap (`twomass.identify_load_inertia`), and the
+#: servo is designed on them.
 MOTOR_COMMISSIONED = [
     ("Td=8, Jl x0.8, commissioned", 8.0, 0.03, 0.8, 0.5),
     ("Td=8, Jl x0.9, commissioned", 8.0, 0.03, 0.9, 0.5),
@@ -214,30 +215,35 @@ MOTOR_COMMISSIONED = [
     ("Td=8, Jl x1.2, commissioned", 8.0, 0.03, 1.2, 0.5),
     ("Td=8, a 0.06, Jl x0.8, comm.", 8.0, 0.06, 0.8, 0.5),
     ("Td=8, a 0.06, Jl x1.2, comm.", 8.0, 0.06, 1.2, 0.5),
+    ("Td=8, a 0.06, 0.05 rad, comm.", 8.0, 0.06, 1.0, 0.05),
+    ("Td=8, a 0.06, -0.05 rad, comm.", 8.0, 0.06, 1.0, -0.05),
+    ("Td=8, a 0.06, 0.1 rad, comm.", 8.0, 0.06, 1.0, 0.1),
+    ("Td=8, a 0.06, -0.2 rad, comm.", 8.0, 0.06, 1.0, -0.2),
+    ("Td=8, a 0.045, -0.1 rad, comm.", 8.0, 0.045, 1.0, -0.1),
 ]
 
 
-def motor_design(dt, Jl=1.0):
+def motor_design(dt, Jl=1.0, half_gap=None):
     params = twomass.Parameters()
     return twomass.servo_design(
         params.replace(Jl=Jl * params.Jl), dt=dt, delay=1, sensors="motor",
-        certify=False,
+        certify=False, estimator=twomass.ServoEstimator(initial_half_gap=half_gap),
     )  # fmt: skip
 
 
-def commissioned(nominal, Jl, seed):
-    """The motor-encoder servo designed on the load inertia identified from
-    a record of `nominal` on the drive of load inertia ``Jl x`` nominal,
-    and the identified multiple."""
+def commissioned(nominal, Jl, alpha, seed):
+    """The motor-encoder servo designed on the load inertia and the
+    half-gap identified from a record of `nominal` on the drive (load
+    inertia ``Jl x`` nominal, half-gap `alpha`), and what was identified."""
     params = twomass.Parameters()
-    drive = twomass.plant(params.replace(Jl=Jl * params.Jl), alpha=0.03)
+    drive = twomass.plant(params.replace(Jl=Jl * params.Jl), alpha=alpha)
     res = sampled_response(
         drive, nominal.controller(), 0.4, inputs={"Td": 8.0, "theta_r": 0.5},
         delay=nominal.delay, sensors=MOTOR_ENCODER, seed=seed,
     )  # fmt: skip
     applied = np.concatenate([[0.0], res.controller.outputs[0][:-1]])
     found = twomass.identify_load_inertia(nominal, res.controller.inputs[0], applied)
-    return motor_design(nominal.dt, found.factor), found.factor
+    return motor_design(nominal.dt, found.factor, found.half_gap), found
 
 
 def motor_table(dt, seeds):
@@ -252,14 +258,20 @@ def motor_table(dt, seeds):
     rows = [(row, {seed: design for seed in seeds}) for row in MOTOR_SCENARIOS]
     drives = {}
     for row in MOTOR_COMMISSIONED:
-        Jl = row[3]
-        if Jl not in drives:
-            drives[Jl] = {seed: commissioned(design, Jl, seed) for seed in seeds}
-            factors = [factor for _, factor in drives[Jl].values()]
+        _, _, alpha, Jl, _ = row
+        if (Jl, alpha) not in drives:
+            drives[Jl, alpha] = {
+                seed: commissioned(design, Jl, alpha, seed) for seed in seeds
+            }
+            found = [f for _, f in drives[Jl, alpha].values()]
+            factors = [f.factor for f in found]
+            gaps = [f.half_gap for f in found]
             print(
-                f"  (Jl x{Jl:g} identified as x{min(factors):.4f}-{max(factors):.4f})"
+                f"  (Jl x{Jl:g}, half-gap {alpha:g}: identified as "
+                f"x{min(factors):.4f}-{max(factors):.4f}, "
+                f"{min(gaps):.4f}-{max(gaps):.4f})"
             )
-        rows.append((row, {seed: d for seed, (d, _) in drives[Jl].items()}))
+        rows.append((row, {seed: d for seed, (d, _) in drives[Jl, alpha].items()}))
     for (name, Td, alpha, Jl, theta_r), designs in rows:
         runs = [
             run(designs[seed], Td, alpha, Jl, theta_r, seed=seed, sensors=MOTOR_ENCODER)

@@ -68,6 +68,10 @@ class LoadInertia:
         The load inertia, kg m^2.
     factor : float
         ``Jl`` as a multiple of the design's.
+    half_gap : float
+        The half-gap, rad: the estimator's at the record's end on `Jl`
+        (the servo's first estimate on a commissioned design,
+        ``ServoEstimator(initial_half_gap=...)``).
     innovation : float
         RMS of the motor reading's one-sample prediction error along the
         record on `Jl`, rad.
@@ -82,6 +86,7 @@ class LoadInertia:
 
     Jl: float
     factor: float
+    half_gap: float
     innovation: float
     sharpness: float
     factors: np.ndarray
@@ -207,17 +212,16 @@ def identify_load_inertia(
         method="bounded",
         options={"xatol": 1e-3},
     )
-    factor, cost = float(refined.x), float(refined.fun)
-    if costs[best] < cost:
-        factor, cost = float(factors[best]), float(costs[best])
+    factor = float(refined.x) if refined.fun <= costs[best] else float(factors[best])
+    cost, half_gap, _ = msi(factor)
     around = [msi(factor * (1.0 + s * _SHARPNESS_STEP))[0] for s in (-1.0, 1.0)]
     sharpness = min(around) / cost if cost > 0.0 else np.inf
     if not sharpness >= MIN_SHARPNESS:
         raise ValueError(_NOT_IDENTIFIED.format(sharpness))
     return LoadInertia(
-        Jl=factor * Jl, factor=factor, innovation=float(np.sqrt(cost)),
-        sharpness=float(sharpness), factors=factors,
-        innovations=np.sqrt(costs),
+        Jl=factor * Jl, factor=factor, half_gap=float(half_gap),
+        innovation=float(np.sqrt(cost)), sharpness=float(sharpness),
+        factors=factors, innovations=np.sqrt(costs),
     )  # fmt: skip
 
 

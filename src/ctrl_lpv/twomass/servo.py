@@ -447,6 +447,14 @@ def _servo_design(
             f"the reserve and Td_max = {Td_max:g} Nm"
         )
     accel_limit = budget / (params.Jm + hi * params.Jl)
+    alpha_initial = estimator.initial_half_gap
+    if alpha_initial is None:
+        alpha_initial = 0.5 * alpha_max
+    elif alpha_initial > alpha_max:
+        raise ValueError(
+            f"estimator.initial_half_gap: {alpha_initial:g} rad is beyond "
+            f"alpha_max = {alpha_max:g} rad"
+        )
 
     feedback = None
     if gain is None:
@@ -473,7 +481,7 @@ def _servo_design(
         cs=params.cs, gain=tuple(float(k) for k in K[0]),
         torque_limit=torque_limit, accel_limit=float(accel_limit),
         min_duration=planner.min_duration, horizon_floor=planner.horizon_floor,
-        alpha_max=alpha_max, alpha_initial=0.5 * alpha_max,
+        alpha_max=alpha_max, alpha_initial=alpha_initial,
         flank_width=anti_hunting.flank_width,
         contact_torque=estimator.contact_torque,
         estimate_rate=estimator.estimate_rate, probe_rate=estimator.probe_rate,

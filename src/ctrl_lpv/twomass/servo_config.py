@@ -274,6 +274,14 @@ class ServoEstimator:
         torque's sign; default 5, a tenth of `estimate_rate`: the reading's
         noise moves the motor, and the load, with the estimate). 0 learns
         only in moves.
+    initial_half_gap : float or None, optional
+        The gap estimate's first value, rad: a commissioned half-gap
+        (`ctrl_lpv.twomass.identify_load_inertia`'s
+        `~ctrl_lpv.twomass.LoadInertia.half_gap`), within ``[0,
+        alpha_max]``; None (the default) starts from ``alpha_max / 2``.
+        On the motor encoder alone the first contact at a gap wider than
+        the estimate throws the load (``docs/servo.rst``, "Commissioning
+        the half-gap").
     shaft_torque_rate, load_torque_rate : float or None, optional
         Sampled servo on encoders: the intensities, Nm/s, of the random
         walks of the shaft torque and the load torque in the drive
@@ -300,6 +308,7 @@ class ServoEstimator:
     static_speed: float = 0.1
     narrowing_band: float = 2e-3
     rest_estimate_rate: float = 5.0
+    initial_half_gap: float | None = None
     shaft_torque_rate: float | None = None
     load_torque_rate: float | None = None
 
@@ -324,6 +333,8 @@ class ServoEstimator:
         for name in ("shaft_torque_rate", "load_torque_rate"):
             if getattr(self, name) is not None:
                 _check(self, positive=(name,))
+        if self.initial_half_gap is not None:
+            _check(self, nonnegative=("initial_half_gap",))
 
 
 @dataclass(frozen=True)
