@@ -158,8 +158,9 @@ SETTLED_SHARE = 0.25
 #: rest, then a half-gap read 5 mrad short and a hunt at 500 Nm.)
 BLIND_TIME = 4e-3
 #: Share of the load torque the move back may use to brake the load (the
-#: rest keeps the shaft torque on the flank): at 0.75 the recovery of the
-#: paper's step takes 0.46 s; a move of the servo's own duration (0.2 s)
+#: rest keeps the shaft torque on the flank): at 0.75, from a load fallen
+#: 25 mrad (before the chase), the recovery of the paper's step took 0.46
+#: s; a move of the servo's own duration (0.2 s)
 #: asked for braking through the gap, and the motor crossed it twice at the
 #: load (Tm -257 then -500 Nm, the load bouncing 25 mrad).
 BRAKING_SHARE = 0.75

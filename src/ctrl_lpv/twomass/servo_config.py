@@ -279,9 +279,9 @@ class ServoEstimator:
         (`ctrl_lpv.twomass.identify_load_inertia`'s
         `~ctrl_lpv.twomass.LoadInertia.half_gap`), within ``[0,
         alpha_max]``; None (the default) starts from ``alpha_max / 2``.
-        On the motor encoder alone the first contact at a gap wider than
-        the estimate throws the load (``docs/servo.rst``, "Commissioning
-        the half-gap").
+        On the motor encoder alone a first contact far from the estimate
+        throws the load (``docs/servo.rst``, "Commissioning the
+        half-gap").
     shaft_torque_rate, load_torque_rate : float or None, optional
         Sampled servo on encoders: the intensities, Nm/s, of the random
         walks of the shaft torque and the load torque in the drive
