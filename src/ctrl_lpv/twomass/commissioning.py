@@ -158,6 +158,15 @@ def identify_load_inertia(
     ...     nominal, run.controller.inputs[0], applied)
     >>> abs(found.factor - 1.15) < 0.02
     True
+    >>> abs(found.half_gap - p.alpha) < 1e-3
+    True
+
+    The servo designed on what was found:
+
+    >>> design = twomass.servo_design(
+    ...     p.replace(Jl=found.Jl), dt=1e-3, delay=1, sensors="motor",
+    ...     certify=False,
+    ...     estimator=twomass.ServoEstimator(initial_half_gap=found.half_gap))
     """
     estimator = getattr(getattr(design, "sampling", None), "estimator", None)
     if estimator is None or getattr(design, "sensors", None) != "motor":
