@@ -440,6 +440,37 @@ def test_pressed_load_grid(motor_design, Td, alpha, Jl, theta_r, seed, request):
     _pressed_targets_hold(_run(motor_design, Td, alpha, theta_r, Jl=Jl, seed=seed))
 
 
+@pytest.mark.parametrize(
+    "alpha, step, seed",
+    [
+        (0.06, 0.1, 1),
+        *(
+            pytest.param(a, s, seed, marks=pytest.mark.slow)
+            for a in (0.0, 0.015, 0.045, 0.06)
+            for s in (0.1, -0.1, 0.05, -0.05, 0.2)
+            for seed in (1, 2)
+            if (a, s, seed) != (0.06, 0.1, 1)
+        ),
+    ],
+)
+def test_small_moves_after_the_first_contact(motor_design, alpha, step, seed):
+    """On the nominal design only the first move from power-up meets the
+    flank where the half-gap's first estimate (0.03) says, not where it is
+    (at 0.06 a first 0.1 rad move overshoots 5.8 %; `test_commissioning`).
+    After a first 0.5 rad move has taught the half-gap and the load torque,
+    small moves at half-gaps 0 to 0.06 meet the targets, the -0.1 rad that
+    the load torque pushes along included (0.8-68 % as a first move)."""
+    res = _response(
+        motor_design, 8.0, alpha, lambda t: 0.5 if t < 1.5 else 0.5 + step,
+        T=3.5, seed=seed,
+    )  # fmt: skip
+    p, second = res.plant, res.plant.time >= 1.5
+    part = _Signals(p.time[second] - 1.5, p.outputs[:, second], p.inputs[:, second])
+    # The metrics of the second move, about its own start at 0.5 rad.
+    part.outputs[2] -= 0.5
+    _pressed_targets_hold(_metrics(part, step, 2.0))
+
+
 def _gap_step(design, Td, alpha, theta_r, seed):
     """The move before a step of the half-gap at 2.5 s, and the 2.5 s
     after it (with the largest error and torque there), with the
