@@ -73,13 +73,17 @@ def test_a_load_running_ahead_is_braked_not_let_go(design):
     assert m["settling"] <= 0.3
 
 
-def test_the_holds_crossing_is_not_taken_back(design):
+@pytest.mark.parametrize("seed", [5, 6, 7])
+def test_the_holds_crossing_is_not_taken_back(design, seed):
     """Td 3, alpha 0.06, a 0.05 rad step from rest: the crossing into the
     hold releases the braking and the load runs ahead; decided where it
     starts, the crossing is finished, not sent back from mid-gap (decided
     on every sample, the motor reached the torque limit at the move's end:
-    500 Nm for 3 ms, 257 Nm without the rule)."""
-    m = _move(design, start=0.0, target=0.05, Jl=1.0, Td=3.0, alpha=0.06, seed=6)
+    500 Nm for 3 ms, 257 Nm without the rule). At rest the hold is kept
+    while the load torque stops the load past the target: the load
+    arriving 2e-5 rad short at 1.4e-2 rad/s had the other flank asked for
+    one sample, 500 Nm (seeds 5 and 7; where it is, not where it stops)."""
+    m = _move(design, start=0.0, target=0.05, Jl=1.0, Td=3.0, alpha=0.06, seed=seed)
     p = m["res"].plant
     end = (p.time > SWITCH + 0.1) & (p.time < SWITCH + 0.35)
     assert np.max(np.abs(p.inputs[0][end])) < 400.0

@@ -49,14 +49,18 @@ free mass).
   rad/s onto the other flank, came back as fast, a ping-pong at 100 Nm
   (Td 0.5 Nm, alpha 0.03, seed 1, 20 flips a second);
 * **cross, do not slam**: a flip takes the parked motor across the gap along
-  a quintic at a peak acceleration of `crossing_accel` (`flank_offset`),
-  with no flip test on the way, where the load is slower than
-  `crossing_speed`. A step of the motor reference across the gap was a
+  a quintic (`flank_offset`), with no flip test on the way, at a peak
+  acceleration of `crossing_accel`; for a load that comes at the new flank,
+  in `arrival_share` of its time to where it meets the parked motor
+  (`flip_duration`). A step of the motor reference across the gap was a
   motor slamming at the torque limit (22 Nm of the last second's torque
   standard deviation per flip at alpha 0.03, 38 at 0.06) whose arrival
   overshot the clearance and hit the load, speeding it up (7e-4 rad/s in,
-  1.6e-3 out): one flip begot the next. A load moving faster (the hunt
-  after a short move with the wrong inertia) is caught at once, by a step;
+  1.6e-3 out): one flip begot the next. Loads faster than 5e-3 rad/s had
+  still crossed by a step, at 300-500 Nm: after the 0.5 rad move at Td = 0,
+  alpha 0.06 (1 ms, encoders, 2 of 30 seeds), and in 6 of 40 random moves
+  at Td = 0 with the load inertia off by up to 20 %; timed, those flips
+  peak at 11-34 Nm and 10-117 Nm;
 * **release**: a load error beyond `release_error` (a new load torque, a
   knock) returns the flank to the continuous law;
 * **quiet estimates**: while latched the drive observer runs on gains of
@@ -75,9 +79,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .gap_crossing import crossing_duration, crossing_offset
+from .gap_crossing import CROSSING_ACCEL, crossing_duration, crossing_offset
 
-__all__ = ["RestFlank", "rest_flank_step", "flank_offset"]
+__all__ = ["RestFlank", "rest_flank_step", "flank_offset", "flip_duration"]
 
 
 @dataclass(frozen=True)
@@ -112,8 +116,19 @@ class RestFlank:
         flip in the last second was 4-5 Nm of it alone, at 12 about 1.5;
         slower (8: a 22-38 Nm run in each of three 30-run sets at Td = 0)
         the motor arrives after the load it is to catch.
-    crossing_speed : float
-        A flip crosses by a step where the load is at least this fast, rad/s.
+    arrival_share : float
+        A flip towards a load that comes at the new flank crosses faster
+        than `crossing_accel` where the slow crossing would arrive after
+        the load: in this share of the load's time to where it meets the
+        parked motor (`flip_duration`). On the 8 random moves at Td = 0 with
+        the largest rest peaks (1 ms, encoders): at 0.8 the load met a
+        motor just parked and bounced, flip after flip, on all 8 (18-27
+        flank changes, 4.3-14 Nm of torque standard deviation in the last
+        second); at 0.25 three crossings peaked at 181-500 Nm again.
+    catch_accel : float
+        The fastest crossing's peak acceleration, rad/s^2, for a load
+        already where it meets the new flank (625: 250 Nm at the peak, 34
+        ms across the 0.12 rad gap of alpha = 0.06).
     lean_torque, lean_time : float
         Load torque estimate, Nm, filtered over `lean_time` s, on the latched
         flank's side beyond which the load leans on that flank: the
@@ -135,7 +150,8 @@ class RestFlank:
     lean_torque: float = 0.2
     lean_time: float = 0.2
     crossing_accel: float = 12.0
-    crossing_speed: float = 5e-3
+    arrival_share: float = 0.5
+    catch_accel: float = CROSSING_ACCEL
 
 
 def rest_flank_step(
@@ -187,32 +203,56 @@ def rest_flank_step(
     return side, evidence
 
 
+def flip_duration(
+    f: RestFlank, gap: float, side: float, *, error: float, speed: float
+) -> float:
+    """The duration of a flip's crossing of `gap`, rad, to the flank `side`.
+
+    The slow crossing (peak acceleration `RestFlank.crossing_accel`), unless
+    the load (load error `error`, rad; speed `speed`, rad/s) comes at the
+    new flank: it meets the parked motor `clearance` past the target, and
+    the crossing then ends within `arrival_share` of the load's time to
+    there, at most as fast as `catch_accel`.
+    """
+    slow = crossing_duration(gap, f.crossing_accel)
+    toward = -side * speed
+    if toward <= 0.0:
+        return slow
+    fastest = crossing_duration(gap, f.catch_accel)
+    arrival = (f.clearance + side * error) / toward
+    return min(slow, max(fastest, f.arrival_share * arrival))
+
+
 def flank_offset(
     f: RestFlank,
     dt: float,
     side: float,
     previous: float,
-    left: float,
+    crossing: tuple[float, float],
     *,
     alpha_hat: float,
+    error: float,
     speed: float,
-) -> tuple[float, float, float, float]:
-    """The latched flank offset: ``(psi, dpsi/dt, d2psi/dt2, left)``.
+) -> tuple[float, float, float, tuple[float, float]]:
+    """The latched flank offset: ``(psi, dpsi/dt, d2psi/dt2, crossing)``.
 
     The motor parks `clearance` short of the latched flank ``side``; a flip
     (`previous` the other side) starts a crossing of the gap from the old
-    parking point, which has `left` seconds to run (returned for the next
-    sample, 0 when parked). `speed` is the load's speed, rad/s;
-    `alpha_hat` the half-gap estimate.
+    parking point, of the duration `flip_duration` gives for the load's
+    error `error` and speed `speed` (rad, rad/s). `crossing` is ``(left,
+    duration)``: the seconds the crossing under way has to run (0 when
+    parked) and its duration, returned for the next sample; `alpha_hat`
+    the half-gap estimate.
     """
     park = max(0.0, 1.0 - f.clearance / alpha_hat)
     gap = 2.0 * alpha_hat * park
     if f.crossing_accel <= 0.0 or gap <= 0.0:
-        return side * park, 0.0, 0.0, 0.0
-    duration = crossing_duration(gap, f.crossing_accel)
+        return side * park, 0.0, 0.0, (0.0, 0.0)
+    left, duration = crossing
     if previous == -side:
-        left = duration if abs(speed) < f.crossing_speed else 0.0
+        duration = flip_duration(f, gap, side, error=error, speed=speed)
+        left = duration
     if left <= 0.0:
-        return side * park, 0.0, 0.0, 0.0
+        return side * park, 0.0, 0.0, (0.0, 0.0)
     psi, dpsi, ddpsi = crossing_offset(-side, [left - 0.5 * duration], duration)
-    return park * psi, park * dpsi, park * ddpsi, max(0.0, left - dt)
+    return park * psi, park * dpsi, park * ddpsi, (max(0.0, left - dt), duration)

@@ -85,15 +85,17 @@ SAMPLED_STATES = [
     "theta_m_hat", "omega_m_hat", "Ts_hat", "theta_l_hat", "omega_l_hat",
     "Td_hat", "int_e_l", "alpha_hat_dev", "Tm_prev", "flank_side",
     "flank_evidence", "Td_rest", "flank_crossing", "hold_crossing", "contact_age",
+    "flip_duration",
 ]  # fmt: skip
 #: The motor-encoder estimator's states, or the inertia estimate, follow these.
-_NS = 21
+_NS = len(SAMPLED_STATES)
 #: ``hold_crossing``: the planned crossing into the rest's hold, decided
 #: where it starts and held to the end of the move: 0 undecided, `_PLANNED`,
 #: or the braking flank (+1 or -1) kept instead.
 _PLANNED = 2.0
 _HOLD = SAMPLED_STATES.index("hold_crossing")
 _AGE = SAMPLED_STATES.index("contact_age")
+_FLIP = SAMPLED_STATES.index("flip_duration")
 SAMPLED_INPUTS = ["theta_m", "theta_l", "theta_r"]
 #: The motor-encoder estimator's extra states: the sensitivity of the
 #: prediction to the half-gap and the half-gap variance (less its initial),
@@ -575,10 +577,19 @@ def sampled_servo(
             # 1.4 mrad short, Jl x0.8, Td 3-5 Nm: the load-position term
             # asked for the other flank, the motor crossed the gap to push,
             # the load came on its own and the crossing back met it, a
-            # relay at 120-150 Nm.)
+            # relay at 120-150 Nm.) Where the load stops under its load
+            # torque, not where it is: a load that reaches the target moving
+            # against the load torque coasts past it (Td 3, alpha 0.06, a
+            # 0.05 rad step: at the move's end the load 2e-5 short at 1.4e-2
+            # rad/s, stopping 1.7e-4 past; the other flank was asked for one
+            # sample, 500 Nm).
             holding = math.copysign(1.0, at[5])
-            if abs(at[5]) >= rest.latch_torque and holding * el > 0.0:
-                psi = holding
+            if abs(at[5]) >= rest.latch_torque:
+                stop = el
+                if holding * dl > 0.0:
+                    stop += dl * abs(dl) * scale * c.Jl / (2.0 * abs(at[5]))
+                if holding * stop > 0.0:
+                    psi = holding
         dpsi = ddpsi = 0.0
         decided = 0.0 if at_rest else x[_HOLD]
         if crossings and not at_rest and c.anti_hunting:
@@ -619,7 +630,7 @@ def sampled_servo(
                     sgn, changes = decided, []
             if sgn != 0.0:
                 psi, dpsi, ddpsi = _gx.crossing_offset(sgn, changes, dur)
-        crossing = 0.0
+        flip = (0.0, 0.0)
         # The load torque while latched, filtered over `lean_time` from the
         # latch on (the observer's estimate is 0.1 Nm noisy per sample on
         # encoders, and at the end of a move it holds the inertia error of
@@ -653,9 +664,10 @@ def sampled_servo(
                 if wall.parked:
                     previous = side
             if side != 0.0:
-                psi, dpsi, ddpsi, crossing = flank_offset(
-                    rest, dt, side, previous, left, alpha_hat=ah, speed=dl
-                )
+                psi, dpsi, ddpsi, flip = flank_offset(
+                    rest, dt, side, previous, (left, x[_FLIP]),
+                    alpha_hat=ah, error=el, speed=dl,
+                )  # fmt: skip
         thm = r + twist + ah * psi
         wmf, tff = wmf + ah * dpsi, tff + c.Jm * ah * ddpsi + c.cm * ah * dpsi
         # In the gap the load feedback cannot reach the load: while a planned
@@ -806,7 +818,7 @@ def sampled_servo(
             if give * xi_next < 0.0:
                 xi_next = math.copysign(max(abs(xi_next) - abs(give), 0.0), xi_next)
         state = [*next_plan, *predicted, xi_next, dah + dt * ddah, u, side]
-        state += [evidence, td_rest, crossing, decided, age]
+        state += [evidence, td_rest, flip[0], decided, age, flip[1]]
         if inertia is not None:
             state += list(learnt)
         if cold is not None:
