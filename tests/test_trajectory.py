@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from ctrl_lpv.twomass.gap_crossing import one_flank_duration
+from ctrl_lpv.twomass.gap_crossing import no_reversal_duration, one_flank_duration
 from ctrl_lpv.twomass.trajectory import (
     PEAK_ACCEL,
     move_duration,
@@ -143,3 +143,47 @@ def test_one_flank_duration_is_the_shortest_on_its_grid(start, goal):
         assert lowest(D / 1.05) < -spare
     if start[1] == 0.0:
         assert D == pytest.approx(math.sqrt(PEAK_ACCEL * goal * Jl / spare), rel=0.06)
+
+
+def _path(start, goal, h, n=2001):
+    """Position and acceleration of the minimum-snap move from `start` to
+    rest at `goal` in `h` s (`_min_snap`), on `n` points."""
+    c = _min_snap(start, (goal, 0.0, 0.0, 0.0), h)
+    t = np.linspace(0.0, h, n)
+    pos = np.polynomial.polynomial.polyval(t, c)
+    acc = np.polynomial.polynomial.polyval(t, np.polynomial.polynomial.polyder(c, 2))
+    return pos, acc
+
+
+@pytest.mark.parametrize(
+    "start, goal",
+    [
+        # A target moved back to 47 mrad ahead of a move at 1.2 rad/s.
+        ((0.0, 1.2, 0.0, 0.0), 0.047),
+        # Mid-acceleration, and the mirror image.
+        ((0.0, 1.2, 30.0, 500.0), 0.047),
+        ((0.0, -2.0, -20.0, 0.0), -0.12),
+    ],
+)
+def test_no_reversal_duration_stops_at_the_goal(start, goal):
+    """The move of the returned duration reaches the goal without passing
+    it, within the acceleration limit; the re-plan's usual duration (0.2 s
+    here) passes it, and so does one grid step (5 %) longer."""
+    limit, usual = 60.0, 0.2
+    D = no_reversal_duration(start, goal, usual, limit, 0.04)
+    ahead = math.copysign(1.0, goal - start[0])
+    pos, acc = _path(start, goal, D)
+    assert np.max(ahead * (pos - goal)) <= 1e-9
+    assert np.max(np.abs(acc)) <= limit
+    assert np.max(ahead * (_path(start, goal, usual)[0] - goal)) > 1e-3
+    longer, acc_longer = _path(start, goal, D / 0.95)
+    assert np.max(ahead * (longer - goal)) > 1e-9 or np.max(np.abs(acc_longer)) > limit
+
+
+def test_no_reversal_duration_keeps_the_usual_one_where_it_cannot():
+    """Moving away from the goal, at rest, or too fast to stop short of it
+    within the limit: the usual duration."""
+    assert no_reversal_duration((0.0, -1.2, 0.0, 0.0), 0.047, 0.2, 60.0, 0.04) == 0.2
+    assert no_reversal_duration((0.0, 0.0, 0.0, 0.0), 0.047, 0.2, 60.0, 0.04) == 0.2
+    # 3.2 rad/s needs 85 mrad at 60 rad/s^2: 43 mrad is too short.
+    assert no_reversal_duration((0.0, 3.2, 0.0, 0.0), 0.043, 0.2, 60.0, 0.04) == 0.2

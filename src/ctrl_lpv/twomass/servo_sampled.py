@@ -247,7 +247,11 @@ def plan_stepper(c: ServoTuning, dt: float):
     The rest of the move is the minimum-snap polynomial from the present
     plan to rest at the goal in the time-to-go (`ctrl_lpv.twomass.trajectory`),
     evaluated a sample on (`gap_crossing.advance_move`) down to the goal, where
-    the time-to-go is 0. (The continuous planner's floor on the time-to-go,
+    the time-to-go is 0. A target changed mid-move, short of where the move
+    was heading, is reached without passing it where the accel limit allows
+    (`gap_crossing.no_reversal_duration`; at 1.7 times it, the re-plan's
+    bound from speed, a stop from 1.8 rad/s in 22 mrad saturated the motor
+    and threw the load 7 mrad past). (The continuous planner's floor on the time-to-go,
     a fixed linear filter over the last 40 ms, is not used sampled: its tail
     reversed the reference, -2.8e-3 rad/s after +1.2e-2, the planned crossing
     read it as a change of flank and let go of the braking load at 8e-3 rad/s,
@@ -266,6 +270,9 @@ def plan_stepper(c: ServoTuning, dt: float):
         r, v, a, j, g, h = plan
         if target != g:
             g, h = target, replan_duration(target - r, v, c.accel_limit, c.min_duration)
+            h = _gx.no_reversal_duration(
+                (r, v, a, j), g, h, c.accel_limit, c.horizon_floor
+            )
         if h <= dt * (1.0 + 1e-9):  # the move ends within this sample
             return [g, 0.0, 0.0, 0.0, g, 0.0]
         e, v, a, j = _gx.advance_move(r - g, v, a, j, h, dt)
