@@ -127,8 +127,8 @@ class RestFlank:
         second); at 0.25 three crossings peaked at 181-500 Nm again.
     catch_accel : float
         The fastest crossing's peak acceleration, rad/s^2, for a load
-        already where it meets the new flank (625: 250 Nm at the peak, 34
-        ms across the 0.12 rad gap of alpha = 0.06).
+        already where it meets the new flank (625: 250 Nm at the peak, 33
+        ms across the parked gap of alpha = 0.06).
     lean_torque, lean_time : float
         Load torque estimate, Nm, filtered over `lean_time` s, on the latched
         flank's side beyond which the load leans on that flank: the

@@ -251,11 +251,12 @@ def plan_stepper(c: ServoTuning, dt: float):
     was heading, is reached without passing it where the accel limit allows
     (`gap_crossing.no_reversal_duration`; at 1.7 times it, the re-plan's
     bound from speed, a stop from 1.8 rad/s in 22 mrad saturated the motor
-    and threw the load 7 mrad past). (The continuous planner's floor on the time-to-go,
-    a fixed linear filter over the last 40 ms, is not used sampled: its tail
-    reversed the reference, -2.8e-3 rad/s after +1.2e-2, the planned crossing
-    read it as a change of flank and let go of the braking load at 8e-3 rad/s,
-    the start of the Td = 0 rest's flips; docs/servo.rst, "The move's end".)
+    and threw the load 7 mrad past). (The continuous planner's floor on the
+    time-to-go, a fixed linear filter over the last 40 ms, is not used
+    sampled: its tail reversed the reference, -2.8e-3 rad/s after +1.2e-2,
+    the planned crossing read it as a change of flank and let go of the
+    braking load at 8e-3 rad/s, the start of the Td = 0 rest's flips;
+    docs/servo.rst, "The move's end".)
 
     Returns
     -------
