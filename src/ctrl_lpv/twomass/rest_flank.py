@@ -52,7 +52,10 @@ free mass).
   a quintic (`flank_offset`), with no flip test on the way, at a peak
   acceleration of `crossing_accel`; for a load that comes at the new flank,
   in `arrival_share` of its time to where it meets the parked motor
-  (`flip_duration`). A step of the motor reference across the gap was a
+  (`flip_duration`), at its speed and under its load torque (a light load
+  let fall from the flank it was caught on gains speed on the way: timed
+  to its speed alone, it met the motor still crossing and was thrown back,
+  a ping-pong). A step of the motor reference across the gap was a
   motor slamming at the torque limit (22 Nm of the last second's torque
   standard deviation per flip at alpha 0.03, 38 at 0.06) whose arrival
   overshot the clearance and hit the load, speeding it up (7e-4 rad/s in,
@@ -204,22 +207,33 @@ def rest_flank_step(
 
 
 def flip_duration(
-    f: RestFlank, gap: float, side: float, *, error: float, speed: float
+    f: RestFlank,
+    gap: float,
+    side: float,
+    *,
+    error: float,
+    speed: float,
+    accel: float = 0.0,
 ) -> float:
     """The duration of a flip's crossing of `gap`, rad, to the flank `side`.
 
     The slow crossing (peak acceleration `RestFlank.crossing_accel`), unless
-    the load (load error `error`, rad; speed `speed`, rad/s) comes at the
-    new flank: it meets the parked motor `clearance` past the target, and
-    the crossing then ends within `arrival_share` of the load's time to
-    there, at most as fast as `catch_accel`.
+    the load (load error `error`, rad; speed `speed`, rad/s; acceleration
+    `accel`, rad/s^2, the load torque's in the gap) comes at the new flank:
+    it meets the parked motor `clearance` past the target, and the crossing
+    then ends within `arrival_share` of the load's time to there, at most as
+    fast as `catch_accel`.
     """
     slow = crossing_duration(gap, f.crossing_accel)
-    toward = -side * speed
-    if toward <= 0.0:
+    toward, pulled = -side * speed, -side * accel
+    distance = f.clearance + side * error
+    # The first time the load covers `distance`, ``toward t + pulled t^2 /
+    # 2``: the stable root, none if the load turns back before.
+    reach = toward * toward + 2.0 * pulled * distance
+    if reach < 0.0 or toward + math.sqrt(reach) <= 0.0:
         return slow
+    arrival = 2.0 * distance / (toward + math.sqrt(reach))
     fastest = crossing_duration(gap, f.catch_accel)
-    arrival = (f.clearance + side * error) / toward
     return min(slow, max(fastest, f.arrival_share * arrival))
 
 
@@ -233,16 +247,17 @@ def flank_offset(
     alpha_hat: float,
     error: float,
     speed: float,
+    accel: float = 0.0,
 ) -> tuple[float, float, float, tuple[float, float]]:
     """The latched flank offset: ``(psi, dpsi/dt, d2psi/dt2, crossing)``.
 
     The motor parks `clearance` short of the latched flank ``side``; a flip
     (`previous` the other side) starts a crossing of the gap from the old
     parking point, of the duration `flip_duration` gives for the load's
-    error `error` and speed `speed` (rad, rad/s). `crossing` is ``(left,
-    duration)``: the seconds the crossing under way has to run (0 when
-    parked) and its duration, returned for the next sample; `alpha_hat`
-    the half-gap estimate.
+    error `error`, speed `speed` and acceleration `accel` (rad, rad/s,
+    rad/s^2). `crossing` is ``(left, duration)``: the seconds the crossing
+    under way has to run (0 when parked) and its duration, returned for the
+    next sample; `alpha_hat` the half-gap estimate.
     """
     park = max(0.0, 1.0 - f.clearance / alpha_hat)
     gap = 2.0 * alpha_hat * park
@@ -250,7 +265,9 @@ def flank_offset(
         return side * park, 0.0, 0.0, (0.0, 0.0)
     left, duration = crossing
     if previous == -side:
-        duration = flip_duration(f, gap, side, error=error, speed=speed)
+        duration = flip_duration(
+            f, gap, side, error=error, speed=speed, accel=accel
+        )  # fmt: skip
         left = duration
     if left <= 0.0:
         return side * park, 0.0, 0.0, (0.0, 0.0)

@@ -672,9 +672,17 @@ def sampled_servo(
                 if wall.parked:
                     previous = side
             if side != 0.0:
+                # The load the flip is to catch falls in the gap under a
+                # load torque the rest sees (beyond `lean_torque`, the
+                # estimate's noise): a light load let fall from the flank it
+                # was caught on came 0.2 s later at 17 mrad/s, onto a motor
+                # still crossing, and was thrown back (a ping-pong).
+                load_accel = 0.0
+                if abs(td_filtered) > rest.lean_torque:
+                    load_accel = -(td_filtered + c.cl * dl) / (scale * c.Jl)
                 psi, dpsi, ddpsi, flip = flank_offset(
                     rest, dt, side, previous, (left, x[_FLIP]),
-                    alpha_hat=ah, error=el, speed=dl,
+                    alpha_hat=ah, error=el, speed=dl, accel=load_accel,
                 )  # fmt: skip
         thm = r + twist + ah * psi
         wmf, tff = wmf + ah * dpsi, tff + c.Jm * ah * ddpsi + c.cm * ah * dpsi
