@@ -232,13 +232,13 @@ def flip_duration(
     # met (thrown back at 3.8e-2 rad/s); one that says it comes faster at
     # worst crosses early.
     toward, pulled = -side * speed, max(0.0, -side * accel)
-    distance = f.clearance + side * error
-    if toward < 0.0 or (toward == 0.0 and pulled == 0.0):
-        if distance <= 0.0 or pulled == 0.0:
-            return slow  # going away (or already met)
+    if toward <= 0.0 and pulled == 0.0:
+        return slow  # the load does not come
     fastest = crossing_duration(gap, f.catch_accel)
+    distance = f.clearance + side * error
     if distance <= 0.0:
-        return fastest
+        # Where it meets the parked motor already: coming, or turning back.
+        return fastest if toward >= 0.0 else slow
     # The time the load covers `distance`, ``toward t + pulled t^2 / 2``
     # (the stable form of the positive root).
     arrival = 2.0 * distance / (toward + math.sqrt(toward**2 + 2.0 * pulled * distance))
