@@ -110,13 +110,13 @@ def test_fast_tuning_whose_rest_loop_alternates_gives_way_to_the_slow_one(dt):
     assert _flipping(forced) > ALTERNATING_LIMIT
     design = twomass.servo_design(dt=dt, delay=1, sensors="encoders", certify=False)
     assert _flipping(design) < 0.5
-    assert not design.sampling.plan_crossings  # the slow tuning's
+    assert design.sampling.M_rest is None  # the slow tuning's
     m = _run(design, Td=8.0, alpha=0.03, T=3.0)
     assert m["settling"] <= 0.3
     assert m["torque_std"] <= 5.0
     # Where the fast tuning's rest does not alternate it is kept.
     kept = twomass.servo_design(dt=1e-3, delay=1, sensors="encoders", certify=False)
-    assert _flipping(kept) < 0.5 and kept.sampling.plan_crossings
+    assert _flipping(kept) < 0.5 and kept.sampling.M_rest is not None
 
 
 @pytest.mark.parametrize(
@@ -143,6 +143,20 @@ def test_2ms_rest_certificate_covers_the_paper_load_torque(design_2ms):
     # torque (the contact schedule) whatever the loop.
     assert cert.rest.min_load_torque > 2 * design_2ms.tuning.contact_torque
     assert cert.rest_ripple_bound <= 10.0
+
+
+def test_the_controller_does_not_depend_on_certify(design_2ms):
+    """At 2 ms the rest certificate chooses the drive observer's
+    intensities among the rule's: the design without `certify` runs the
+    same observer (it ran the rule's first, 300/50 Nm/s, where the
+    certified design had 300/20) and returns no rest bound."""
+    uncertified = twomass.servo_design(
+        dt=2e-3, delay=1, sensors="encoders", certify=False
+    )
+    for mine, certified in zip(uncertified.sampling.M, design_2ms.sampling.M):
+        np.testing.assert_array_equal(mine, certified)
+    assert uncertified.certificate.rest_error_bound is None
+    assert design_2ms.certificate.rest_error_bound > 0.0
 
 
 def test_certified_time_constant_is_no_faster_than_the_loop(design_2ms):

@@ -319,7 +319,10 @@ def servo_design(
         The shaft-torque observer and the gap estimate: on or off, contact
         torque, rates, observer bandwidth.
     certify : bool, optional
-        Compute the ultimate bound of the certificate (default True).
+        Compute the ultimate bound of the certificate (default True). With
+        `dt` on encoders the rest certificate is computed either way where
+        it chooses the drive observer's intensities (`sampled_tuning`): the
+        controller does not depend on `certify`.
     dt : float, optional
         Sample time, s: a discrete-time controller whose update and output
         run once per sample (default None: continuous time). The feedback
@@ -493,11 +496,7 @@ def _servo_design(
         gap_estimate=estimator.gap_estimate and sensors != "motor",
         learn_torque=estimator.learn_torque, probe_error=estimator.probe_error,
         static_speed=estimator.static_speed,
-        narrowing_band=(
-            estimator.narrowing_band
-            if rule is not None and rule.narrowing_gate
-            else math.inf
-        ),
+        narrowing_band=estimator.narrowing_band,
         rest_estimate_rate=estimator.rest_estimate_rate,
         # On the motor encoder alone the motor waits mid-gap at rest (the
         # flank dead band): no flank to latch.
@@ -518,9 +517,6 @@ def _servo_design(
                     inertia_adaptation(inertia, params.Jl, (lo, hi), dt, params.cl)
                     if sensors == "encoders" else None
                 ),
-                plan_crossings=rule.plan_crossings,
-                contact_twist=rule.contact_twist,
-                gap_reading_span=rule.gap_reading_span,
                 # Not on the motor encoder alone: its estimator's fall and
                 # landing logic were measured on the feedforward without (with
                 # it 6 of its 180 grid and scenario tests missed targets).
@@ -628,7 +624,10 @@ def _encoder_observer(
     whose certified load-torque floor is at most the rule's target, with a
     certified time constant at most the rule's, is kept, else the lowest
     floor (among the fast enough, if any). A loop that does not certify is
-    skipped; if none does, the last refusal is raised.
+    skipped; if none does, the last refusal is raised. Without `certify`
+    the rest certificate is still computed where it chooses between
+    intensities, so that the controller is the same either way, and is not
+    returned.
     """
     if rates == (None, None):
         candidates = rule.rates
@@ -657,7 +656,7 @@ def _encoder_observer(
         )  # fmt: skip
         Phi, Gamma, M = observer_matrices(observer)
         sampling = sampled(Phi, Gamma, M, M_rest=M_rest)
-        if not certify:
+        if not certify and len(candidates) == 1:
             return observer, sampling, None
         try:
             rest = rest_bound(
@@ -676,4 +675,4 @@ def _encoder_observer(
             break
     if best is None:
         raise refusal
-    return best[1:]
+    return (*best[1:3], best[3] if certify else None)

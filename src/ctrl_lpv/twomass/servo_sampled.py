@@ -38,9 +38,8 @@ period; the observer, scheduled on its own estimate, reads a crossing as a
 contact for a few samples: learning from it halved the gap estimate at
 alpha = 0.06 and left a 2e-2 rad limit cycle, or stopped the motor
 mid-gap on a streamed sine), and a reading well below the estimate teaches
-it only where static (``narrowing_band``, up to 1.5 ms of sample time:
-the observer reads a landing on a flank as a contact 10-20 ms early, the
-motor still in the gap).
+it only where static (``narrowing_band``: the observer reads a landing
+on a flank as a contact 10-20 ms early, the motor still in the gap).
 
 A contact asked for and not made probes a wider gap from the contact
 torque on (not twice it), so that the load is not left in a dead band of
@@ -78,6 +77,8 @@ __all__ = [
     "integral_holding",
     "SAMPLED_STATES",
     "SAMPLED_INPUTS",
+    "CONTACT_TWIST",
+    "GAP_READING_SPAN",
 ]
 
 SAMPLED_STATES = [
@@ -120,6 +121,20 @@ _LANDING_TIME = 0.01
 # where a streamed move stops, the tracker's acceleration rings (1.5 rad/s^2
 # after a quintic's end, 4e-3 rad/s) and would plan a crossing to nowhere.
 _STREAM_CROSSING_SPEED = 0.05
+
+#: The drive observer counts a contact only where its twist estimate is
+#: beyond this share of the half-gap estimate on the side of its shaft
+#: torque: a motor crossing the gap at rest was read as a contact, and the
+#: latch flipped back on the misread, bursts of flips at 500 Nm (1 ms,
+#: encoders; docs/servo.rst, "The Td = 0 rest: crossings, not slams").
+CONTACT_TWIST = 0.3
+#: A reading of the half-gap at a contact is kept up to this multiple of
+#: ``alpha_max``. The readings of a gap of alpha_max scatter about it; cut
+#: there, their mean and the estimate ended a move 1.1e-4 rad short at alpha
+#: 0.06 (1 ms, Td 0, +-0.5 rad, seeds 1-16; 2.0e-5 long when kept, as at
+#: alpha 0.03), and the free rest's walls stood as far past the target
+#: (docs/servo.rst, "The gap read at its largest, and the parked motor").
+GAP_READING_SPAN = 1.25
 
 #: The instant, as a share of the sample from its start, at which the plan's
 #: torque is held over the sample (`flat_feedforward`'s ``lead``): a torque
@@ -187,16 +202,6 @@ class SampledServo:
     inertia : `ctrl_lpv.twomass.inertia.InertiaAdaptation` or None
         The load-inertia estimate learnt along moves (drive observer only;
         its state ``delta_Jl_hat`` last), or None for the nominal inertia.
-    plan_crossings : bool
-        Whether the gap crossings along a move, and at a streamed
-        set-point's reversals, are planned (`ctrl_lpv.twomass.gap_crossing`,
-        both encoders only;
-        `ctrl_lpv.twomass.sampled_tuning.SampledTuning.plan_crossings`).
-    contact_twist : float
-        The drive observer counts a contact only where its twist estimate
-        is beyond this share of the half-gap estimate on the side of its
-        shaft torque (0: on the shaft torque alone;
-        `ctrl_lpv.twomass.sampled_tuning.SampledTuning.contact_twist`).
     M_rest : tuple of ndarray or None
         The observer's filter gains at the gap and in contact while the
         flank is latched at rest (`rest_flank`), from quieter intensities
@@ -216,10 +221,6 @@ class SampledServo:
         The feedforward with the shaft's damper and the torque's hold
         (`flat_feedforward`, `ctrl_lpv.twomass.sampled_tuning.SampledTuning.
         exact_feedforward`), else without.
-    gap_reading_span : float
-        A reading of the half-gap at a contact is kept up to this multiple
-        of ``alpha_max``
-        (`ctrl_lpv.twomass.sampled_tuning.SampledTuning.gap_reading_span`).
     """
 
     dt: float
@@ -232,13 +233,10 @@ class SampledServo:
     measured: tuple = ("theta_m", "theta_l")
     estimator: object = None
     inertia: object = None
-    plan_crossings: bool = True
-    contact_twist: float = 0.0
     M_rest: tuple | None = None
     cold_start: object = None
     exact_feedforward: bool = False
     free_rest: object = None
-    gap_reading_span: float = 1.0
 
 
 def plan_stepper(c: ServoTuning, dt: float):
@@ -405,12 +403,13 @@ def sampled_servo(
     filtered_share = 0.0 if rest is None else 1.0 - math.exp(-dt / rest.lean_time)
 
     streamed = s.reference == "stream"
-    crossings = s.plan_crossings and motor is None
-    contact_twist = s.contact_twist if motor is None else 0.0
+    # Both with the drive observer only (the motor encoder's estimator has
+    # its own contact and fall logic).
+    crossings = motor is None
+    contact_twist = CONTACT_TWIST if motor is None else 0.0
     # A streamed set-point's torque is always taken at the hold's instant
     # (its tracker's extrapolation had it first, at half a sample).
     exact = s.exact_feedforward
-    reading_span = s.gap_reading_span
     lead = HOLD_INSTANT * dt if exact or streamed else 0.0
     if streamed:
         Lz, Pz = np.asarray(s.stream_gain, float), jerk_model(dt)
@@ -729,9 +728,7 @@ def sampled_servo(
         # Parked on a soft wall (`free_rest`) the gap estimate holds.
         if c.gap_estimate and not parked:
             flank = math.copysign(1.0, tsh) * ((tm - tl) - (tsh - cs * (wm - wl)) / ks)
-            # Readings past the largest gap are kept up to `reading_span`
-            # of it (`SampledTuning.gap_reading_span`).
-            flank = min(max(flank, 0.0), reading_span * amax)
+            flank = min(max(flank, 0.0), GAP_READING_SPAN * amax)
             # A static reading: the shaft not twisting (in contact ``omega_m
             # - omega_l`` is the shaft torque's rate over ``ks``: 1 rad/s
             # along a 0.05 rad move, below 0.1 only at its torque peaks).
