@@ -9,6 +9,7 @@ and the simulated torque at rest say so).
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import replace
 
 import numpy as np
@@ -202,6 +203,57 @@ def test_2ms_small_load_torque_rests_latched(design_2ms):
     assert m["settling"] <= 0.3
     assert m["torque_std"] <= 5.0
     assert m["rest_error"] <= 2e-4
+
+
+def test_2ms_small_step_against_a_load_torque(design_2ms):
+    """2 ms, Td 3, alpha 0.06, a 0.05 rad step (a row of the bench): within
+    issue 22's 2 ms targets. With the torque weight 2e-3 and no crossing
+    planned above 1.5 ms it settled in 0.418 s: the load stopped 1.4 mrad
+    short on the braking flank, fell back while the flank choice crossed
+    the gap after the move, and the soft rest loop took it up slowly."""
+    m = _run(design_2ms, Td=3.0, alpha=0.06, theta_r=0.05, seed=1)
+    assert m["settling"] <= 0.3
+    assert m["torque_std"] <= 5.0
+
+
+#: The runs of `test_2ms_grid` that miss (measured; docs/servo.rst, "The
+#: slow tuning's moves"): without load torque at alpha 0.06 the rest after
+#: a 0.05 rad step is a ping-pong between the flanks (9.2 and 5.7 Nm of
+#: torque std; 0.82 and 1.13 s of settling with the torque weight 2e-3), and
+#: the 0.05 rad step against Td 8 settles in 0.35-0.37 s. Strict: a run that
+#: starts meeting the targets fails here, so that the list is kept true.
+_2MS_MISSES = {
+    (0.0, 0.06, 0.05),
+    (0.0, 0.06, -0.05),
+    (8.0, 0.03, 0.05),
+    (8.0, 0.06, 0.05),
+}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "Td, alpha, theta_r",
+    [
+        pytest.param(
+            *case,
+            marks=(
+                pytest.mark.xfail(strict=True, reason="issue 22: not yet")
+                if case in _2MS_MISSES else ()
+            ),
+        )
+        for case in itertools.product(
+            (0.0, 3.0, -3.0, 8.0), (0.03, 0.06), (0.05, -0.05, 0.2, -1.0)
+        )
+    ],
+)  # fmt: skip
+def test_2ms_grid(design_2ms, Td, alpha, theta_r):
+    """Issue 22's 2 ms targets (settling within 0.3 s, torque standard
+    deviation at rest within 5 Nm) on first moves of 0.05 to 1 rad both
+    ways at the nominal inertia (28 of 32; 21 with the torque weight 2e-3
+    and the move's logic off above 1.5 ms)."""
+    m = _run(design_2ms, Td=Td, alpha=alpha, theta_r=theta_r, seed=1)
+    assert m["settling"] <= 0.3
+    assert m["torque_std"] <= 5.0
 
 
 @pytest.mark.slow
