@@ -146,18 +146,28 @@ def test_2ms_rest_certificate_covers_the_paper_load_torque(design_2ms):
     assert cert.rest_ripple_bound <= 10.0
 
 
-def test_the_controller_does_not_depend_on_certify(design_2ms):
-    """At 2 ms the rest certificate chooses the drive observer's
-    intensities among the rule's: the design without `certify` runs the
-    same observer (it ran the rule's first, 300/50 Nm/s, where the
-    certified design had 300/20) and returns no rest bound."""
-    uncertified = twomass.servo_design(
-        dt=2e-3, delay=1, sensors="encoders", certify=False
-    )
-    for mine, certified in zip(uncertified.sampling.M, design_2ms.sampling.M):
-        np.testing.assert_array_equal(mine, certified)
-    assert uncertified.certificate.rest_error_bound is None
-    assert design_2ms.certificate.rest_error_bound > 0.0
+def test_the_controller_does_not_depend_on_certify():
+    """At 4 ms the rest certificate chooses the drive observer's
+    intensities among the rule's (100/5 Nm/s, not the first): the design
+    without `certify` runs the same observer (it ran the rule's first) and
+    returns no rest bound."""
+    designs = [
+        twomass.servo_design(dt=4e-3, delay=1, sensors="encoders", certify=certify)
+        for certify in (False, True)
+    ]
+    slow = sampled_tuning(4e-3)
+    first = twomass.servo_design(
+        dt=4e-3, delay=1, sensors="encoders", certify=False,
+        estimator=twomass.ServoEstimator(
+            shaft_torque_rate=slow.rates[0][0], load_torque_rate=slow.rates[0][1]
+        ),
+    )  # fmt: skip
+    uncertified, certified = (d.sampling.M for d in designs)
+    for mine, theirs, rules_first in zip(uncertified, certified, first.sampling.M):
+        np.testing.assert_array_equal(mine, theirs)
+        assert not np.allclose(mine, rules_first)
+    assert designs[0].certificate.rest_error_bound is None
+    assert designs[1].certificate.rest_error_bound > 0.0
 
 
 def test_certified_time_constant_is_no_faster_than_the_loop(design_2ms):
