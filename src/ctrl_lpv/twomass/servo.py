@@ -385,6 +385,10 @@ def servo_design(
         For non-positive limits, reversed ranges, a torque budget that
         leaves no acceleration, or `sensors`, `dt` and `delay` that do not
         go together.
+    CertificationError
+        With `dt` on encoders, when none of the drive observer's
+        intensities gives a certified rest loop (without `certify` too,
+        where the rule has several to choose from).
     """
     arguments = dict(locals())
     checked_dt, _ = _sampling(dt, delay, sensors)
