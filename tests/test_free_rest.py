@@ -51,7 +51,7 @@ def _parked(load_errors, load_speed, *, seed=1, side=1.0, motor=0.03 - 1e-3):
     for e in load_errors:
         reading = ENCODERS["theta_l"](e, rng)
         out = step(
-            z, resting=True, latched=True, previous=side, side=side, evidence=0.0,
+            z, resting=True, latched=True, side=side, evidence=0.0,
             target=0.0, load=reading, load_error=e, load_speed=load_speed,
             load_torque=0.0, rest_torque=0.0, motor=x[0], motor_speed=x[1],
             alpha_hat=0.03,
@@ -113,7 +113,7 @@ def test_the_wall_stands_short_of_the_target_and_of_the_load():
     step = free_rest_stepper(FREE, TUNING, DT)
     torques = [
         step(
-            z, resting=True, latched=True, previous=1.0, side=1.0, evidence=0.0,
+            z, resting=True, latched=True, side=1.0, evidence=0.0,
             target=0.0, load=-1e-4, load_error=-1e-4, load_speed=0.0,
             load_torque=0.0, rest_torque=0.0, motor=wall + d, motor_speed=0.0,
             alpha_hat=0.03,
@@ -133,7 +133,7 @@ def test_the_rest_waits_for_a_parked_motor():
     engaged = FREE_REST_STATES.index("free_engaged")
     for speed, expected in ((0.19, 0.0), (0.5 * FREE.entry_motor_speed, 1.0)):
         out = step(
-            z, resting=True, latched=True, previous=1.0, side=1.0, evidence=0.0,
+            z, resting=True, latched=True, side=1.0, evidence=0.0,
             target=0.0, load=-1e-4, load_error=-1e-4, load_speed=0.0,
             load_torque=0.0, rest_torque=0.0, motor=0.03 - 1e-3,
             motor_speed=speed, alpha_hat=0.03,

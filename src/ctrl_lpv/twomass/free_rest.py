@@ -20,8 +20,9 @@ or the peak-to-peak target, ``docs/servo.rst``):
 * **engage** at a latched rest after a move (not at the start, where the
   load may be anywhere in the gap) with a slow load (`entry_speed`), a
   parked motor (`entry_motor_speed`) and a small load-torque estimate
-  (`leave_torque`); the latch's own flip test is
-  off while engaged (it reads the load's speed, not its coast);
+  (`leave_torque`); the latch's own flip test and its release on the load
+  error are off while engaged (they read the load's speed and error, not
+  its coast);
 * **the motor alone, on a soft hold**: ``Tm = -hold_stiffness (theta_m -
   theta_wall) - hold_damping omega_m``, no load terms;
 * **the load's drift by a Kalman filter on the load encoder** (a free mass
@@ -38,6 +39,11 @@ or the peak-to-peak target, ``docs/servo.rst``):
   load will be when the motor has arrived (`approach_accel`, `guard`), and
   reached along a stiff rest-to-rest quintic (the law's motor gains: a catch
   during a soft approach is elastic), held soft from then on;
+* **the half-gap measured at the walls**: where the load touches the held
+  motor (pushed `contact_deflection` off its wall), the load's reading
+  measures the half-gap (`gap_time`), and the walls are placed on it, not
+  on the move's estimate (up to 4e-4 rad off: walls that stood past the
+  target, or reached into a load resting on the other flank and kicked it);
 * **a push towards the target**: a load at rest (or receding slower than
   `recede_speed`) that would stay beyond `target_band` is pushed by the soft
   wall at ``|e| / push_arrival`` (within `push_speeds`) over
@@ -45,7 +51,7 @@ or the peak-to-peak target, ``docs/servo.rst``):
 * **leave** (back to the latched law until the next move) when the motor is
   held `displacement` off its wall (a load torque the soft hold yields to),
   the filtered load-torque estimate exceeds `leave_torque`, or the lean
-  filter sees a load torque.
+  filter sees a load torque (the wall held and the load not on it).
 
 Measured (1 ms, one sample of delay, 20/17-bit encoders with half a count of
 noise; ``docs/servo.rst``): the four Td = 0 rows of the bench, runs missing
@@ -85,14 +91,14 @@ FREE_REST_STATES = [
     "lean_e", "lean_v", "lean_a",
     *(f"lean_P_{i}{j}" for i in "eva" for j in "eva"), "lean_clock",
     "wall_phase", "wall_from", "wall_to", "wall_clock", "wall_duration",
-    "wall_depth", "push_age",
+    "wall_depth", "push_age", "gap_offset",
 ]  # fmt: skip
 _I = {name: i for i, name in enumerate(FREE_REST_STATES)}
 _ALLOWED, _ENGAGED, _AGE, _FLIP = (_I[n] for n in FREE_REST_STATES[:4])
 _E, _V, _PEE, _PEV, _PVV, _UP, _DOWN = (_I[n] for n in FREE_REST_STATES[4:11])
 _LEAN, _LEAN_P, _LEAN_CLOCK = _I["lean_e"], _I["lean_P_ee"], _I["lean_clock"]
 _PHASE, _FROM, _TO, _CLOCK, _DURATION = (_I[n] for n in FREE_REST_STATES[24:29])
-_DEPTH, _PUSH_AGE = _I["wall_depth"], _I["push_age"]
+_DEPTH, _PUSH_AGE, _GAP = _I["wall_depth"], _I["push_age"], _I["gap_offset"]
 
 #: Wall phases: to be placed, the stiff approach, held, the soft push.
 UNPLACED, APPROACH, HELD, PUSH = 0.0, 1.0, 2.0, 3.0
@@ -143,8 +149,12 @@ class FreeRest:
         Standard deviations of the lean filter's load error, speed and
         acceleration at entry.
     lean_time : float
-        The lean filter's load torque lasts this long before the rest is
-        handed back, s.
+        The lean filter's load torque lasts this long, the wall held and
+        the load not on it, before the rest is handed back, s. (Counted
+        throughout, a load the latched law's flank had thrown back when the
+        rest engaged, met by the approach, and a load leaving the wall it
+        hit, read as a load torque: the rest handed back for good, the
+        latched law's flips a 12-20 Nm ping-pong.)
     flip_margin, flip_evidence : float
         The flip CUSUM's drift, rad, and threshold, rad s, on the load's
         coast end past the target on the far side.
@@ -185,6 +195,16 @@ class FreeRest:
         Duration of a push, s.
     displacement : float
         Leave when the motor is this far off its wall, rad.
+    contact_deflection : float
+        A held motor pushed this far off its wall towards its flank is in
+        contact with the load, rad: the load's reading measures the
+        half-gap there, unless the load leaves faster than `still_speed` ...
+    gap_time : float
+        ... averaged over this long, s; the walls are placed on the
+        half-gap measured, not on the estimate of the move (at the end of a
+        move it was up to 4e-4 rad off: walls that stood that far past the
+        target, or reached into the load resting on the other flank and
+        kicked it).
     """
 
     entry_speed: float = 5e-4
@@ -221,6 +241,8 @@ class FreeRest:
     push_speeds: tuple = (3e-4, 2e-3)
     push_time: float = 0.2
     displacement: float = 5e-4
+    contact_deflection: float = 2e-5
+    gap_time: float = 0.05
 
 
 class FreeRestStep(NamedTuple):
@@ -259,6 +281,7 @@ def free_rest_stepper(f: FreeRest, c, dt: float):
     inflation = np.diag([f.catch_inflation[0] ** 2, f.catch_inflation[1] ** 2, 0.0])
     k1, k2 = c.gain[0], c.gain[1]
     soft = f.hold_stiffness, f.hold_damping
+    gap_share = 1.0 - math.exp(-dt / f.gap_time)
 
     def enter(z, load, load_error, load_speed):
         z[:] = 0.0
@@ -268,8 +291,9 @@ def free_rest_stepper(f: FreeRest, c, dt: float):
         z[_LEAN : _LEAN + 3] = [load, load_speed, 0.0]
         z[_LEAN_P : _LEAN_P + 9] = np.diag(np.square(f.lean_prior)).ravel()
 
-    def lean(z, load):
-        """The lean filter one sample on: the time it has seen a load torque."""
+    def lean(z, load, counting):
+        """The lean filter one sample on: the time it has seen a load torque
+        (`counting`: the wall held, the load not on it)."""
         x = lean_model @ z[_LEAN : _LEAN + 3]
         P = lean_model @ z[_LEAN_P : _LEAN_P + 9].reshape(3, 3) @ lean_model.T
         P[2, 2] += f.accel_diffusion * dt
@@ -278,7 +302,7 @@ def free_rest_stepper(f: FreeRest, c, dt: float):
         P = P - np.outer(gain, P[0, :])
         z[_LEAN : _LEAN + 3], z[_LEAN_P : _LEAN_P + 9] = x, P.ravel()
         torque = -(c.Jl * x[2] + c.cl * x[1])
-        speeding = abs(torque) > f.leave_torque and x[1] * x[2] > 0.0
+        speeding = counting and abs(torque) > f.leave_torque and x[1] * x[2] > 0.0
         z[_LEAN_CLOCK] = z[_LEAN_CLOCK] + dt if speeding else 0.0
 
     def drift(z, load):
@@ -349,13 +373,13 @@ def free_rest_stepper(f: FreeRest, c, dt: float):
         return u, ended and abs(motor - ref) > f.displacement
 
     def step(
-        z, *, resting, latched, previous, side, evidence, target, load,
+        z, *, resting, latched, side, evidence, target, load,
         load_error, load_speed, load_torque, rest_torque, motor, motor_speed,
         alpha_hat,
     ) -> FreeRestStep:  # fmt: skip
         """One sample: `resting` (the plan at rest), `latched` (and the
-        flank latched, not crossing), the latch's `side` before and after
-        its own step (`previous`, `side`) and `evidence`, the `target`, the
+        flank latched, not crossing), the latch's `side` and `evidence`
+        after its own step (held while the rest is engaged), the `target`, the
         `load` encoder's reading, the observer's `load_error`,
         `load_speed`, `load_torque` and its filtered `rest_torque`, the
         `motor` angle and `motor_speed` where the command acts, and the
@@ -374,11 +398,13 @@ def free_rest_stepper(f: FreeRest, c, dt: float):
         if not latched or not z[_ALLOWED] or not (engaged or quiet):
             z[_ENGAGED] = 0.0
             return FreeRestStep(z, side, evidence, False, None)
-        if engaged and side == -previous:
-            side, evidence = previous, 0.0
         if not engaged:
             enter(z, load - target, load_error, load_speed)
-        lean(z, load - target)
+        # The load on the held motor pushes it towards its flank: a contact.
+        touching = side * (z[_TO] - motor) > f.contact_deflection
+        # A load that a stiff wall meets, or that leaves the wall it hit, is
+        # thrown, not leaning on a load torque.
+        lean(z, load - target, counting=z[_PHASE] == HELD and not touching)
         drift(z, load - target)
         z[_AGE] += dt
         if z[_AGE] > f.settle_time:
@@ -388,12 +414,19 @@ def free_rest_stepper(f: FreeRest, c, dt: float):
                 side, evidence = -side, 0.0
                 z[_FLIP] = z[_AGE] = 0.0
                 z[_PHASE] = UNPLACED
+        half_gap = alpha_hat + z[_GAP]
         if z[_PHASE] == UNPLACED:
-            place(z, side, target, motor, alpha_hat)
+            place(z, side, target, motor, half_gap)
         z[_CLOCK] += dt
         z[_PUSH_AGE] += dt
         if z[_PHASE] == HELD:
-            push(z, side, target, alpha_hat)
+            push(z, side, target, half_gap)
+        if z[_PHASE] == HELD and touching and side * z[_V] < f.still_speed:
+            # The half-gap is the load's distance to the motor it touches
+            # (the shaft's twist, under 0.1 Nm, is 3e-5 rad); not once the
+            # load leaves it (the motor's deflection outlasts the contact).
+            measured = side * (motor - load) - alpha_hat
+            z[_GAP] += gap_share * (measured - z[_GAP])
         u, yielded = command(z, motor, motor_speed)
         if yielded or abs(rest_torque) > f.leave_torque or z[_LEAN_CLOCK] > f.lean_time:
             z[_ENGAGED], z[_ALLOWED] = 0.0, 0.0

@@ -97,6 +97,7 @@ _PLANNED = 2.0
 _HOLD = SAMPLED_STATES.index("hold_crossing")
 _AGE = SAMPLED_STATES.index("contact_age")
 _FLIP = SAMPLED_STATES.index("flip_duration")
+_FREE_ENGAGED = FREE_REST_STATES.index("free_engaged")
 SAMPLED_INPUTS = ["theta_m", "theta_l", "theta_r"]
 #: The motor-encoder estimator's extra states: the sensitivity of the
 #: prediction to the half-gap and the half-gap variance (less its initial),
@@ -650,12 +651,18 @@ def sampled_servo(
             if left <= 0.0 or not at_rest:
                 # The shaft torque the rest needs (`rest_flank`): the load
                 # torque estimate joins the asked one, whose integral holds
-                # it only in contact.
+                # it only in contact. A free rest holds the latch: its own
+                # tests flip and release it (released on the load error, a
+                # drifting load the wall caught 1e-3 rad off went back to
+                # the latched law at 500 Nm).
                 needed = tstar + at[5]
+                free_held = (
+                    rest_wall is not None and x[first_free + _FREE_ENGAGED] == 1.0
+                )
                 side, evidence = rest_flank_step(
                     rest, dt, side, evidence, resting=at_rest, error=el, speed=dl,
                     load_torque=at[5], tstar=needed, psi=flank_share(needed),
-                    pressed=side * tsh > tc,
+                    pressed=side * tsh > tc or free_held,
                 )  # fmt: skip
             if rest_wall is not None:
                 # A free load's rest (`free_rest`): the motor alone, a soft
@@ -663,7 +670,7 @@ def sampled_servo(
                 wall = rest_wall(
                     x[first_free:], resting=at_rest,
                     latched=at_rest and side != 0.0 and left <= 0.0,
-                    previous=previous, side=side, evidence=evidence, target=r,
+                    side=side, evidence=evidence, target=r,
                     load=y[1], load_error=el, load_speed=dl, load_torque=at[5],
                     rest_torque=td_filtered, motor=tm, motor_speed=wm, alpha_hat=ah,
                 )  # fmt: skip
