@@ -42,7 +42,7 @@ or the peak-to-peak target, ``docs/servo.rst``):
 * **the half-gap measured at the walls**: where the load touches the held
   motor (pushed `contact_deflection` off its wall), the load's reading
   measures the half-gap (`gap_time`), and the walls are placed on it, not
-  on the move's estimate (up to 4e-4 rad off: walls that stood past the
+  on the move's estimate (up to 6e-4 rad off: walls that stood past the
   target, or reached into a load resting on the other flank and kicked it);
 * **a push towards the target**: a load at rest (or receding slower than
   `recede_speed`) that would stay beyond `target_band` is pushed by the soft
@@ -202,7 +202,7 @@ class FreeRest:
     gap_time : float
         ... averaged over this long, s; the walls are placed on the
         half-gap measured, not on the estimate of the move (at the end of a
-        move it was up to 4e-4 rad off: walls that stood that far past the
+        move it was up to 6e-4 rad off: walls that stood that far past the
         target, or reached into the load resting on the other flank and
         kicked it).
     """
