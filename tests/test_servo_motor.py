@@ -350,9 +350,15 @@ def test_first_contact_learns_a_wide_gap_without_a_load_torque(motor_design):
     until the reading agrees with the model (within 1 mrad of the plant's
     gap), and the rest is quiet with the load within the gap. Without a load
     torque the rest does not push on the load's estimated error (it is not
-    observable in the gap): the load coasts on after the move (3.5 % at 2 s
-    here, 10 % at 5 s), where the pushes of before caught it on this run
-    but hunted at 200-259 Nm with alpha 0.045 over 0.25 rad."""
+    observable in the gap): the load coasts on after the move, where the
+    pushes of before caught it on this run but hunted at 200-259 Nm with
+    alpha 0.045 over 0.25 rad. How it coasts depends on the machine (the
+    move's end is a contact that amplifies the last bits of floating
+    point): on that of stop 61 3.5 % at 2 s and 10 % at 5 s; on that of
+    stop 62 it drifts back from the move's end at 0.045 rad/s and meets
+    the flank behind it at 1.6 s with 1.8 mrad of shaft twist (its speed
+    times ``sqrt(Jl / ks)``): within the gap is within the half-gap and
+    that twist."""
     res = _response(motor_design, 0.0, 0.06, 0.5, T=2.0)
     c = res.controller
     learnt = P.alpha + c.states[c.state_labels.index("alpha_hat_dev")][-1]
@@ -367,7 +373,7 @@ def test_first_contact_learns_a_wide_gap_without_a_load_torque(motor_design):
     assert alpha_hat[np.argmax(known)] == pytest.approx(0.06, abs=5e-3)
     m = _metrics(res.plant, 0.5, 2.0)
     assert m["torque_std"] <= 3.0, m
-    assert m["rest_error"] <= 0.06, m
+    assert m["rest_error"] <= 0.06 + 2e-3, m
 
 
 # Known limits of the motor-encoder estimator (see `motor_estimator` and
