@@ -348,7 +348,8 @@ _SMALL = [(0.05, -0.05), (0.0, -0.05), (0.0, 0.05)]
 #: "Small moves across the gap", "The move's end", "The learnt inertia at
 #: rest", "The flank a load torque presses", "The gap read at its largest"
 #: and "The hold's crossing and a load running ahead"): 107 of 108 pass.
-#: Left: Td 0 at Jl x1.2 to 0.05 rad on seed 6, the rest after the move
+#: Left (on the machine of stop 61): Td 0 at Jl x1.2 to 0.05 rad on seed
+#: 6, the rest after the move
 #: (0.168 s, 0.9 % at the move's end; from 2.8 s the load drifts at 1e-3
 #: rad/s, 1.6 % past at the end of the run; 3.1 % at the move's end before
 #: the hold's crossing was decided on the feedback). Td 0 at Jl x0.8 to
