@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from scipy.linalg import solve_discrete_are, solve_discrete_lyapunov
 
+from _issue22 import knife_edge
 from ctrl_lpv import sampled_response, twomass
 from ctrl_lpv.exceptions import InfeasibleError
 from ctrl_lpv.sensors import Encoder
@@ -399,13 +400,22 @@ _LIMIT = pytest.mark.xfail(reason="limit of the motor-encoder estimator", strict
 # the grid's 13 rows x seeds 1-12: 1 of 156, 0 before. Strict: a pass here
 # is news.
 _MOTOR_MISSES = {
-    ("step", 3.0, 0.03, 0.5, 2): "1.5e-3 rad off: the half-gap learnt 1.5 mrad "
-    "wide on the move back from the landing (0.8 mrad and 8e-4 rad before "
-    "`motor_estimator.LOAD_FALL_TIME`; seed 1 missed then, at 16 Nm)",
-    ("step", 3.0, 0.03, 0.5, 3): "the move back from the landing swings at "
-    "the torque limit and lets the load fall again",
     ("step", 5.0, 0.045, 1.0, 3): "1.45e-3 rad off: the half-gap learnt 1.4 mrad "
     "wide on the move back from the landing",
+}
+#: On the knife edge (`_issue22.knife_edge`): they miss on one machine and
+#: pass on another.
+_MOTOR_EDGE = {
+    ("step", 3.0, 0.03, 0.5, 2): "on the machine of stop 61 1.5e-3 rad off (the "
+    "half-gap learnt 1.5 mrad wide on the move back from the landing), met on "
+    "that of stop 62",
+    ("step", 3.0, 0.03, 0.5, 3): "on the machine of stop 61 the move back from "
+    "the landing swung at the torque limit and let the load fall again, met on "
+    "that of stop 62",
+    ("step", 5.0, 0.045, 1.0, 2): "met on the machine of stop 61, back within "
+    "1e-3 rad only after 2.5 s on that of stop 62",
+    ("removed", -8.0, 0.0, 2): "quiet on the machine of stop 61, a relay at 22.8 "
+    "Nm of torque std on that of stop 62",
 }
 
 
@@ -421,6 +431,8 @@ def _known_miss(request, *key):
         request.applymarker(
             pytest.mark.xfail(strict=True, reason=f"issue 22: {_MOTOR_MISSES[key]}")
         )
+    elif key in _MOTOR_EDGE:
+        request.applymarker(knife_edge(_MOTOR_EDGE[key]))
 
 
 @pytest.mark.slow
@@ -633,7 +645,7 @@ def test_other_load_torques_applied_at_rest(
 @pytest.mark.parametrize("seed", [1, 2, 3])
 @pytest.mark.parametrize("before, after", [(8.0, 0.0), (-8.0, 0.0), (0.0, 1.0)])
 def test_rest_stays_quiet_when_the_load_torque_goes_or_is_light(
-    motor_design, before, after, seed
+    motor_design, before, after, seed, request
 ):
     """A load torque removed at rest leaves the load free in the gap, where
     it drifts and touches the flanks (each touch is watched as a landing,
@@ -641,6 +653,7 @@ def test_rest_stays_quiet_when_the_load_torque_goes_or_is_light(
     below the contact torque) is left on its flank, off the target: no
     hunting either way, and the load within the gap's width of the target
     (the motor encoder does not see it in the gap)."""
+    _known_miss(request, "removed", before, after, seed)
     _, m = _load_torque_step(motor_design, before, after, 0.03, 0.5, seed)
     assert m["torque_std"] <= 3.0, m
     assert m["rest_error"] <= 2.0 * 0.03, m
