@@ -340,7 +340,7 @@ _ROWS_2MS = [
         marks=knife_edge(
             "0.25-0.26 s on the machine of stop 61, 0.334 s on that of stop 62"
         ),
-    ),  # fmt: skip
+    ),
     ("Td 0, alpha 0.03, Jl x1.2, 1 rad", 0.0, 0.03, 1.2, 1.0),
     ("Td 30, alpha 0.03", 30.0, 0.03, 1.0, 0.5),
 ]
