@@ -160,6 +160,45 @@ def test_fall_ends_where_the_motor_reading_leaves_the_free_motor(design):
         assert (after[P] == states[P]) == ends
 
 
+def test_falling_until_over_or_the_motor_reading_leaves_the_free_motor():
+    """The first fall runs on (the observer reading a contact from the wider
+    margin) until it is over or the motor reading breaks with the free
+    motor."""
+    fit = cold_start((2**20, 2**17))
+    states = fit.initial()
+    near = np.array([0.9 * fit.contact_reading, 1e-3])
+    assert fit.falling(states, near)
+    assert not fit.falling(states, np.array([-1.1 * fit.contact_reading, 0.0]))
+    states[COLD_START_STATES.index("fall_over")] = 1.0
+    assert not fit.falling(states, near)
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_fall_lasts_until_a_gap_twice_the_first_estimate_is_met(design, seed):
+    """Half-gap 0.06 (the first estimate 0.03), Td -3 Nm, +0.05 rad from
+    mid-gap, Jl x1.2 (1 ms, encoders): the fall is over where the plant's
+    shaft first carries torque, within 5 ms, and its estimate joins the
+    observer's within 1 Nm of the load torque. Ended where the half-gap
+    estimate put the flank, the fit ran 14 of the 40 ms of the fall, did
+    not join (-1.7 Nm, seed 1), and the move overshot 1.6-1.9 %."""
+    params = twomass.Parameters()
+    plant = twomass.plant(params.replace(Jl=1.2 * params.Jl), alpha=0.06)
+    res = sampled_response(
+        plant, design.controller(), 0.1, inputs={"Td": -3.0, "theta_r": 0.05},
+        delay=1, sensors=ENCODERS, seed=seed,
+    )  # fmt: skip
+    met = res.plant.time[np.flatnonzero(res.plant.outputs[4] != 0.0)[0]]
+    c = res.controller
+    over = c.time[np.flatnonzero(c.states[c.state_labels.index("fall_over")])[0]]
+    assert met <= over <= met + 5e-3
+    unheld = c.states[c.state_labels.index("torque_unheld")]
+    joined = np.flatnonzero(unheld)[0]
+    # The sample after the join: the observer's state with the estimate in.
+    assert c.states[c.state_labels.index("Td_hat")][joined] == pytest.approx(
+        -3.0, abs=1.0
+    )
+
+
 def test_a_gap_narrower_than_the_first_estimate_is_not_read_as_a_fall():
     """2 ms, half-gap 0.005 (the first estimate 0.03), Td 1 Nm, +0.05 rad from
     mid-gap: the motor meets the flank while the twist estimate says gap.

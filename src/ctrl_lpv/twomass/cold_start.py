@@ -20,12 +20,18 @@ Three things fix what the start does not know:
   from a prior of `ColdStart.prior` along the sensitivity of the
   observer's predicted state to the offset (through the observer's model
   and its own correction, as `ctrl_lpv.twomass.inertia` does for its fit).
-  Only in the gap (the observer's contact weight 0), with the twist
-  estimate short of the half-gap estimate by `ColdStart.margin` of it (a
-  contact made between two samples would read as a load torque), and
-  while the motor reading agrees with the free motor
-  (`ColdStart.contact_reading`: a gap narrower than its estimate is met
-  before the twist estimate gets there). The fit
+  Only in the gap (the observer's contact weight 0) and while the motor
+  reading agrees with the free motor (`ColdStart.contact_reading`: a gap
+  narrower than its estimate is met before the twist estimate gets
+  there). The fall ends where the contact is read, not where the half-gap
+  estimate puts the flank: the first estimate is ``alpha_max / 2``, and a
+  wider gap ended the fit there, 14 ms into a 40 ms fall (alpha 0.06, Td
+  -3 Nm, 1 ms: -1.7 +- 1.9 Nm, not joined). While it runs the observer
+  reads a contact only beyond `ColdStart.contact_margin` times the contact
+  torque (`ColdStart.falling`): its shaft-torque estimate wanders in the gap
+  by up to the contact torque, and a contact read on that ran away, the
+  contact model's shaft torque growing with the motor's speed across the
+  gap (10-15 Nm read for the 25 ms before the load was met). The fit
   runs over the first fall only; when it is over its estimate joins the
   observer's if beyond `ColdStart.significance` of its standard
   deviations (an 8 Nm fall at alpha 0.03, 1 ms, seeds 1-6: 7.4-10.8 Nm
@@ -112,9 +118,14 @@ class ColdStart:
     prior : float
         Standard deviation, Nm, of the load torque when the servo starts.
     margin : float
-        The fit runs with the twist estimate at least ``2 margin`` of the
-        half-gap estimate short of a flank, in full, fading out to none at
-        ``margin`` short of it.
+        Without a motor reading (`motor_reading` None), the fit runs with
+        the twist estimate at least ``2 margin`` of the half-gap estimate
+        short of a flank, in full, fading out to none at ``margin`` short
+        of it: a contact made between two samples would read as a load
+        torque. With one, the motor reading ends the fall.
+    contact_margin : float
+        While the first fall runs, the drive observer reads a contact from
+        this multiple of the contact torque (`falling`).
     memory : float
         Time constant, s, at rest of the integral taking the joined load
         torque over from the observer's estimate.
@@ -148,6 +159,7 @@ class ColdStart:
     reading_variance: tuple
     prior: float = 10.0
     margin: float = 0.2
+    contact_margin: float = 2.0
     memory: float = 0.1
     significance: float = 2.0
     restart_slack: float = 0.05
@@ -200,15 +212,12 @@ class ColdStart:
         P, pending, over = self.prior**2 + states[n], states[n + 1], states[n + 2]
         H = sens[rows]
         sens = sens - gain @ H
-        twist = abs(predicted[0] - predicted[3])
-        edge = (1.0 - self.margin) * alpha_hat
-        weight = (
-            (1.0 - over)
-            * (1.0 - contact)
-            * _smoothstep((edge - twist) / (self.margin * alpha_hat))
-        )
-        motor = self.motor_reading
-        if motor is not None and abs(innovation[motor]) > self.contact_reading:
+        weight = (1.0 - over) * (1.0 - contact)
+        if self.motor_reading is None:
+            twist = abs(predicted[0] - predicted[3])
+            edge = (1.0 - self.margin) * alpha_hat
+            weight *= _smoothstep((edge - twist) / (self.margin * alpha_hat))
+        elif self._contact_read(innovation):
             # The motor reading breaks with the free motor: a contact the
             # half-gap estimate does not predict (a gap narrower than it).
             weight = 0.0
@@ -234,6 +243,18 @@ class ColdStart:
         sens = np.asarray(Phi) @ sens
         sens[_TD] -= 1.0
         return filtered, np.array([*sens, P - self.prior**2, pending, over, unheld])
+
+    def falling(self, states, innovation) -> bool:
+        """Whether the first fall runs on: not over, and the motor reading
+        (`innovation`, the readings less their prediction) with the free
+        motor. The drive observer then reads a contact from
+        `contact_margin` times the contact torque."""
+        over = states[len(DRIVE_STATES) + 2]
+        return not over and not self._contact_read(innovation)
+
+    def _contact_read(self, innovation) -> bool:
+        motor = self.motor_reading
+        return motor is not None and abs(innovation[motor]) > self.contact_reading
 
     def restart(self, plan, unheld_before, unheld, load, load_torque, Jl, cl):
         """The plan, restarted from the load where the fall's estimate joins.

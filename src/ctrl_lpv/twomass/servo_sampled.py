@@ -440,7 +440,15 @@ def sampled_servo(
     def law(x, y):
         plan, xhat = list(x[0:6]), np.asarray(x[6:12])
         xi, dah, u_prev, side, evidence = x[12], x[13], x[14], x[15], x[16]
-        contact = _smoothstep(abs(xhat[2]) / tc - 1.0)
+        read_from = tc
+        if cold is not None:
+            innovation = np.asarray(y[:nread]) - xhat[rows]
+            fall = x[first_cold : first_cold + len(COLD_START_STATES)]
+            if cold.falling(fall, innovation):
+                # The first fall: a contact is read from a wider margin
+                # (`cold_start`).
+                read_from = cold.contact_margin * tc
+        contact = _smoothstep(abs(xhat[2]) / read_from - 1.0)
         if contact_twist > 0.0:
             # A contact needs the twist on the side of the shaft torque: a
             # motor crossing the gap at rest was read as a contact (the
