@@ -285,7 +285,9 @@ def test_share_beyond_the_inertia_range_stays_with_the_load_torque(delta, room):
     correction = (M @ innovation)[5]
     share = accel**2 / (accel**2 + adapt.accel_floor**2)
     moved = after[0] - delta
-    assert moved == pytest.approx(share * correction / (adapt.Jl * accel) if room is None else room)
+    if room is None:
+        room = share * correction / (adapt.Jl * accel)
+    assert moved == pytest.approx(room)
     assert filtered[5] - xhat[5] + moved * adapt.Jl * accel == pytest.approx(correction)
 
 
