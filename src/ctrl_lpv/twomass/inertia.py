@@ -256,12 +256,8 @@ class InertiaAdaptation:
         correction = M @ innovation
         filtered = xhat + correction
         if share > 0.0:
-            # What the inertia range lets delta take; the rest stays with
-            # the load torque.
-            lo, hi = self.bounds
-            moved = min(max(delta + share * correction[_TD] / torque, lo), hi) - delta
-            filtered[_TD] -= moved * torque
-            delta = delta + moved
+            filtered[_TD] -= share * correction[_TD]
+            delta = delta + share * correction[_TD] / torque
         M = np.array(M, float)
         M[_TD] *= 1.0 - share
         # How the predicted readings move with a load-torque offset and with
