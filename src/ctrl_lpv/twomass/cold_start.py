@@ -118,11 +118,11 @@ class ColdStart:
     prior : float
         Standard deviation, Nm, of the load torque when the servo starts.
     margin : float
-        Without a motor reading (`motor_reading` None), the fit runs with
-        the twist estimate at least ``2 margin`` of the half-gap estimate
-        short of a flank, in full, fading out to none at ``margin`` short
-        of it: a contact made between two samples would read as a load
-        torque. With one, the motor reading ends the fall.
+        Once its estimate is significant (or without a motor reading), the
+        fit runs with the twist estimate at least ``2 margin`` of the
+        half-gap estimate short of a flank, in full, fading out to none at
+        ``margin`` short of it: a contact made between two samples would
+        read as a load torque. Before, the fall runs on to the contact.
     contact_margin : float
         While the first fall runs, the drive observer reads a contact from
         this multiple of the contact torque (`falling`).
@@ -213,11 +213,15 @@ class ColdStart:
         H = sens[rows]
         sens = sens - gain @ H
         weight = (1.0 - over) * (1.0 - contact)
-        if self.motor_reading is None:
+        if self.motor_reading is None or pending * pending > self.significance**2 * P:
+            # Short of the flank the half-gap estimate puts: a contact made
+            # between two samples would read as a load torque. A fall that
+            # has not told its load torque yet runs on to the contact the
+            # motor reading tells (a gap wider than the first estimate).
             twist = abs(predicted[0] - predicted[3])
             edge = (1.0 - self.margin) * alpha_hat
             weight *= _smoothstep((edge - twist) / (self.margin * alpha_hat))
-        elif self._contact_read(innovation):
+        if self._contact_read(innovation):
             # The motor reading breaks with the free motor: a contact the
             # half-gap estimate does not predict (a gap narrower than it).
             weight = 0.0
