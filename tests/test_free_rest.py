@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
+from _issue22 import knife_edge
 from ctrl_lpv import twomass
 from ctrl_lpv.sampled import sampled_response
 from ctrl_lpv.sensors import Encoder
@@ -279,7 +280,17 @@ _OFF_BENCH = [
     (0.055, 0.8, 0.16, 5007),
     (0.0467, 1.097, -0.322, 5013),
     (0.0552, 1.1, -0.301, 7056),
-    (0.0546, 1.155, 0.482, 8010),
+    pytest.param(
+        0.0546,
+        1.155,
+        0.482,
+        8010,
+        marks=knife_edge(
+            "stop 63: the rest's peak-to-peak 9.0e-4 rad once the first "
+            "fall ran to the contact; random Td 0 first moves miss on 6 "
+            "of 300, 3 before"
+        ),
+    ),
     (0.0406, 1.115, 0.324, 8020),
 ]
 

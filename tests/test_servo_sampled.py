@@ -376,11 +376,21 @@ def test_first_small_move_from_mid_gap_with_the_load_torque_along(
 #: alpha 0.03 over -0.1 rad, one slow landing); +0.05 rad against 3 Nm
 #: passes since the hold's crossing is decided on the feedback ("The
 #: hold's crossing and a load running ahead").
-_FIRST_MOVE_MISSES = {(8.0, 0.06, 1.2, -0.05)}
-#: On the knife edge (`_issue22.grid_mark`): the same move under Td 3 both
-#: ways (the planned crossing into the hold releases the braking with the
-#: load 20 % heavier than the plan's, its load-torque estimate at 6-7 Nm
-#: for 3).
+#: Since the first fall runs to the contact (stop 63), the 0.1 and 0.2 rad
+#: moves against 3 Nm on that row miss (2.37 and 1.93 %): the load torque
+#: joins at 4.1 Nm and the crossing in the middle of the move adds 2 Nm of
+#: the observer's lag behind the learnt inertia to it, so that the braking
+#: expects 5.7 Nm of help from 3 (the same rise took the estimate from 1.4
+#: to 4.0 Nm before, when the fall had not told the load torque).
+_FIRST_MOVE_MISSES = {
+    (8.0, 0.06, 1.2, -0.05),
+    (3.0, 0.06, 1.2, 0.1),
+    (3.0, 0.06, 1.2, 0.2),
+}
+#: On the knife edge (`_issue22.grid_mark`): the 0.05 rad move under Td 3
+#: both ways (the planned crossing into the hold releases the braking with
+#: the load 20 % heavier than the plan's, its load-torque estimate at 6-7
+#: Nm for 3; both within 1.5 % since stop 63 on the machine of stop 62).
 _FIRST_MOVE_EDGE = {
     (3.0, 0.06, 1.2, -0.05): "1.75 % on the machine of stop 61, within 1.5 % on that "
     "of stop 62",
@@ -486,6 +496,10 @@ _REST_MISSES = {(0.06, 0.05, 0.8, 1)}
 _REST_EDGE = {
     (0.06, 0.05, 0.8, 5): "within 3 Nm on the machine of stop 61, 3.01 Nm on that "
     "of stop 62",
+    (0.06, 0.05, 0.8, 3): "the row misses on 9 of seeds 1-24 before stop 63 and 10 "
+    "since (20.7 Nm on seed 3 here)",
+    (0.06, 0.05, 0.8, 6): "the row misses on 9 of seeds 1-24 before stop 63 and 10 "
+    "since (11.7 Nm on seed 6 here)",
 }
 
 
