@@ -23,10 +23,14 @@ Three things fix what the start does not know:
   Only in the gap (the observer's contact weight 0) and while the motor
   reading agrees with the free motor (`ColdStart.contact_reading`: a gap
   narrower than its estimate is met before the twist estimate gets
-  there). The fall ends where the contact is read, not where the half-gap
-  estimate puts the flank: the first estimate is ``alpha_max / 2``, and a
-  wider gap ended the fit there, 14 ms into a 40 ms fall (alpha 0.06, Td
-  -3 Nm, 1 ms: -1.7 +- 1.9 Nm, not joined). While it runs the observer
+  there). Until its estimate is significant the fall ends where the
+  contact is read, not where the half-gap estimate puts the flank: the
+  first estimate is ``alpha_max / 2``, and a wider gap ended the fit
+  there, 15 ms into a 39 ms fall (alpha 0.06, Td -3 Nm, 1 ms: -1.7 +- 1.9
+  Nm, not joined; to the contact, -2.55 Nm joined). A significant estimate
+  ends it at that flank and joins there (joined at the contact, a 30 Nm
+  fall left the load too far ahead for the restart below: 10.1 % over at
+  alpha 0.06, 0.3-0.6 % ending at the flank). While it runs the observer
   reads a contact only beyond `ColdStart.contact_margin` times the contact
   torque (`ColdStart.falling`): its shaft-torque estimate wanders in the gap
   by up to the contact torque, and a contact read on that ran away, the

@@ -443,8 +443,8 @@ def sampled_servo(
         read_from = tc
         if cold is not None:
             innovation = np.asarray(y[:nread]) - xhat[rows]
-            fall = x[first_cold : first_cold + len(COLD_START_STATES)]
-            if cold.falling(fall, innovation):
+            first_fall = x[first_cold : first_cold + len(COLD_START_STATES)]
+            if cold.falling(first_fall, innovation):
                 # The first fall: a contact is read from a wider margin
                 # (`cold_start`).
                 read_from = cold.contact_margin * tc
