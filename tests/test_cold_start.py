@@ -173,30 +173,34 @@ def test_falling_until_over_or_the_motor_reading_leaves_the_free_motor():
     assert not fit.falling(states, near)
 
 
-@pytest.mark.parametrize("seed", [1, 2, 3])
-def test_fall_lasts_until_a_gap_twice_the_first_estimate_is_met(design, seed):
-    """Half-gap 0.06 (the first estimate 0.03), Td -3 Nm, +0.05 rad from
-    mid-gap, Jl x1.2 (1 ms, encoders): the fall is over where the plant's
-    shaft first carries torque, within 5 ms, and its estimate joins the
-    observer's within 1 Nm of the load torque. Ended where the half-gap
-    estimate put the flank, the fit ran 14 of the 40 ms of the fall, did
-    not join (-1.7 Nm, seed 1), and the move overshot 1.6-1.9 %."""
+@pytest.mark.parametrize("Td", [0.0, -3.0, 1.0])
+@pytest.mark.parametrize("seed", [1, 2])
+def test_fall_runs_on_in_a_gap_twice_the_first_estimate(design, Td, seed):
+    """Half-gap 0.06 (the first estimate 0.03), +0.05 rad from mid-gap, Jl
+    x1.2 (1 ms, encoders): the fall is over by 5 ms after the plant's shaft
+    first carries torque, and before it only with its estimate joined to
+    the observer's, within 0.4 Nm and a fifth of the load torque; without
+    one nothing joins. Ended where the half-gap estimate put the flank, the
+    fall was over at 15-17 ms of 38-40, and neither 1 nor -3 Nm joined."""
     params = twomass.Parameters()
     plant = twomass.plant(params.replace(Jl=1.2 * params.Jl), alpha=0.06)
     res = sampled_response(
-        plant, design.controller(), 0.1, inputs={"Td": -3.0, "theta_r": 0.05},
+        plant, design.controller(), 0.1, inputs={"Td": Td, "theta_r": 0.05},
         delay=1, sensors=ENCODERS, seed=seed,
     )  # fmt: skip
     met = res.plant.time[np.flatnonzero(res.plant.outputs[4] != 0.0)[0]]
     c = res.controller
-    over = c.time[np.flatnonzero(c.states[c.state_labels.index("fall_over")])[0]]
-    assert met <= over <= met + 5e-3
-    unheld = c.states[c.state_labels.index("torque_unheld")]
-    joined = np.flatnonzero(unheld)[0]
-    # The sample after the join: the observer's state with the estimate in.
-    assert c.states[c.state_labels.index("Td_hat")][joined] == pytest.approx(
-        -3.0, abs=1.0
-    )
+    states = dict(zip(c.state_labels, c.states))
+    over = c.time[np.flatnonzero(states["fall_over"])[0]]
+    assert over <= met + 5e-3
+    joined = np.flatnonzero(states["torque_unheld"])
+    if Td == 0.0:
+        assert joined.size == 0
+        assert over >= met
+    else:
+        # At the join the observer's state has the estimate in.
+        assert c.time[joined[0]] == over
+        assert abs(states["Td_hat"][joined[0]] - Td) <= 0.4 + 0.2 * abs(Td)
 
 
 def test_a_gap_narrower_than_the_first_estimate_is_not_read_as_a_fall():

@@ -27,7 +27,8 @@ Three things fix what the start does not know:
   contact is read, not where the half-gap estimate puts the flank: the
   first estimate is ``alpha_max / 2``, and a wider gap ended the fit
   there, 15 ms into a 39 ms fall (alpha 0.06, Td -3 Nm, 1 ms: -1.7 +- 1.9
-  Nm, not joined; to the contact, -2.55 Nm joined). A significant estimate
+  Nm, not joined; run on, -2.86 Nm joined at 17 ms, once significant;
+  1 Nm, which never joined before, joins at 24-33 ms). A significant estimate
   ends it at that flank and joins there (joined at the contact, a 30 Nm
   fall left the load too far ahead for the restart below: 10.1 % over at
   alpha 0.06, 0.3-0.6 % ending at the flank). While it runs the observer
