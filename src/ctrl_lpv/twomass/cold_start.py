@@ -27,8 +27,8 @@ Three things fix what the start does not know:
   contact is read, not where the half-gap estimate puts the flank: the
   first estimate is ``alpha_max / 2``, and a wider gap ended the fit
   there, 15 ms into a 39 ms fall (alpha 0.06, Td -3 Nm, 1 ms: -1.7 +- 1.9
-  Nm, not joined; run on, -2.86 Nm joined at 17 ms, once significant;
-  1 Nm, which never joined before, joins at 24-33 ms). A significant estimate
+  Nm, not joined; run on, -2.86 Nm joined at 17 ms, once significant).
+  A significant estimate
   ends it at that flank and joins there (joined at the contact, a 30 Nm
   fall left the load too far ahead for the restart below: 10.1 % over at
   alpha 0.06, 0.3-0.6 % ending at the flank). While it runs the observer
@@ -39,10 +39,11 @@ Three things fix what the start does not know:
   gap (10-15 Nm read for the 25 ms before the load was met). The fit
   runs over the first fall only; when it is over its estimate joins the
   observer's if beyond `ColdStart.significance` of its standard
-  deviations (an 8 Nm fall at alpha 0.03, 1 ms, seeds 1-6: 7.4-10.8 Nm
-  after 17 ms, standard deviation 1.6 Nm; at Td 0-2 Nm it never joined on
-  seeds 1-12). After it the observer's certified gains go on alone: a
-  load torque that changes later is theirs;
+  deviations and the contact torque (`ColdStart.least_torque`; an 8 Nm
+  fall at alpha 0.03, 1 ms, seeds 1-6: 7.4-10.8 Nm after 17 ms, standard
+  deviation 1.6 Nm; at Td 0-2 Nm it never joined on seeds 1-12). After
+  it the observer's certified gains go on alone: a load torque that
+  changes later is theirs;
 * **the integral holds the estimate until a rest has taught it.** Once
   the fall's estimate has joined, in a move the way that load torque
   pushes the law's integral holds the observer's load torque
