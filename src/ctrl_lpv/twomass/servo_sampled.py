@@ -440,9 +440,9 @@ def sampled_servo(
     def law(x, y):
         plan, xhat = list(x[0:6]), np.asarray(x[6:12])
         xi, dah, u_prev, side, evidence = x[12], x[13], x[14], x[15], x[16]
+        innovation = np.asarray(y[:nread]) - xhat[rows]
         read_from = tc
         if cold is not None:
-            innovation = np.asarray(y[:nread]) - xhat[rows]
             first_fall = x[first_cold : first_cold + len(COLD_START_STATES)]
             if cold.falling(first_fall, innovation):
                 # The first fall: a contact is read from a wider margin
@@ -468,7 +468,6 @@ def sampled_servo(
             # flip's crossing of the gap: the quieter gains (`M_rest`).
             latched = x[15] != 0.0 and x[18] <= 0.0
             gain = blend(M if M_rest is None or not latched else M_rest, contact)
-            innovation = np.asarray(y[:nread]) - xhat[rows]
             # With delay=1 the command computed now acts from the next
             # sample, on the state the command already on its way leads to.
             if inertia is None:
@@ -484,8 +483,7 @@ def sampled_servo(
                 # The load torque at a cold start, from the load's fall in
                 # the gap (`cold_start`).
                 filtered, started = cold.correct(
-                    xhat, filtered, x[first_cold : first_cold + len(COLD_START_STATES)],
-                    innovation, gain, rows, Ph,
+                    xhat, filtered, first_fall, innovation, gain, rows, Ph,
                     contact=contact, alpha_hat=a0 + dah,
                 )  # fmt: skip
             if inertia is None:
