@@ -15,7 +15,7 @@ import control as ct
 import numpy as np
 import pytest
 
-from _issue22 import grid_mark
+from _issue22 import grid_mark, knife_edge
 from ctrl_lpv import sampled_response, twomass
 from ctrl_lpv.sensors import Encoder
 from ctrl_lpv.twomass.rest_flank import RestFlank, flank_offset, rest_flank_step
@@ -349,7 +349,16 @@ def test_grid_with_a_load_torque(design, case):
         (-8.0, 0.03, 0.05),
         (8.0, 0.06, -0.05),
         (30.0, 0.03, -0.1),
-        (30.0, 0.06, -0.05),
+        pytest.param(
+            30.0,
+            0.06,
+            -0.05,
+            marks=knife_edge(
+                "2 of seeds 1-6 miss at stop 63 (4 and 5) and since stop 64 (1: "
+                "2.62 %, and 4): the gap's take-up stops 10 ms apart on a 0.04 Nm "
+                "difference in the joined load torque"
+            ),
+        ),
     ],
 )
 def test_first_small_move_from_mid_gap_with_the_load_torque_along(
@@ -368,25 +377,12 @@ def test_first_small_move_from_mid_gap_with_the_load_torque_along(
 
 #: First moves from the origin (the load mid-gap, the load torque unknown)
 #: that miss (measured, seed 1; docs/servo.rst, "The first move from
-#: mid-gap" and "The learnt inertia at rest"): Jl x1.2 at alpha 0.06 over
-#: -0.05 rad under Td 3 and 8 Nm (1.75 %): the gap twice its first
-#: estimate and the first move too short to learn the inertia. Twelve
-#: missed with the observer's model on the nominal inertia at rest and at
-#: impacts (Jl x1.2 at alpha 0.06 up to 0.2 rad, Jl x0.8 along 3 Nm at
-#: alpha 0.03 over -0.1 rad, one slow landing); +0.05 rad against 3 Nm
-#: passes since the hold's crossing is decided on the feedback ("The
-#: hold's crossing and a load running ahead").
-#: Since the first fall runs to the contact (stop 63), the 0.1 and 0.2 rad
-#: moves against 3 Nm on that row miss (2.37 and 1.93 %): the load torque
-#: joins at 4.1 Nm and the crossing in the middle of the move adds 2 Nm of
-#: the observer's lag behind the learnt inertia to it, so that the braking
-#: expects 5.7 Nm of help from 3 (the same rise took the estimate from 1.4
-#: to 4.0 Nm before, when the fall had not told the load torque).
-_FIRST_MOVE_MISSES = {
-    (8.0, 0.06, 1.2, -0.05),
-    (3.0, 0.06, 1.2, 0.1),
-    (3.0, 0.06, 1.2, 0.2),
-}
+#: mid-gap"): none since stop 64. Jl x1.2 at alpha 0.06 under Td 3 and 8
+#: Nm missed (1.75-2.37 %) while the observer's model ran on the old
+#: inertia as the inertia estimate learnt the new one: its load ran ahead
+#: of the load, and the crossing in the middle of the move read that as
+#: load torque. Now its state follows the learnt inertia.
+_FIRST_MOVE_MISSES: set = set()
 #: On the knife edge (`_issue22.grid_mark`): the 0.05 rad move under Td 3
 #: both ways (the planned crossing into the hold releases the braking with
 #: the load 20 % heavier than the plan's, its load-torque estimate at 6-7
@@ -496,10 +492,13 @@ _REST_MISSES = {(0.06, 0.05, 0.8, 1)}
 _REST_EDGE = {
     (0.06, 0.05, 0.8, 5): "within 3 Nm on the machine of stop 61, 3.01 Nm on that "
     "of stop 62",
-    (0.06, 0.05, 0.8, 3): "the row misses on 9 of seeds 1-24 before stop 63 and 10 "
-    "since (20.7 Nm on seed 3 here)",
-    (0.06, 0.05, 0.8, 6): "the row misses on 9 of seeds 1-24 before stop 63 and 10 "
-    "since (11.7 Nm on seed 6 here)",
+    (0.06, 0.05, 0.8, 3): "the row misses on 9 of seeds 1-24 before stop 63, 10 "
+    "at stop 63 (20.7 Nm on seed 3 here) and 3 since stop 64",
+    (0.06, 0.05, 0.8, 6): "the row misses on 9 of seeds 1-24 before stop 63, 10 "
+    "at stop 63 (11.7 Nm on seed 6 here) and 3 since stop 64 (seed 6: 13 % "
+    "over, the load kicked off the flank at the end of the move)",
+    (0.06, 0.05, 0.8, 2): "the row misses on 3 of seeds 1-24 since stop 64 (9.17 "
+    "Nm on seed 2 here), 10 at stop 63",
 }
 
 

@@ -16,34 +16,42 @@ Three things fix what the start does not know:
 * **the load's fall measures it.** While the load is free in the gap its
   motion is the load torque's alone, ``Jl d(omega_l)/dt = -cl omega_l -
   Td``, read by the load encoder. `ColdStart.correct` fits an offset of the
-  observer's load torque to the readings there, a scalar Kalman filter
-  from a prior of `ColdStart.prior` along the sensitivity of the
-  observer's predicted state to the offset (through the observer's model
-  and its own correction, as `ctrl_lpv.twomass.inertia` does for its fit).
-  Only in the gap (the observer's contact weight 0) and while the motor
-  reading agrees with the free motor (`ColdStart.contact_reading`: a gap
-  narrower than its estimate is met before the twist estimate gets
-  there). Until its estimate is significant the fall ends where the
-  contact is read, not where the half-gap estimate puts the flank: the
-  first estimate is ``alpha_max / 2``, and a wider gap ended the fit
-  there, 15 ms into a 39 ms fall (alpha 0.06, Td -3 Nm, 1 ms: -1.7 +- 1.9
-  Nm, not joined; run on, -2.86 Nm joined at 17 ms, once significant).
-  A significant estimate
-  ends it at that flank and joins there (joined at the contact, a 30 Nm
-  fall left the load too far ahead for the restart below: 10.1 % over at
-  alpha 0.06, 0.3-0.6 % ending at the flank). While it runs the observer
-  reads a contact only beyond `ColdStart.contact_margin` times the contact
-  torque (`ColdStart.falling`): its shaft-torque estimate wanders in the gap
-  by up to the contact torque, and a contact read on that ran away, the
-  contact model's shaft torque growing with the motor's speed across the
-  gap (10-15 Nm read for the 25 ms before the load was met). The fit
-  runs over the first fall only; when it is over its estimate joins the
-  observer's if beyond `ColdStart.significance` of its standard
-  deviations and the contact torque (`ColdStart.least_torque`; an 8 Nm
-  fall at alpha 0.03, 1 ms, seeds 1-6: 7.4-10.8 Nm after 17 ms, standard
-  deviation 1.6 Nm; at Td 0-2 Nm it never joined on seeds 1-12). After
-  it the observer's certified gains go on alone: a load torque that
-  changes later is theirs;
+  observer's load torque to that encoder's readings there (not the
+  motor's: no torque crosses the gap to the motor, and where a contact is
+  made and not yet read the motor's reading carries the impact), a scalar
+  Kalman filter from a prior of `ColdStart.prior` along the sensitivity of
+  the observer's predicted state to the offset (through the observer's
+  model and its own correction, as `ctrl_lpv.twomass.inertia` does for its
+  fit). Only in the gap (the observer's contact weight 0) and while the
+  motor reading agrees with the free motor (`ColdStart.contact_reading`: a
+  gap narrower than its estimate is met before the twist estimate gets
+  there). Unless its estimate is beyond `ColdStart.edge_significance` of
+  its standard deviations the fall ends where the contact is read, not
+  where the half-gap estimate puts the flank: the first estimate is
+  ``alpha_max / 2``, and a wider gap ended the fit there, 15 ms into a 39
+  ms fall (alpha 0.06, Td -3 Nm, 1 ms: -1.7 +- 1.9 Nm, not joined). A
+  strong estimate ends it at that flank and joins there (joined at the
+  contact, a 30 Nm fall left the load too far ahead for the restart below:
+  10.1 % over at alpha 0.06, 0.3-0.6 % ending at the flank). A contact is
+  read one or two samples after it is made, and those samples move the
+  load's reading too (Td 0.5 read as 1.7 Nm before them, 3.5 after): a
+  fall ended by a contact joins its estimate as it was two samples before.
+  While it runs the observer reads a contact only beyond
+  `ColdStart.contact_margin` times the contact torque (`ColdStart.falling`):
+  its shaft-torque estimate wanders in the gap by up to the contact
+  torque, and a contact read on that ran away, the contact model's shaft
+  torque growing with the motor's speed across the gap (10-15 Nm read for
+  the 25 ms before the load was met). The fit runs over the first fall
+  only; when it is over its estimate joins the observer's if beyond
+  `ColdStart.significance` of its standard deviations and the contact
+  torque (`ColdStart.least_torque`). Its error is as its variance says
+  (alpha 0.03, 1 ms, 40 seeds: standard deviation 1.20-1.27 Nm, 1.29
+  claimed, mean +0.06 to +0.16 Nm at Td 0-1 Nm): 1 of 160 first moves
+  without load torque joins one (20 before the three fixes of this
+  paragraph), 8 Nm joins on 40 of 40, 3 Nm at alpha 0.03 on 7 of 40 (its
+  fall tells it from none at 2.3 deviations). After it the
+  observer's certified gains go on alone: a load torque that changes later
+  is theirs;
 * **the integral holds the estimate until a rest has taught it.** Once
   the fall's estimate has joined, in a move the way that load torque
   pushes the law's integral holds the observer's load torque
@@ -101,13 +109,18 @@ _HOLDING_TOLERANCE = 0.5
 #: The states in the sampled controller: the sensitivity of the observer's
 #: predicted state to the load-torque offset (less its start, the unit
 #: offset of ``Td``), the offset's variance (less its prior), its estimate
-#: not yet joined to the observer's, whether the first fall is over, and
-#: the share of the joined load torque that the integral does not hold yet
-#: (1 when it joins, decaying at rest).
+#: not yet joined to the observer's, whether the first fall is over, the
+#: variance and estimate as they were one and two samples before, and the
+#: share of the joined load torque that the integral does not hold yet (1
+#: when it joins, decaying at rest).
 COLD_START_STATES = [f"S_fall_{name}" for name in DRIVE_STATES] + [
     "P_fall_dev",
     "Td_fall",
     "fall_over",
+    "P_fall_dev_1",
+    "Td_fall_1",
+    "P_fall_dev_2",
+    "Td_fall_2",
     "torque_unheld",
 ]
 
@@ -124,11 +137,12 @@ class ColdStart:
     prior : float
         Standard deviation, Nm, of the load torque when the servo starts.
     margin : float
-        Once its estimate is significant (or without a motor reading), the
-        fit runs with the twist estimate at least ``2 margin`` of the
-        half-gap estimate short of a flank, in full, fading out to none at
-        ``margin`` short of it: a contact made between two samples would
-        read as a load torque. Before, the fall runs on to the contact.
+        Once its estimate is beyond `edge_significance` (or without a motor
+        reading), the fit runs with the twist estimate at least ``2
+        margin`` of the half-gap estimate short of a flank, in full, fading
+        out to none at ``margin`` short of it: a contact made between two
+        samples would read as a load torque. Before, the fall runs on to
+        the contact.
     contact_margin : float
         While the first fall runs, the drive observer reads a contact from
         this multiple of the contact torque (`falling`).
@@ -137,7 +151,18 @@ class ColdStart:
         torque over from the observer's estimate.
     significance : float
         When the fall is over the fit's estimate joins the observer's if
-        beyond this many of its standard deviations,
+        beyond this many of its standard deviations (2.5: the estimate's
+        error is its standard deviation's, 1.2-1.3 Nm after a fall at alpha
+        0.03, 1 ms; at 2 falls without load torque joined 8 of 160 times,
+        1.2-3.8 Nm, and a light load's rest after such a join hunts; at 3 the
+        2 ms first moves at alpha 0.06 under 3 Nm lost their join, and 4 of
+        6 seeds settled in 0.30-0.31 s, 0.17 s joined),
+    edge_significance : float
+        beyond this many (4), the estimate ends the fall at the half-gap
+        estimate's flank: tested at every sample, at 2 the noise alone
+        ended falls there, the estimate at its peak (Td 0, alpha 0.03, +0.5
+        rad, 40 seeds, the fit then reading the motor too: 5 joined,
+        2.5-4.0 Nm),
     least_torque : float
         and beyond this, Nm (the servo's contact torque): a smaller load
         torque is the rest's to learn. Told by a fall that ran on to the
@@ -172,7 +197,8 @@ class ColdStart:
     margin: float = 0.2
     contact_margin: float = 2.0
     memory: float = 0.1
-    significance: float = 2.0
+    significance: float = 2.5
+    edge_significance: float = 4.0
     least_torque: float = 1.5
     restart_slack: float = 0.05
     take_up_rate: float = 1.0
@@ -224,8 +250,11 @@ class ColdStart:
         P, pending, over = self.prior**2 + states[n], states[n + 1], states[n + 2]
         H = sens[rows]
         sens = sens - gain @ H
+        # The estimate now and a sample before: the next sample's one and
+        # two samples back.
+        history = [P - self.prior**2, pending, *states[n + 3 : n + 5]]
         weight = (1.0 - over) * (1.0 - contact)
-        if self.motor_reading is None or self._told(pending, P):
+        if self.motor_reading is None or self._told(pending, P, self.edge_significance):
             # Short of the flank the half-gap estimate puts: a contact made
             # between two samples would read as a load torque. A fall that
             # has not told its load torque yet runs on to the contact the
@@ -233,17 +262,27 @@ class ColdStart:
             twist = abs(predicted[0] - predicted[3])
             edge = (1.0 - self.margin) * alpha_hat
             weight *= _smoothstep((edge - twist) / (self.margin * alpha_hat))
-        if self._contact_read(innovation):
+        read = self._contact_read(innovation)
+        met = contact > 0.0 or read
+        if read:
             # The motor reading breaks with the free motor: a contact the
             # half-gap estimate does not predict (a gap narrower than it).
             weight = 0.0
         if weight > 0.0:
+            # The fall is the load's: its encoder alone reads it. No torque
+            # crosses the gap to the motor, and in the samples in which the
+            # contact is made and not yet read the motor's reading carries
+            # the impact (read too, it biased the estimate by +0.5-0.9 Nm at
+            # alpha 0.03, Td 0-3 Nm, 40 seeds; docs/servo.rst).
+            fall = [i for i in range(len(rows)) if i != self.motor_reading]
+            Hf = H[fall]
+            variance = np.asarray(self.reading_variance, float)[fall]
             # The offset's gain from readings weighted by `weight` (1/weight
             # times as noisy), written without dividing by a vanishing one.
-            spread = weight * P * np.outer(H, H) + np.diag(self.reading_variance)
-            K = weight * P * np.linalg.solve(spread, H)
-            pending += K @ (innovation - H * pending)
-            P -= P * (K @ H)
+            spread = weight * P * np.outer(Hf, Hf) + np.diag(variance)
+            K = weight * P * np.linalg.solve(spread, Hf)
+            pending += K @ (innovation[fall] - Hf * pending)
+            P -= P * (K @ Hf)
         # Once the fall is over, and only what tells a load torque from
         # none: a fall of 20 ms is too short for one of 1 Nm, whose estimate
         # then took the sign of the noise (-1.2 Nm; the crossing at the end
@@ -252,13 +291,19 @@ class ColdStart:
         unheld = states[-1]
         if weight == 0.0 and not over and P < self.prior**2:
             over = 1.0
+            if met:
+                # Ended by a contact, read one or two samples after it was
+                # made: the estimate joins as it was before it.
+                P, pending = self.prior**2 + states[n + 5], states[n + 6]
             if self._told(pending, P):
                 filtered = filtered + sens * pending
                 pending = 0.0
                 unheld = 1.0
         sens = np.asarray(Phi) @ sens
         sens[_TD] -= 1.0
-        return filtered, np.array([*sens, P - self.prior**2, pending, over, unheld])
+        return filtered, np.array(
+            [*sens, P - self.prior**2, pending, over, *history, unheld]
+        )
 
     def falling(self, states, innovation) -> bool:
         """Whether the first fall runs on: not over, and the motor reading
@@ -268,11 +313,14 @@ class ColdStart:
         over = states[len(DRIVE_STATES) + 2]
         return not over and not self._contact_read(innovation)
 
-    def _told(self, estimate, variance) -> bool:
+    def _told(self, estimate, variance, significance=None) -> bool:
         """Whether the fall's `estimate` tells a load torque: beyond
-        `significance` of its standard deviations and `least_torque`."""
+        `significance` (default `ColdStart.significance`) of its standard
+        deviations and `least_torque`."""
+        if significance is None:
+            significance = self.significance
         return (
-            estimate * estimate > self.significance**2 * variance
+            estimate * estimate > significance**2 * variance
             and abs(estimate) > self.least_torque
         )
 

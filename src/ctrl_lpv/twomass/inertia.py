@@ -257,7 +257,18 @@ class InertiaAdaptation:
         filtered = xhat + correction
         if share > 0.0:
             filtered[_TD] -= share * correction[_TD]
-            delta = delta + share * correction[_TD] / torque
+            moved = share * correction[_TD] / torque
+            delta = delta + moved
+            # The state moves to where the learnt inertia would have led
+            # it, along the prediction's sensitivity to delta: left where
+            # the old inertia led it, the observer's load ran up to 0.045
+            # rad/s ahead of a load 20 % heavier, and in the gap crossing
+            # in the middle of the move that error went to the load torque
+            # (2-6 Nm; docs/servo.rst, "The observer's state follows the
+            # learnt inertia").
+            shift = sens[:, 1] * moved
+            shift[_TD] = 0.0
+            filtered = filtered + shift
         M = np.array(M, float)
         M[_TD] *= 1.0 - share
         # How the predicted readings move with a load-torque offset and with
